@@ -1,0 +1,200 @@
+"""Φ-functions: the built-ins Phi1, Phi2 and user plug-ins.
+
+A Φ-function is a named, vectorised function of lagged signals that can
+appear as a factor of a NARX term, e.g. ``Phi1(u[k-1],u[k-2])``. The
+built-ins are the ones of the published hysteresis models [1]_:
+
+.. math::
+
+    \\Phi_1(a, b) = a - b, \\qquad \\Phi_2(a, b) = \\operatorname{sign}(a - b).
+
+Typical use, registering a plug-in whose argument is an output (the
+``|h|`` regressor of a discretised Bouc-Wen model)::
+
+    import numpy as np
+    from narx import register_phi
+    register_phi("Abs", arity=1, func=np.abs, steady=np.abs)
+    # now "Phi1(u[k-1],u[k-2])*Abs(y[k-1])" is a valid term
+
+``steady`` is the value of the function when all its arguments are equal
+(the steady state with the signals held); a number, or a callable of that
+common value when it depends on it. It is what steady-state analysis and the
+derived CLS constraints use.
+
+References
+----------
+.. [1] Abreu, P. E. O. G. B., Tavares, L. A., Teixeira, B. O. S., Aguirre,
+   L. A., "Identification and nonlinearity compensation of hysteresis using
+   NARX models", Nonlinear Dynamics, 2020.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Callable, Dict, Iterator, Optional, Union
+
+import numpy as np
+
+__all__ = ["PhiFunction", "PhiRegistry", "register_phi", "unregister_phi",
+           "get_phi", "default_registry", "BUILTIN_KERNEL_CODES"]
+
+_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+#: numeric codes used by the compiled kernels for built-ins
+BUILTIN_KERNEL_CODES = {"Phi1": 1, "Phi2": 2}
+
+
+@dataclass(frozen=True)
+class PhiFunction:
+    """A Φ-function: name, arity, vectorised callable and steady value.
+
+    Parameters
+    ----------
+    name : str
+        Identifier used in term text (letters, digits, underscore).
+    arity : int
+        Number of lagged-signal arguments (>= 1).
+    func : callable
+        ``func(*arrays) -> array``, elementwise on float64 arrays.
+    steady : float or callable
+        Value when all arguments are equal: a number, or ``steady(x)`` of
+        the common value ``x`` (vectorised).
+    builtin : bool
+        True for Phi1 and Phi2 (they have compiled kernels).
+    """
+
+    name: str
+    arity: int
+    func: Callable
+    steady: Union[float, Callable]
+    builtin: bool = False
+    doc: str = ""
+
+    @property
+    def steady_is_constant(self) -> bool:
+        return not callable(self.steady)
+
+    def steady_value(self, x=None):
+        """Value of the function with every argument equal to ``x``."""
+        if callable(self.steady):
+            return self.steady(x)
+        return float(self.steady)
+
+    def __call__(self, *args):
+        return self.func(*args)
+
+
+def _phi1(a, b):
+    return np.subtract(a, b)
+
+
+def _phi2(a, b):
+    return np.sign(np.subtract(a, b))
+
+
+class PhiRegistry:
+    """Mapping name -> :class:`PhiFunction`; Phi1 and Phi2 are always there."""
+
+    def __init__(self, functions=None):
+        self._f: Dict[str, PhiFunction] = {}
+        self._f["Phi1"] = PhiFunction("Phi1", 2, _phi1, 0.0, True,
+                                      "difference a - b")
+        self._f["Phi2"] = PhiFunction("Phi2", 2, _phi2, 0.0, True,
+                                      "sign of the difference a - b")
+        for f in (functions or ()):
+            if f.name not in self._f:
+                self._f[f.name] = f
+
+    def register(self, name: str, arity: int, func: Callable,
+                 steady: Union[float, Callable], *, doc: str = "",
+                 overwrite: bool = False) -> PhiFunction:
+        """Register a user Φ-function and return it.
+
+        Raises
+        ------
+        ValueError
+            On an invalid name or arity, a non-callable ``func``, a steady
+            value that is neither a number nor callable, or a clash with an
+            existing function (unless ``overwrite``; built-ins never).
+        """
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise ValueError(f"Φ-function name must be an identifier "
+                             f"(letters, digits, _; starting with a letter), "
+                             f"got {name!r}")
+        if name in ("k",):
+            raise ValueError(f"Φ-function name {name!r} is reserved")
+        if not isinstance(arity, (int, np.integer)) or isinstance(arity, bool) \
+                or arity < 1:
+            raise ValueError(f"arity must be an integer >= 1, got {arity!r}")
+        if not callable(func):
+            raise ValueError(f"func must be callable, got {type(func).__name__}")
+        if not callable(steady):
+            try:
+                steady = float(steady)
+            except (TypeError, ValueError):
+                raise ValueError("steady must be a number or a callable, got "
+                                 f"{steady!r}") from None
+        old = self._f.get(name)
+        if old is not None and (old.builtin or not overwrite):
+            raise ValueError(f"Φ-function {name!r} is already registered"
+                             + ("" if old.builtin else
+                                " (pass overwrite=True to replace it)"))
+        f = PhiFunction(name, int(arity), func, steady, False, doc)
+        self._f[name] = f
+        return f
+
+    def unregister(self, name: str) -> None:
+        f = self._f.get(name)
+        if f is None:
+            raise KeyError(f"unknown Φ-function {name!r}")
+        if f.builtin:
+            raise ValueError(f"cannot unregister built-in {name!r}")
+        del self._f[name]
+
+    def get(self, name: str) -> PhiFunction:
+        try:
+            return self._f[name]
+        except KeyError:
+            raise KeyError(f"unknown Φ-function {name!r} (registered: "
+                           f"{', '.join(sorted(self._f))})") from None
+
+    def __contains__(self, name) -> bool:
+        return name in self._f
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(sorted(self._f))
+
+    def names(self):
+        return sorted(self._f)
+
+    def user_functions(self):
+        return [f for f in self._f.values() if not f.builtin]
+
+    def snapshot(self) -> "PhiRegistry":
+        """An independent copy (shipped to worker processes)."""
+        return PhiRegistry(self.user_functions())
+
+
+_DEFAULT = PhiRegistry()
+
+
+def default_registry() -> PhiRegistry:
+    """The process-wide registry used when no registry is passed."""
+    return _DEFAULT
+
+
+def register_phi(name: str, arity: int, func: Callable,
+                 steady: Union[float, Callable], *, doc: str = "",
+                 overwrite: bool = False,
+                 registry: Optional[PhiRegistry] = None) -> PhiFunction:
+    """Register a user Φ-function in ``registry`` (default: process-wide)."""
+    return (registry or _DEFAULT).register(name, arity, func, steady, doc=doc,
+                                           overwrite=overwrite)
+
+
+def unregister_phi(name: str, registry: Optional[PhiRegistry] = None) -> None:
+    (registry or _DEFAULT).unregister(name)
+
+
+def get_phi(name: str, registry: Optional[PhiRegistry] = None) -> PhiFunction:
+    return (registry or _DEFAULT).get(name)
