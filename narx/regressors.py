@@ -1,0 +1,138 @@
+"""Regressor columns and matrices of NARX terms.
+
+Typical use::
+
+    from narx.regressors import regressor_matrix
+    Psi, target, start = regressor_matrix(terms, data)   # rows k = start..N-1
+    theta = lstsq(Psi, target)
+
+Each term factor evaluated at time k:
+
+.. math::  x[k-j] \\text{ for a lag},\\qquad
+           \\phi(x_1[k-j_1], \\dots) \\text{ for a Φ-call}.
+
+A term's column is the product of its factor columns. The *input part* (the
+product of the factors that depend on inputs only) never depends on the
+simulated output, so it is computed once per record and cached in the
+:class:`~narx.data.Data` column cache; simulation kernels multiply it by the
+output part at each step.
+"""
+from __future__ import annotations
+
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+
+from .data import Data
+from .phi import PhiRegistry, default_registry
+from .terms import Lag, PhiCall, Term
+
+__all__ = ["shift", "signal_array", "factor_column", "input_part",
+           "term_column", "regressor_matrix", "max_lag"]
+
+
+def shift(x: np.ndarray, lag: int) -> np.ndarray:
+    """``out[k] = x[k - lag]``; the first ``lag`` samples are NaN."""
+    if lag == 0:
+        return x
+    out = np.empty_like(x)
+    out[:lag] = np.nan
+    out[lag:] = x[:x.shape[0] - lag]
+    return out
+
+
+def max_lag(terms: Sequence[Term]) -> int:
+    """Largest lag of any factor (the number of initial samples needed)."""
+    return max((t.max_lag for t in terms), default=0)
+
+
+def signal_array(lag: Lag, data: Data, y=None, noise=None) -> np.ndarray:
+    """The unshifted array of the signal a :class:`Lag` refers to."""
+    if lag.role == "u":
+        return data.input(lag.signal)
+    if lag.role == "y":
+        return data.require_output("a regressor with output lags") if y is None else y
+    if noise is None:
+        return np.zeros(data.n)          # noise terms vanish without residuals
+    return noise
+
+
+def factor_column(f, data: Data, y=None, noise=None,
+                  registry: Optional[PhiRegistry] = None) -> np.ndarray:
+    """Column of one factor over the whole record (NaN before its lag)."""
+    if isinstance(f, Lag):
+        return shift(signal_array(f, data, y, noise), f.lag)
+    fn = (registry or default_registry()).get(f.name)
+    args = [shift(signal_array(a, data, y, noise), a.lag) for a in f.args]
+    with np.errstate(invalid="ignore"):
+        return np.asarray(fn.func(*args), dtype=np.float64)
+
+
+def _product(cols, n):
+    if not cols:
+        return np.ones(n)
+    out = cols[0].copy() if len(cols) > 1 else cols[0]
+    for c in cols[1:]:
+        out *= c
+    return out
+
+
+def input_part(term: Term, data: Data,
+               registry: Optional[PhiRegistry] = None) -> np.ndarray:
+    """Product of the input-only factors of ``term`` (cached per record)."""
+    fs = term.input_factors
+    key = "in:" + "*".join(str(f) for f in fs)
+
+    def build():
+        cols = [data.cached("f:" + str(f),
+                            lambda f=f: factor_column(f, data, registry=registry))
+                for f in fs]
+        return _product(cols, data.n)
+    return data.cached(key, build)
+
+
+def term_column(term: Term, data: Data, y=None, noise=None,
+                registry: Optional[PhiRegistry] = None) -> np.ndarray:
+    """Full column of ``term`` from measured (or given) output and noise."""
+    rest = [f for f in term.factors if not f.input_only]
+    base = input_part(term, data, registry)
+    if not rest:
+        return base
+    out = base.copy()
+    for f in rest:
+        out *= factor_column(f, data, y, noise, registry)
+    return out
+
+
+def regressor_matrix(terms: Sequence[Term], data: Data, y=None, noise=None,
+                     start: Optional[int] = None,
+                     registry: Optional[PhiRegistry] = None
+                     ) -> Tuple[np.ndarray, np.ndarray, int]:
+    """Regressor matrix Ψ and target for rows ``k = start..N-1``.
+
+    Parameters
+    ----------
+    terms : sequence of Term
+    data : Data
+    y : array, optional
+        Output to use in place of ``data.y`` (e.g. a simulation).
+    noise : array, optional
+        Residual sequence for ``e[k-j]`` factors (zeros when omitted).
+    start : int, optional
+        First row; default the model's largest lag.
+
+    Returns
+    -------
+    Psi : ndarray, shape (N - start, len(terms)), Fortran order
+    target : ndarray, shape (N - start,)
+    start : int
+    """
+    yy = data.require_output("building a regressor matrix") if y is None else y
+    s = max_lag(terms) if start is None else int(start)
+    if s >= data.n:
+        raise ValueError(f"record of {data.n} samples is too short for the "
+                         f"model's largest lag {s}")
+    Psi = np.empty((data.n - s, len(terms)), order="F")
+    for j, t in enumerate(terms):
+        Psi[:, j] = term_column(t, data, yy, noise, registry)[s:]
+    return Psi, yy[s:], s

@@ -1,0 +1,171 @@
+"""Term clusters, cluster sums and continuum-of-steady-states constraints.
+
+Typical use::
+
+    from narx.steady import clusters, steady_state_constraints
+    cons = steady_state_constraints(terms)
+    cons.labels          # ['Σ_y = 1', 'Σ_u = 0', 'Σ_u^3 = 0', ...]
+    cons.S, cons.c       # S θ = c, for constrained least squares
+
+With every input held at ū and the output at ȳ, a lagged signal takes its
+held value and a Φ-function takes its value at equal arguments (0 for Phi1
+and Phi2, so those terms vanish). Each remaining term is a coefficient times
+a monomial in (ȳ, ū); terms with the same monomial form a *cluster* [1]_.
+The steady-state equation is
+
+.. math::  \\bar y = \\sum_{c} \\Sigma_c\\, m_c(\\bar y, \\bar u),
+
+and it holds for every (ū, ȳ) — a continuum of steady states, the hallmark
+of rate-independent hysteresis — exactly when Σ_y = 1 and every other
+cluster sum is 0. Noise terms are zero at steady state.
+
+References
+----------
+.. [1] Aguirre, L. A., Billings, S. A., "Dynamical effects of
+   overparametrization in nonlinear models", Physica D, 1995.
+"""
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .estimate import EstimationError
+from .phi import PhiRegistry, default_registry
+from .terms import Lag, PhiCall, Term
+
+__all__ = ["Cluster", "SteadyStateConstraints", "clusters", "cluster_sums",
+           "steady_state_constraints"]
+
+
+@dataclass(frozen=True)
+class Cluster:
+    """Terms sharing one steady-state monomial.
+
+    ``members`` are (term index, multiplier) pairs: the term contributes
+    ``multiplier * θ_i`` to the cluster sum (the multiplier is the product
+    of constant Φ steady values, 1 for Φ-free terms).
+    """
+
+    key: str
+    members: Tuple[Tuple[int, float], ...]
+
+    @property
+    def label(self) -> str:
+        return f"Σ_{self.key}"
+
+    def row(self, n_terms: int) -> np.ndarray:
+        r = np.zeros(n_terms)
+        for i, m in self.members:
+            r[i] += m
+        return r
+
+
+def _monomial(term: Term, reg: PhiRegistry):
+    """(key, multiplier) of a term at steady state; key None if it vanishes."""
+    powers: Dict[Tuple[int, str], int] = {}
+    symbols: List[str] = []
+    mult = 1.0
+    for f in term.factors:
+        if isinstance(f, Lag):
+            if f.role == "e":
+                return None, 0.0
+            k = (0 if f.role == "y" else 1, f.signal)
+            powers[k] = powers.get(k, 0) + 1
+            continue
+        fn = reg.get(f.name)
+        if any(a.role == "e" for a in f.args):
+            return None, 0.0
+        same = len({a.signal for a in f.args}) == 1
+        if same and fn.steady_is_constant:
+            v = fn.steady_value()
+            if v == 0.0:
+                return None, 0.0
+            mult *= v
+        else:
+            sig = sorted({a.signal for a in f.args},
+                         key=lambda s: (0 if s == f.args[0].signal else 1, s))
+            symbols.append(f"{f.name}({','.join(sig)})")
+    parts = []
+    for (_, name), p in sorted(powers.items()):
+        parts.append(name if p == 1 else f"{name}^{p}")
+    parts.extend(sorted(symbols))
+    return ("*".join(parts) if parts else "1"), mult
+
+
+def clusters(terms: Sequence[Term], registry: Optional[PhiRegistry] = None
+             ) -> List[Cluster]:
+    """Clusters of a term set (terms vanishing at steady state are omitted)."""
+    reg = registry or default_registry()
+    acc: "OrderedDict[str, list]" = OrderedDict()
+    for i, t in enumerate(terms):
+        key, mult = _monomial(t, reg)
+        if key is not None:
+            acc.setdefault(key, []).append((i, mult))
+    return [Cluster(k, tuple(v)) for k, v in acc.items()]
+
+
+def cluster_sums(terms: Sequence[Term], theta,
+                 registry: Optional[PhiRegistry] = None) -> "OrderedDict[str, float]":
+    """Σ_c for every cluster, e.g. ``{'y': 1.0, 'u': 0.0, ...}``."""
+    theta = np.asarray(theta, dtype=float)
+    return OrderedDict((c.key, float(c.row(len(terms)) @ theta))
+                       for c in clusters(terms, registry))
+
+
+@dataclass(frozen=True)
+class SteadyStateConstraints:
+    """Linear equalities S θ = c for a continuum of steady states."""
+
+    S: np.ndarray
+    c: np.ndarray
+    labels: Tuple[str, ...]
+    clusters: Tuple[Cluster, ...]
+
+    def residual(self, theta) -> np.ndarray:
+        return self.S @ np.asarray(theta, dtype=float) - self.c
+
+    def satisfied(self, theta, tol: float = 1e-8) -> bool:
+        return bool(np.all(np.abs(self.residual(theta)) <= tol))
+
+    def describe(self, terms: Sequence[Term]) -> List[str]:
+        """Readable rows, e.g. 'Σ_u = θ2 + θ15 = 0'."""
+        out = []
+        for lab, cl, ci in zip(self.labels, self.clusters, self.c):
+            ths = " + ".join((f"θ{i + 1}" if m == 1 else f"{m:g}·θ{i + 1}")
+                             for i, m in cl.members)
+            out.append(f"{cl.label} = {ths} = {ci:g}")
+        return out
+
+
+def steady_state_constraints(terms: Sequence[Term],
+                             registry: Optional[PhiRegistry] = None
+                             ) -> SteadyStateConstraints:
+    """Derive the continuum-of-steady-states constraints of a term set.
+
+    Raises
+    ------
+    EstimationError
+        When no linear output term survives at steady state (Σ_y = 1 is
+        then impossible).
+    """
+    terms = tuple(terms)
+    cls = clusters(terms, registry)
+    out_names = {f.signal for t in terms for f in t.factors
+                 if isinstance(f, Lag) and f.role == "y"}
+    out_names |= {a.signal for t in terms for f in t.factors
+                  if isinstance(f, PhiCall) for a in f.args if a.role == "y"}
+    ykey = next((c.key for c in cls if c.key in out_names), None)
+    if ykey is None:
+        raise EstimationError("no continuum of steady states is possible: the model "
+                              "has no linear output term (like y[k-1]) that survives "
+                              "at steady state, so Σ_y = 1 cannot hold")
+    rows, cs, labels = [], [], []
+    for c in cls:
+        target = 1.0 if c.key == ykey else 0.0
+        rows.append(c.row(len(terms)))
+        cs.append(target)
+        labels.append(f"{c.label} = {target:g}")
+    return SteadyStateConstraints(np.array(rows), np.array(cs), tuple(labels), tuple(cls))
