@@ -19,8 +19,8 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 
+from .atomic import atomic_write_text
 from .terms import TermError
 
 __all__ = ["ModelFileError", "model_to_dict", "model_from_dict", "save_model",
@@ -86,25 +86,6 @@ def model_from_dict(d, source: str = "model", registry=None):
                      registry=registry)
     except (TermError, ValueError) as exc:
         _fail(source, str(exc))
-
-
-def atomic_write_text(path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (same-folder temp + replace)."""
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 def save_model(model, path) -> None:

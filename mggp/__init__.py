@@ -1,0 +1,21 @@
+"""mggp: structure search for NARX models of hysteretic systems by MGGP.
+
+Typical use::
+
+    from mggp import MGGPRegressor
+    est = MGGPRegressor(fitness="ms", population=100, generations=30,
+                        random_state=0).fit(u, y)
+    est.model_.equation()
+    est.pareto_front_          # complexity against error
+
+The numerics live in :mod:`narx`; this package decodes DEAP individuals
+into narx terms, runs the evolution, and holds the command line (``mggp``).
+"""
+__version__ = "0.1.0"
+
+
+def __getattr__(name):            # lazy: importing mggp stays cheap for the CLI
+    if name in ("MGGPRegressor",):
+        from .estimator import MGGPRegressor
+        return MGGPRegressor
+    raise AttributeError(f"module 'mggp' has no attribute {name!r}")

@@ -1,0 +1,42 @@
+"""Atomic file writes: a reader sees the old file or the new one, never half.
+
+Typical use::
+
+    from narx.atomic import atomic_writer
+    with atomic_writer("model.json") as fh:
+        fh.write(text)
+
+The text goes to a temporary file in the destination folder, is flushed and
+fsync'ed, then moved over the destination with ``os.replace`` (atomic on
+POSIX and Windows). On any exception the temporary file is removed and the
+destination is untouched.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+
+__all__ = ["atomic_writer", "atomic_write_text"]
+
+
+@contextlib.contextmanager
+def atomic_writer(path, newline=None, encoding="utf-8"):
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=folder)
+    try:
+        with os.fdopen(fd, "w", newline=newline, encoding=encoding) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def atomic_write_text(path, text: str) -> None:
+    with atomic_writer(path) as fh:
+        fh.write(text)
