@@ -1,0 +1,177 @@
+"""The command line: the published model through `mggp simulate`, and bad input."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from mggp.cli import main
+from narx.systems import piezo_bouc_wen, sine_input
+
+MODEL19 = {
+    "output": "y", "inputs": ["u"],
+    "terms": ["y[k-1]", "Phi1(u[k-2],u[k-3])",
+              "Phi2(u[k-2],u[k-3])*Phi1(u[k-2],u[k-3])*u[k-2]",
+              "Phi2(u[k-2],u[k-3])*Phi1(u[k-2],u[k-3])*y[k-1]",
+              "Phi1(u[k-2],u[k-3])*u[k-2]*u[k-2]",
+              "Phi1(u[k-2],u[k-3])*u[k-2]*y[k-1]",
+              "Phi2(u[k-2],u[k-3])*y[k-1]", "Phi1(u[k-1],u[k-2])",
+              "Phi2(u[k-2],u[k-3])*Phi1(u[k-2],u[k-3])*Phi1(u[k-2],u[k-3])"],
+    "theta": [1.0, -0.2310, 0.0146, -0.0099, 3.2333e-4, -2.5494e-4, 1.7891e-5,
+              1.0080, -0.0604],
+}
+
+
+def write_csv(path, header, rows):
+    with open(path, "w") as fh:
+        fh.write(",".join(header) + "\n")
+        for r in rows:
+            fh.write(",".join(str(v) for v in r) + "\n")
+    return str(path)
+
+
+@pytest.fixture
+def sine_csv(tmp_path):
+    t, u = sine_input()
+    y = piezo_bouc_wen(u)
+    return write_csv(tmp_path / "sine.csv", ["t", "u", "y"], zip(t, u, y))
+
+
+@pytest.fixture
+def model19(tmp_path):
+    p = tmp_path / "m19.json"
+    p.write_text(json.dumps(MODEL19))
+    return str(p)
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_error_line(err):
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("error: "), err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def test_simulate_published_model19_mape(capsys, sine_csv, model19, tmp_path):
+    out_csv = tmp_path / "pred.csv"
+    code, out, err = run(capsys, "simulate", model19, sine_csv, "--out", out_csv)
+    assert code == 0, err
+    mape = float(out.split("MAPE")[1].split("%")[0])
+    assert abs(mape - 0.241) <= 0.03
+    lines = out_csv.read_text().splitlines()
+    assert lines[0] == "t,u,y,y_hat"
+    assert len(lines) == 5001
+
+
+def test_estimate_then_simulate_roundtrip(capsys, sine_csv, tmp_path):
+    m = tmp_path / "m.json"
+    code, out, err = run(capsys, "estimate", sine_csv, "--terms", "y[k-1]",
+                         "Phi1(u[k-1],u[k-2])", "--constraints", "steady-state",
+                         "--out", m)
+    assert code == 0, err
+    d = json.loads(m.read_text())
+    assert d["terms"] == ["y[k-1]", "Phi1(u[k-1],u[k-2])"]
+    assert abs(d["theta"][0] - 1.0) < 1e-12          # Σ_y = 1 imposed
+    code, out, err = run(capsys, "simulate", m, sine_csv, "--mode", "ksa", "--k", "5")
+    assert code == 0 and "ksa: RMSE" in out
+
+
+@pytest.mark.parametrize("content, needle", [
+    ("t,u,y\n0,1,2\n1,nan,3\n2,1,1\n", "line 3, column 'u': value 'nan' is not finite"),
+    ("t,u,y\n0,1,2\n1,2\n2,1,1\n", "line 3 has 2 fields but the header has 3"),
+    ("t,u\n0,1\n1,2\n", "no column 'y' (columns: t, u)"),
+    ("t,u,y\n0,1,abc\n", "line 2, column 'y': 'abc' is not a number"),
+    ("", "empty file"),
+    ("u,y,u\n1,2,3\n", "column 'u' appears 2 times"),
+    ("u,y\n", "no data rows"),
+])
+def test_estimate_bad_csv(capsys, tmp_path, content, needle):
+    p = tmp_path / "bad.csv"
+    p.write_text(content)
+    code, out, err = run(capsys, "estimate", p, "--terms", "y[k-1]", "u[k-1]")
+    assert code == 2
+    line = one_error_line(err)
+    assert needle in line and "bad.csv" in line
+
+
+def test_estimate_unknown_term(capsys, sine_csv):
+    code, _, err = run(capsys, "estimate", sine_csv, "--terms", "y[k-1]", "Phi7(u[k-1])")
+    assert code == 2
+    assert "unknown Φ-function 'Phi7'" in one_error_line(err)
+
+
+def test_estimate_too_few_samples(capsys, tmp_path):
+    p = write_csv(tmp_path / "short.csv", ["u", "y"], [(1, 2), (2, 3), (3, 1)])
+    code, _, err = run(capsys, "estimate", p, "--terms", "y[k-5]", "u[k-1]")
+    assert code == 2
+    assert "too few" in one_error_line(err)
+
+
+def test_simulate_wrong_theta_count(capsys, tmp_path, sine_csv):
+    bad = dict(MODEL19, theta=MODEL19["theta"][:-1])
+    p = tmp_path / "bad.json"
+    p.write_text(json.dumps(bad))
+    code, _, err = run(capsys, "simulate", p, sine_csv)
+    assert code == 2
+    line = one_error_line(err)
+    assert "'theta' has 8 values but 'terms' has 9" in line and "bad.json" in line
+
+
+def test_simulate_unknown_term_in_model(capsys, tmp_path, sine_csv):
+    p = tmp_path / "bad.json"
+    p.write_text(json.dumps(dict(MODEL19, terms=["z[k-1]"] + MODEL19["terms"][1:])))
+    code, _, err = run(capsys, "simulate", p, sine_csv)
+    assert code == 2 and "unknown signal 'z'" in one_error_line(err)
+
+
+def test_simulate_unstable_model_keeps_existing_output(capsys, tmp_path, sine_csv):
+    p = tmp_path / "unstable.json"
+    p.write_text(json.dumps({"output": "y", "inputs": ["u"],
+                             "terms": ["y[k-1]", "u[k-1]"], "theta": [1.5, 1.0]}))
+    out_csv = tmp_path / "pred.csv"
+    out_csv.write_text("precious\n")
+    code, _, err = run(capsys, "simulate", p, sine_csv, "--out", out_csv)
+    assert code == 2
+    assert "unstable" in one_error_line(err)
+    assert out_csv.read_text() == "precious\n"
+
+
+def test_simulate_nan_in_data(capsys, tmp_path, model19):
+    p = write_csv(tmp_path / "nan.csv", ["u", "y"],
+                  [(0, 0), (1, 1), (2, 2), (float("nan"), 1), (3, 3)])
+    code, _, err = run(capsys, "simulate", model19, p)
+    assert code == 2 and "line 5, column 'u'" in one_error_line(err)
+
+
+def test_hostile_model_file_runs_nothing(capsys, tmp_path, sine_csv):
+    marker = tmp_path / "pwned"
+    p = tmp_path / "evil.json"
+    p.write_text(json.dumps({"output": "y", "inputs": ["u"],
+                             "terms": [f"__import__('os').system('touch {marker}')"],
+                             "theta": [1.0]}))
+    code, _, err = run(capsys, "simulate", p, sine_csv)
+    assert code == 2
+    one_error_line(err)
+    assert not marker.exists()
+
+
+def test_console_script_exit_code_and_single_line(tmp_path):
+    p = write_csv(tmp_path / "d.csv", ["u", "y"], [(1, 2), (2, "x")])
+    r = subprocess.run([sys.executable, "-m", "mggp", "estimate", p, "--terms", "y[k-1]"],
+                       capture_output=True, text=True, env=dict(os.environ))
+    assert r.returncode == 2
+    assert r.stderr.strip().count("\n") == 0 and r.stderr.startswith("error: ")
+
+
+def test_usage_error_is_one_line(capsys):
+    code, _, err = run(capsys, "simulate")
+    assert code == 2
+    assert "required" in one_error_line(err)
