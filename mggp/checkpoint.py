@@ -1,0 +1,279 @@
+"""Evolution state and its JSON checkpoints (atomic write, safe load).
+
+Typical use (``evolve`` does this itself with ``checkpoint=path``)::
+
+    from mggp.checkpoint import save_checkpoint, load_checkpoint
+    save_checkpoint("run.ckpt.json", state)        # state: EvolutionState
+    state = load_checkpoint("run.ckpt.json", pset)
+
+The file is plain JSON: genes are lists of node names rebuilt with
+:func:`mggp.primitives.tree_from_tokens` (no ``eval``, no pickle); the
+random generator state is ``random.Random.getstate()`` as lists; floats are
+written with ``repr`` precision (exact round trip) and non-finite values as
+the strings ``"inf"``, ``"-inf"``, ``"nan"``. Writing goes to a temporary
+file in the same folder, is fsync'ed and then renamed over the target with
+``os.replace``, so a crash leaves either the old or the new checkpoint.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import random
+import tempfile
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional, Tuple
+
+from deap import tools
+
+from .individual import Individual, ParetoArchive, ParetoRow
+from .primitives import (Decoder, pset_signature, tree_from_tokens,
+                         tree_to_tokens)
+
+__all__ = ["EvolutionState", "save_checkpoint", "load_checkpoint",
+           "settings_fingerprint", "FORMAT", "VERSION"]
+
+FORMAT = "mggp-checkpoint"
+VERSION = 1
+
+
+@dataclass
+class EvolutionState:
+    """Everything the generational loop needs to continue.
+
+    Attributes
+    ----------
+    generation : int
+        Last completed generation (0: initial population evaluated).
+    rng : random.Random
+    population : list of Individual
+        All evaluated.
+    logbook : deap.tools.Logbook
+    archive : ParetoArchive
+    cache : dict
+        Sorted tuple of term texts -> fitness (pure-function cache).
+    evaluations : int
+        Structures sent to ``evaluate_batch`` so far.
+    settings : dict
+        The run's settings (JSON-able).
+    fingerprint : str
+        Hash of the settings that must match to resume (all but
+        ``generations``) and of the primitive set.
+    """
+
+    generation: int
+    rng: random.Random
+    population: List[Individual]
+    logbook: tools.Logbook
+    archive: ParetoArchive
+    cache: Dict[Tuple[str, ...], float]
+    evaluations: int
+    settings: Dict[str, Any] = field(default_factory=dict)
+    fingerprint: str = ""
+
+
+def settings_fingerprint(settings: Dict[str, Any], pset) -> str:
+    """SHA-256 of the settings (except ``generations``) and the set."""
+    s = {k: v for k, v in settings.items() if k != "generations"}
+    blob = json.dumps({"settings": s, "pset": pset_signature(pset)},
+                      sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def _num(x) -> Any:
+    x = float(x)
+    if math.isfinite(x):
+        return x
+    return "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")
+
+
+def _unnum(v) -> float:
+    if isinstance(v, str) and v in ("inf", "-inf", "nan"):
+        return float(v)
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return float(v)
+    raise ValueError(f"not a number: {v!r}")
+
+
+def _jsonable(v):
+    if isinstance(v, float):
+        return _num(v)
+    return v
+
+
+def save_checkpoint(path, state: EvolutionState) -> None:
+    """Write ``state`` to ``path`` atomically (temp file, fsync, replace).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    state : EvolutionState
+    """
+    path = os.fspath(path)
+    version, internal, gauss = state.rng.getstate()
+    doc = {
+        "format": FORMAT,
+        "version": VERSION,
+        "generation": state.generation,
+        "settings": state.settings,
+        "fingerprint": state.fingerprint,
+        "rng_state": [version, list(internal), gauss],
+        "population": [{"genes": [tree_to_tokens(g) for g in ind],
+                        "fitness": _num(ind.fitness.values[0])}
+                       for ind in state.population],
+        "logbook": {"header": list(state.logbook.header or []),
+                    "records": [{k: _jsonable(v) for k, v in r.items()}
+                                for r in state.logbook]},
+        "pareto": [{"complexity": r.complexity, "fitness": _num(r.fitness),
+                    "genes": [list(g) for g in r.genes]}
+                   for r in state.archive.best_per_complexity()],
+        "fitness_cache": [[list(k), _num(v)] for k, v in state.cache.items()],
+        "evaluations": state.evaluations,
+    }
+    text = json.dumps(doc, allow_nan=False, separators=(",", ":"))
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".ckpt-", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    try:  # make the rename durable too (best effort, POSIX only)
+        dfd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(dfd)
+        finally:
+            os.close(dfd)
+    except OSError:
+        pass
+
+
+def _rebuild_individual(genes, fitness, pset, where):
+    if not isinstance(genes, list) or not genes:
+        raise ValueError(f"{where}: 'genes' must be a non-empty list")
+    trees = []
+    for gi, tokens in enumerate(genes):
+        if not isinstance(tokens, list):
+            raise ValueError(f"{where}, gene {gi}: node names must be a list")
+        try:
+            trees.append(tree_from_tokens(tokens, pset))
+        except ValueError as exc:
+            raise ValueError(f"{where}, gene {gi}: {exc}") from None
+    ind = Individual(trees)
+    if fitness is not None:
+        ind.fitness.values = (_unnum(fitness),)
+    return ind
+
+
+def load_checkpoint(path, pset, decoder: Optional[Decoder] = None) -> EvolutionState:
+    """Read and validate a checkpoint written by :func:`save_checkpoint`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    pset : deap.gp.PrimitiveSetTyped
+        The set of the run; genes are rebuilt from node names in it.
+    decoder : Decoder, optional
+        Used to decode the archived models.
+
+    Returns
+    -------
+    EvolutionState
+
+    Raises
+    ------
+    FileNotFoundError
+        No file at ``path``.
+    ValueError
+        ``"checkpoint PATH: PROBLEM"`` for unreadable JSON, another format
+        or version, missing or malformed fields, or genes not valid in
+        ``pset``.
+    """
+    path = os.fspath(path)
+    decoder = decoder if decoder is not None else Decoder(getattr(pset, "signals", None))
+
+    def fail(msg):
+        return ValueError(f"checkpoint {path}: {msg}")
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            doc = json.load(fh)
+    except FileNotFoundError:
+        raise
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise fail(f"not a readable JSON file ({exc})") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise fail(f"not an mggp checkpoint (missing format {FORMAT!r})")
+    if doc.get("version") != VERSION:
+        raise fail(f"unsupported version {doc.get('version')!r} (expected {VERSION})")
+    need = ("generation", "settings", "fingerprint", "rng_state", "population",
+            "logbook", "pareto", "fitness_cache", "evaluations")
+    missing = [k for k in need if k not in doc]
+    if missing:
+        raise fail(f"missing field(s) {', '.join(missing)}")
+    try:
+        gen = doc["generation"]
+        if not isinstance(gen, int) or gen < 0:
+            raise ValueError(f"'generation' must be an integer >= 0, got {gen!r}")
+        rs = doc["rng_state"]
+        if not (isinstance(rs, list) and len(rs) == 3 and isinstance(rs[1], list)
+                and all(isinstance(x, int) for x in rs[1])):
+            raise ValueError("'rng_state' is not a random.Random state")
+        rng = random.Random()
+        try:
+            rng.setstate((rs[0], tuple(rs[1]), rs[2]))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"'rng_state' is not a random.Random state ({exc})") from None
+        pop = doc["population"]
+        if not isinstance(pop, list) or not pop:
+            raise ValueError("'population' must be a non-empty list")
+        population = []
+        for i, item in enumerate(pop):
+            if not isinstance(item, dict) or "genes" not in item or "fitness" not in item:
+                raise ValueError(f"population[{i}] needs 'genes' and 'fitness'")
+            population.append(_rebuild_individual(item["genes"], item["fitness"],
+                                                  pset, f"population[{i}]"))
+        lb = doc["logbook"]
+        logbook = tools.Logbook()
+        logbook.header = list(lb.get("header") or [])
+        for r in lb.get("records", []):
+            logbook.record(**{k: (_unnum(v) if isinstance(v, str) else v)
+                              for k, v in r.items()})
+        archive = ParetoArchive()
+        rows = []
+        for i, r in enumerate(doc["pareto"]):
+            ind = _rebuild_individual(r["genes"], None, pset, f"pareto[{i}]")
+            terms = decoder.decode_individual(ind)
+            if len(terms) != r["complexity"]:
+                raise ValueError(f"pareto[{i}]: complexity {r['complexity']} does "
+                                 f"not match its {len(terms)} distinct terms")
+            rows.append(ParetoRow(len(terms), _unnum(r["fitness"]), terms,
+                                  tuple(tuple(g) for g in r["genes"])))
+        archive.restore(rows)
+        cache = {}
+        for i, entry in enumerate(doc["fitness_cache"]):
+            if not (isinstance(entry, list) and len(entry) == 2
+                    and isinstance(entry[0], list)
+                    and all(isinstance(t, str) for t in entry[0])):
+                raise ValueError(f"fitness_cache[{i}] must be [[term, ...], fitness]")
+            cache[tuple(entry[0])] = _unnum(entry[1])
+        evaluations = doc["evaluations"]
+        if not isinstance(evaluations, int) or evaluations < 0:
+            raise ValueError(f"'evaluations' must be an integer >= 0, got {evaluations!r}")
+        settings = doc["settings"]
+        if not isinstance(settings, dict):
+            raise ValueError("'settings' must be an object")
+    except (KeyError, TypeError, AttributeError) as exc:
+        raise fail(f"malformed content ({type(exc).__name__}: {exc})") from None
+    except ValueError as exc:
+        raise fail(str(exc)) from None
+    return EvolutionState(gen, rng, population, logbook, archive, cache,
+                          evaluations, settings, str(doc["fingerprint"]))

@@ -1,0 +1,380 @@
+"""The MGGP generational loop (DEAP toolbox, explicit RNG, batch fitness).
+
+Typical use::
+
+    from mggp.primitives import make_pset
+    from mggp.evolve import evolve
+
+    pset = make_pset()                       # y[k-1], u[k-1], ×, Φ1, Φ2, q⁻¹..q⁻³
+    def evaluate_batch(term_sets):           # list of tuples of narx Terms
+        return [my_mse(terms) for terms in term_sets]   # floats, inf allowed
+    res = evolve(pset, evaluate_batch, seed=1, population_size=500,
+                 generations=200, checkpoint="run.ckpt.json", resume=True)
+    res.best.terms, res.best.fitness, res.pareto, res.logbook
+
+One generation: ``n_elite = round(elite_fraction * population_size)`` best
+individuals (at least one if the fraction is positive) are copied
+unchanged; the rest are tournament winners (``tournament_size`` aspirants,
+with replacement), cloned, paired (1st with 2nd, ...) and crossed with
+probability ``cxpb`` (high-level gene exchange with probability
+``high_level_cx_rate``, else low-level subtree crossover), then each is
+mutated with probability ``mutpb`` (high-level with probability
+``high_level_mut_rate``, else subtree mutation). Individuals whose fitness
+was invalidated are decoded to their distinct terms and scored through ONE
+call of ``evaluate_batch`` per generation.
+
+Fitness cache: the key is the sorted tuple of distinct term texts. It
+assumes ``evaluate_batch`` is a pure function of the term *set* (same data,
+same settings; LS fitting does not depend on term order), so a structure is
+scored once per run and never re-sent, within or across generations. A
+generation with nothing new makes no call.
+
+Determinism: every random draw comes from one ``random.Random(seed)``;
+``evaluate_batch`` receives the full ordered list and returns results in
+that order, so how the caller parallelises it cannot change the run.
+Checkpoints store the RNG state and the cache, so a resumed run ends
+exactly as an uninterrupted one.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import random
+from dataclasses import dataclass
+from typing import Callable, List, Optional, Sequence, Tuple
+
+import numpy as np
+from deap import base, tools
+
+from narx.terms import Term
+
+from .checkpoint import (EvolutionState, load_checkpoint, save_checkpoint,
+                         settings_fingerprint)
+from .individual import Individual, ParetoArchive, ParetoRow
+from .operators import (cx_high_level, cx_low_level, mut_high_level,
+                        mut_low_level, random_individual, sel_tournament)
+from .primitives import Decoder, tree_to_tokens
+
+__all__ = ["EvolutionSettings", "EvolutionResult", "make_toolbox", "evolve",
+           "structure_key"]
+
+LOG_FIELDS = ["gen", "nevals", "cache_hits", "best", "median", "best_terms"]
+
+
+@dataclass
+class EvolutionSettings:
+    """Parameters of a run (defaults: the published setup).
+
+    Attributes
+    ----------
+    population_size : int
+        500.
+    generations : int
+        200 (generation 0 is the initial population).
+    cxpb, mutpb : float
+        Crossover (0.8) and mutation (0.2) probabilities.
+    high_level_cx_rate, high_level_mut_rate : float
+        Share of high-level operators (0.5 each).
+    tournament_size : int
+        2.
+    elite_fraction : float
+        0.1.
+    max_terms : int
+        15 genes at most per individual.
+    max_height : int
+        5 (DEAP height; largest lag 1 + 3·5 = 16).
+    init_max_height : int or None
+        Height range of initial genes (None: ``max_height``).
+    min_terms : int
+        1.
+    seed : int or None
+        None draws one from the OS (recorded in the result).
+    """
+
+    population_size: int = 500
+    generations: int = 200
+    cxpb: float = 0.8
+    mutpb: float = 0.2
+    high_level_cx_rate: float = 0.5
+    high_level_mut_rate: float = 0.5
+    tournament_size: int = 2
+    elite_fraction: float = 0.1
+    max_terms: int = 15
+    max_height: int = 5
+    init_max_height: Optional[int] = None
+    min_terms: int = 1
+    seed: Optional[int] = None
+
+    def __post_init__(self):
+        for name in ("cxpb", "mutpb", "high_level_cx_rate", "high_level_mut_rate",
+                     "elite_fraction"):
+            v = getattr(self, name)
+            if not 0.0 <= v <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {v!r}")
+        for name, lo in (("population_size", 2), ("generations", 0),
+                         ("tournament_size", 1), ("max_terms", 1),
+                         ("max_height", 0), ("min_terms", 1)):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < lo:
+                raise ValueError(f"{name} must be an integer >= {lo}, got {v!r}")
+            setattr(self, name, int(v))          # JSON-able (numpy ints are not)
+        if self.min_terms > self.max_terms:
+            raise ValueError(f"min_terms ({self.min_terms}) > max_terms ({self.max_terms})")
+        if self.init_max_height is not None and not 0 <= self.init_max_height <= self.max_height:
+            raise ValueError(f"init_max_height must be in [0, max_height], "
+                             f"got {self.init_max_height!r}")
+        if self.seed is not None and (not isinstance(self.seed, (int, np.integer))
+                                      or isinstance(self.seed, bool)):
+            raise ValueError(f"seed must be an integer or None, got {self.seed!r}")
+        if self.seed is not None:
+            self.seed = int(self.seed)
+        if self.init_max_height is not None:
+            self.init_max_height = int(self.init_max_height)
+        for name in ("cxpb", "mutpb", "high_level_cx_rate", "high_level_mut_rate",
+                     "elite_fraction"):
+            setattr(self, name, float(getattr(self, name)))
+
+    @property
+    def n_elite(self) -> int:
+        if self.elite_fraction <= 0:
+            return 0
+        return min(self.population_size, max(1, int(round(self.elite_fraction *
+                                                          self.population_size))))
+
+
+@dataclass
+class EvolutionResult:
+    """Outcome of :func:`evolve`.
+
+    Attributes
+    ----------
+    best : ParetoRow
+        Lowest fitness over the whole run (fewest terms on ties):
+        ``best.terms``, ``best.fitness``, ``best.genes``.
+    population : list of Individual
+        Final population (evaluated).
+    logbook : deap.tools.Logbook
+        One record per generation: gen, nevals, cache_hits, best, median,
+        best_terms.
+    pareto : list of ParetoRow
+        Non-dominated (complexity = distinct terms, fitness) over the run.
+    evaluations : int
+        Structures sent to ``evaluate_batch``.
+    generations : int
+        Last generation completed.
+    settings : EvolutionSettings
+        With the seed actually used.
+    """
+
+    best: ParetoRow
+    population: List[Individual]
+    logbook: tools.Logbook
+    pareto: List[ParetoRow]
+    evaluations: int
+    generations: int
+    settings: EvolutionSettings
+
+
+def structure_key(terms: Sequence[Term]) -> Tuple[str, ...]:
+    """Cache key of a term set: sorted distinct term texts."""
+    return tuple(sorted({t.text for t in terms}))
+
+
+def make_toolbox(pset, settings: EvolutionSettings) -> base.Toolbox:
+    """Toolbox with the run's operators; each alias takes ``rng=`` at call.
+
+    Aliases: ``individual(rng=)``, ``mate_high(a, b, rng=)``,
+    ``mate_low(a, b, rng=)``, ``mutate_high(ind, rng=)``,
+    ``mutate_low(ind, rng=)``, ``select(pop, k, rng=)``, ``clone(ind)``;
+    ``map`` is the builtin ``map`` (used for decoding).
+    """
+    s = settings
+    init_h = s.max_height if s.init_max_height is None else s.init_max_height
+    tb = base.Toolbox()
+    tb.register("individual", random_individual, pset, max_terms=s.max_terms,
+                max_height=init_h, min_terms=s.min_terms)
+    tb.register("mate_high", cx_high_level, max_terms=s.max_terms)
+    tb.register("mate_low", cx_low_level, max_height=s.max_height)
+    tb.register("mutate_high", mut_high_level, pset=pset, max_terms=s.max_terms,
+                max_height=s.max_height)
+    tb.register("mutate_low", mut_low_level, pset=pset, max_height=s.max_height)
+    tb.register("select", sel_tournament, tournsize=s.tournament_size)
+    tb.register("clone", Individual.clone)
+    return tb
+
+
+def _as_fitness(v, i) -> float:
+    if isinstance(v, (tuple, list, np.ndarray)):
+        if len(v) != 1:
+            raise ValueError(f"evaluate_batch result {i} must be one number, got {v!r}")
+        v = v[0]
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"evaluate_batch result {i} is not a number: {v!r}") from None
+    return math.inf if math.isnan(f) else f
+
+
+def _evaluate(pop, toolbox, decoder, state: EvolutionState, evaluate_batch):
+    """Score invalid individuals (cache first, then one batch call)."""
+    invalid = [ind for ind in pop if not ind.fitness.valid]
+    terms_list = list(toolbox.map(decoder.decode_individual, invalid))
+    pending = {}
+    hits = 0
+    for ind, terms in zip(invalid, terms_list):
+        key = structure_key(terms)
+        if key in state.cache:
+            ind.fitness.values = (state.cache[key],)
+            hits += 1
+        else:
+            pending.setdefault(key, (terms, ind, []))[2].append(ind)
+    if pending:
+        keys = list(pending)
+        results = list(evaluate_batch([pending[k][0] for k in keys]))
+        if len(results) != len(keys):
+            raise ValueError(f"evaluate_batch returned {len(results)} results "
+                             f"for {len(keys)} term sets")
+        for i, (k, r) in enumerate(zip(keys, results)):
+            f = _as_fitness(r, i)
+            terms, first, inds = pending[k]
+            state.cache[k] = f
+            for ind in inds:
+                ind.fitness.values = (f,)
+            state.archive.update(terms, f, [tree_to_tokens(g) for g in first])
+        state.evaluations += len(keys)
+    return len(pending), hits
+
+
+def _record(state: EvolutionState, decoder, nevals, hits):
+    fits = [ind.fitness.values[0] for ind in state.population]
+    ibest = min(range(len(fits)), key=lambda i: (fits[i], i))
+    state.logbook.record(gen=state.generation, nevals=nevals, cache_hits=hits,
+                         best=fits[ibest], median=float(np.median(fits)),
+                         best_terms=len(decoder.decode_individual(
+                             state.population[ibest])))
+
+
+def _step(state: EvolutionState, toolbox, s: EvolutionSettings):
+    """Build the next population (not yet evaluated)."""
+    rng, pop = state.rng, state.population
+    n_elite = s.n_elite
+    order = sorted(range(len(pop)), key=lambda i: (pop[i].fitness.values[0], i))
+    elites = [toolbox.clone(pop[i]) for i in order[:n_elite]]
+    offspring = [toolbox.clone(ind) for ind in
+                 toolbox.select(pop, s.population_size - n_elite, rng=rng)]
+    for i in range(1, len(offspring), 2):
+        if rng.random() < s.cxpb:
+            mate = toolbox.mate_high if rng.random() < s.high_level_cx_rate \
+                else toolbox.mate_low
+            mate(offspring[i - 1], offspring[i], rng=rng)
+    for ind in offspring:
+        if rng.random() < s.mutpb:
+            mutate = toolbox.mutate_high if rng.random() < s.high_level_mut_rate \
+                else toolbox.mutate_low
+            mutate(ind, rng=rng)
+    return elites + offspring
+
+
+def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[float]],
+           settings: Optional[EvolutionSettings] = None, *,
+           decoder: Optional[Decoder] = None,
+           toolbox: Optional[base.Toolbox] = None,
+           on_generation: Optional[Callable[[EvolutionState], None]] = None,
+           checkpoint=None, resume: bool = False, checkpoint_every: int = 1,
+           **params) -> EvolutionResult:
+    """Run MGGP structure search.
+
+    Parameters
+    ----------
+    pset : deap.gp.PrimitiveSetTyped
+        From :func:`mggp.primitives.make_pset`.
+    evaluate_batch : callable
+        ``evaluate_batch(list_of_term_tuples) -> list of float`` (MSE to
+        minimise; ``inf``/``nan`` mean a diverging model and rank last).
+        Called at most once per generation, only with structures never
+        scored before in this run.
+    settings : EvolutionSettings, optional
+        Defaults to the published setup; ``**params`` override fields
+        (``evolve(pset, f, seed=1, generations=50)``).
+    decoder : Decoder, optional
+        Tree -> term cache (default: a new one for ``pset.signals``).
+    toolbox : deap.base.Toolbox, optional
+        Replaces :func:`make_toolbox` (same aliases, ``rng=`` keyword).
+    on_generation : callable, optional
+        ``on_generation(state)`` after every generation (0 included), after
+        the checkpoint is written; for progress bars and logging.
+    checkpoint : path, optional
+        Written every ``checkpoint_every`` generations and at the end.
+    resume : bool
+        Continue from ``checkpoint`` if the file exists (its settings, the
+        number of generations aside, must match); otherwise start anew.
+
+    Returns
+    -------
+    EvolutionResult
+
+    Raises
+    ------
+    ValueError
+        Invalid settings, a checkpoint of another run, or an
+        ``evaluate_batch`` returning the wrong number of results.
+    """
+    s = dataclasses.replace(settings or EvolutionSettings(), **params)
+    if not isinstance(checkpoint_every, int) or checkpoint_every < 1:
+        raise ValueError(f"checkpoint_every must be an integer >= 1, got {checkpoint_every!r}")
+    if s.seed is None:
+        s = dataclasses.replace(s, seed=random.SystemRandom().randrange(2 ** 32))
+    decoder = decoder if decoder is not None else Decoder(getattr(pset, "signals", None))
+    toolbox = toolbox if toolbox is not None else make_toolbox(pset, s)
+    sdict = dataclasses.asdict(s)
+    fingerprint = settings_fingerprint(sdict, pset)
+
+    def save(state):
+        if checkpoint is not None:
+            save_checkpoint(checkpoint, state)
+
+    if resume and checkpoint is not None and os.path.exists(checkpoint):
+        state = load_checkpoint(checkpoint, pset, decoder)
+        if state.fingerprint != fingerprint:
+            diff = sorted(k for k in set(sdict) | set(state.settings)
+                          if k != "generations" and sdict.get(k) != state.settings.get(k))
+            raise ValueError(f"checkpoint {os.fspath(checkpoint)}: written by a run "
+                             f"with other settings or primitives (differs in: "
+                             f"{', '.join(diff) or 'primitive set'}); "
+                             "remove it or run without resume")
+        state.settings = sdict
+    else:
+        rng = random.Random(s.seed)
+        state = EvolutionState(0, rng, [toolbox.individual(rng=rng)
+                                        for _ in range(s.population_size)],
+                               tools.Logbook(), ParetoArchive(), {}, 0, sdict,
+                               fingerprint)
+        state.logbook.header = list(LOG_FIELDS)
+        nevals, hits = _evaluate(state.population, toolbox, decoder, state,
+                                 evaluate_batch)
+        _record(state, decoder, nevals, hits)
+        save(state)
+        if on_generation is not None:
+            on_generation(state)
+
+    while state.generation < s.generations:
+        state.population = _step(state, toolbox, s)
+        state.generation += 1
+        nevals, hits = _evaluate(state.population, toolbox, decoder, state,
+                                 evaluate_batch)
+        _record(state, decoder, nevals, hits)
+        if state.generation % checkpoint_every == 0 or state.generation == s.generations:
+            save(state)
+        if on_generation is not None:
+            on_generation(state)
+
+    best = state.archive.best()
+    if best is None:  # nothing finite was ever found
+        ind = min(state.population, key=lambda i: i.fitness.values[0])
+        best = ParetoRow(len(decoder.decode_individual(ind)), ind.fitness.values[0],
+                         decoder.decode_individual(ind),
+                         tuple(tuple(tree_to_tokens(g)) for g in ind))
+    return EvolutionResult(best, state.population, state.logbook,
+                           state.archive.rows(), state.evaluations,
+                           state.generation, s)

@@ -1,0 +1,374 @@
+"""Typed DEAP primitive set for NARX terms, safe tree parsing and decoding.
+
+Typical use::
+
+    from narx.terms import Signals
+    from mggp.primitives import make_pset, tree_from_tokens, Decoder
+
+    pset = make_pset(Signals("y", ("u",)))
+    tree = tree_from_tokens(["q1", "mul", "y[k-1]", "Phi1", "u[k-1]", "q1",
+                             "u[k-1]"], pset)
+    str(tree)                       # 'q1(mul(y[k-1], Phi1(u[k-1], q1(u[k-1]))))'
+    Decoder(pset.signals).decode(tree).text
+    # 'y[k-2]*Phi1(u[k-2],u[k-3])'
+
+Type design
+-----------
+Two GP types (DEAP selects candidates by type; we use no subtyping):
+
+``Expr``
+    A monomial (product of factors); the type of every gene root. Terminals
+    ``y[k-1]`` and ``u[k-1]`` (one per input: ``u1[k-1]``, ``u2[k-1]``);
+    primitives ``mul(Expr, Expr)``, the back-shifts ``q1, q2, q3 (Expr)``
+    (q⁻¹..q⁻³, shifting every lag inside their argument, Φ arguments
+    included) and the Φ-functions ``Phi1, Phi2, <user> (InputLag, ...)``.
+``InputLag``
+    A single lagged input, the only thing a Φ-function accepts. Terminals:
+    the inputs ``u[k-1]`` again; primitives: the back-shifts ``q1, q2, q3
+    (InputLag)``. An ``InputLag`` subtree is a chain of back-shifts over one
+    input terminal, so ``Phi1(q2(u[k-1]), u[k-1])`` is
+    ``Phi1(u[k-3],u[k-1])`` and Φ of an output can never be built.
+
+The input terminals and back-shifts exist once per type under the same
+name; the type of a node follows from its parent's argument type, so a
+tree's text (and its list of node names) identifies it uniquely. That is
+why :func:`tree_from_tokens` resolves names by the type expected at each
+position, and never calls ``eval`` (unlike ``PrimitiveTree.from_string``).
+
+Heights follow DEAP (a lone terminal has height 0). A path of ``h``
+back-shifts adds at most ``3 h`` to the lag of a terminal at ``k-1``, so the
+largest lag a tree of height ``H`` can express is ``1 + 3 H`` (16 for the
+published ``H = 5``). With ``use_phi=False`` the set is ``{mul, q1, q2, q3}``
+over ``Expr`` only (plain polynomial NARX, ``--no-phi``).
+"""
+from __future__ import annotations
+
+from typing import Dict, Iterable, List, Optional, Sequence, Tuple
+
+from deap import gp
+
+from narx.phi import PhiRegistry, default_registry
+from narx.terms import Lag, PhiCall, Signals, Term
+
+__all__ = ["Expr", "InputLag", "LagSymbol", "SHIFTS", "make_pset",
+           "tree_from_tokens", "tree_to_tokens", "decode", "Decoder",
+           "decode_individual", "pset_signature", "max_lag_for_height"]
+
+#: the back-shift operators q⁻¹..q⁻³, by node name
+SHIFTS = {"q1": 1, "q2": 2, "q3": 3}
+_RESERVED = ("mul",) + tuple(SHIFTS)
+
+
+class Expr:
+    """GP type of a monomial (any subtree usable as a factor product)."""
+
+
+class InputLag:
+    """GP type of one lagged input: the only argument type of Φ-functions."""
+
+
+class LagSymbol:
+    """Value of a terminal node: a :class:`narx.terms.Lag` that prints as
+    its term text (``y[k-1]``), so trees print readably and decode without
+    any name lookup."""
+
+    __slots__ = ("lag",)
+
+    def __init__(self, lag: Lag):
+        self.lag = lag
+
+    def __repr__(self):
+        return str(self.lag)
+
+    __str__ = __repr__
+
+    def __eq__(self, other):
+        if not isinstance(other, LagSymbol):
+            return NotImplemented
+        return self.lag == other.lag
+
+    def __hash__(self):
+        return hash(("LagSymbol", self.lag))
+
+    def __getstate__(self):
+        return (self.lag.signal, self.lag.lag, self.lag.role)
+
+    def __setstate__(self, st):
+        self.lag = Lag(*st)
+
+
+# Primitive callables: the set is never compiled, these only give DEAP a
+# unique object per name (the same object is registered for both types).
+def _symbolic(name):
+    def f(*args):
+        raise TypeError(f"NARX primitive {name!r} is symbolic; decode the tree "
+                        "with mggp.primitives.decode instead of compiling it")
+    f.__name__ = name
+    return f
+
+
+_PRIM_FUNCS = {n: _symbolic(n) for n in _RESERVED}
+
+
+def make_pset(signals: Optional[Signals] = None,
+              registry: Optional[PhiRegistry] = None, use_phi: bool = True,
+              phi_names: Optional[Iterable[str]] = None) -> gp.PrimitiveSetTyped:
+    """Build the typed primitive set for NARX terms.
+
+    Parameters
+    ----------
+    signals : narx.terms.Signals, optional
+        Output and input names (default ``y`` and ``u``).
+    registry : narx.phi.PhiRegistry, optional
+        Where Φ-functions come from (default: the process-wide registry).
+    use_phi : bool
+        False gives the plain polynomial set ``{mul, q1, q2, q3}``.
+    phi_names : iterable of str, optional
+        The Φ-functions to include (default: every function in the
+        registry, built-ins and user plug-ins, in sorted name order).
+
+    Returns
+    -------
+    deap.gp.PrimitiveSetTyped
+        Root type :class:`Expr`; extra attributes ``signals`` and
+        ``phi_names`` (tuple) record how it was built.
+
+    Raises
+    ------
+    ValueError
+        Unknown Φ name, or a Φ/input name clashing with ``mul``/``q1..q3``.
+    """
+    signals = signals if signals is not None else Signals()
+    registry = registry if registry is not None else default_registry()
+    if use_phi:
+        names = registry.names() if phi_names is None else list(phi_names)
+        phis = []
+        for n in names:
+            if n not in registry:
+                raise ValueError(f"unknown Φ-function {n!r} (registered: "
+                                 f"{', '.join(registry.names())})")
+            if n in _RESERVED:
+                raise ValueError(f"Φ-function name {n!r} clashes with a GP primitive")
+            if n in (signals.output, *signals.inputs):
+                raise ValueError(f"Φ-function name {n!r} clashes with a signal name")
+            if all(p.name != n for p in phis):
+                phis.append(registry.get(n))
+    else:
+        phis = []
+    pset = gp.PrimitiveSetTyped("NARX", [], Expr)
+    pset.addTerminal(LagSymbol(Lag(signals.output, 1, "y")), Expr)
+    for name in signals.inputs:
+        pset.addTerminal(LagSymbol(Lag(name, 1, "u")), Expr)
+    pset.addPrimitive(_PRIM_FUNCS["mul"], [Expr, Expr], Expr, name="mul")
+    for q in SHIFTS:
+        pset.addPrimitive(_PRIM_FUNCS[q], [Expr], Expr, name=q)
+    if phis:
+        for name in signals.inputs:
+            pset.addTerminal(LagSymbol(Lag(name, 1, "u")), InputLag)
+        for q in SHIFTS:
+            pset.addPrimitive(_PRIM_FUNCS[q], [InputLag], InputLag, name=q)
+        for f in phis:
+            pset.addPrimitive(f.func, [InputLag] * f.arity, Expr, name=f.name)
+    pset.signals = signals
+    pset.phi_names = tuple(f.name for f in phis)
+    return pset
+
+
+def max_lag_for_height(height: int) -> int:
+    """Largest lag a tree of DEAP height ``height`` can express: ``1 + 3h``."""
+    return 1 + max(SHIFTS.values()) * height
+
+
+def pset_signature(pset) -> List[List[str]]:
+    """Neutral description of a set (names and types), for fingerprints."""
+    rows = []
+    for kind, table in (("prim", pset.primitives), ("term", pset.terminals)):
+        for t in sorted(table, key=lambda c: c.__name__):
+            for node in table[t]:
+                args = ",".join(a.__name__ for a in getattr(node, "args", ()))
+                rows.append([kind, t.__name__, node.name, args])
+    return rows
+
+
+def _index(pset) -> Dict[Tuple[type, str], object]:
+    idx = {}
+    for table in (pset.primitives, pset.terminals):
+        for t, nodes in table.items():
+            for node in nodes:
+                idx.setdefault((t, node.name), node)
+    return idx
+
+
+def tree_from_tokens(tokens: Sequence[str], pset, type_=None) -> gp.PrimitiveTree:
+    """Rebuild a tree from its node names (prefix order) without ``eval``.
+
+    Parameters
+    ----------
+    tokens : sequence of str
+        Node names, e.g. ``["mul", "y[k-1]", "u[k-1]"]``.
+    pset : deap.gp.PrimitiveSetTyped
+        The set the names are looked up in (by name and expected type).
+    type_ : type, optional
+        Root type (default ``pset.ret``).
+
+    Raises
+    ------
+    ValueError
+        ``unknown primitive or terminal 'X'``, a node of the wrong type at
+        its position, an incomplete tree, or trailing tokens.
+    """
+    idx = _index(pset)
+    known = {name for (_, name) in idx}
+    expected = [type_ if type_ is not None else pset.ret]
+    nodes = []
+    for pos, tok in enumerate(tokens):
+        if not isinstance(tok, str):
+            raise ValueError(f"node names must be text, got {tok!r} at position {pos}")
+        if not expected:
+            raise ValueError(f"trailing node {tok!r} at position {pos}: the tree "
+                             "was already complete")
+        t = expected.pop()
+        node = idx.get((t, tok))
+        if node is None:
+            if tok in known:
+                raise ValueError(f"{tok!r} at position {pos} is not allowed where "
+                                 f"{t.__name__} is expected")
+            raise ValueError(f"unknown primitive or terminal {tok!r}")
+        nodes.append(node)
+        expected.extend(reversed(getattr(node, "args", ())))
+    if not nodes:
+        raise ValueError("empty tree: no node names")
+    if expected:
+        raise ValueError(f"incomplete tree {list(tokens)!r}: {len(expected)} "
+                         "argument(s) missing")
+    return gp.PrimitiveTree(nodes)
+
+
+def tree_to_tokens(tree) -> List[str]:
+    """Node names of a tree in prefix order (inverse of :func:`tree_from_tokens`)."""
+    return [node.name for node in tree]
+
+
+def _shift(factors, d):
+    out = []
+    for f in factors:
+        if isinstance(f, Lag):
+            out.append(Lag(f.signal, f.lag + d, f.role))
+        else:
+            out.append(PhiCall(f.name, tuple(Lag(a.signal, a.lag + d, a.role)
+                                             for a in f.args)))
+    return tuple(out)
+
+
+def decode(tree, signals: Optional[Signals] = None) -> Term:
+    """Reduce a tree to its monomial (no caching; see :class:`Decoder`).
+
+    Parameters
+    ----------
+    tree : deap.gp.PrimitiveTree
+        A tree of the set built by :func:`make_pset`.
+    signals : narx.terms.Signals, optional
+        If given, every terminal must be one of these signals.
+
+    Returns
+    -------
+    narx.terms.Term
+
+    Raises
+    ------
+    ValueError
+        A terminal that is not a lagged signal of ``signals``, a Φ argument
+        that is not a lagged input, or a malformed tree.
+    """
+    stack = []  # values: tuple of factors (Expr) or a Lag (InputLag)
+    for node in reversed(tree):
+        if node.arity == 0:
+            value = node.value
+            if not isinstance(value, LagSymbol):
+                raise ValueError(f"terminal {node.name!r} is not a lagged signal")
+            lag = value.lag
+            if signals is not None and signals.role(lag.signal) != lag.role:
+                raise ValueError(f"terminal {node.name!r} is not a signal of "
+                                 f"{signals}")
+            stack.append(lag if node.ret is InputLag else (lag,))
+            continue
+        if len(stack) < node.arity:
+            raise ValueError(f"malformed tree {tree!s}")
+        args = [stack.pop() for _ in range(node.arity)]
+        name = node.name
+        if name == "mul":
+            stack.append(args[0] + args[1])
+        elif name in SHIFTS:
+            a, d = args[0], SHIFTS[name]
+            stack.append(Lag(a.signal, a.lag + d, a.role) if isinstance(a, Lag)
+                         else _shift(a, d))
+        else:
+            if not all(isinstance(a, Lag) and a.role == "u" for a in args):
+                raise ValueError(f"{name} arguments must be lagged inputs in {tree!s}")
+            stack.append((PhiCall(name, tuple(args)),))
+    if len(stack) != 1 or isinstance(stack[0], Lag):
+        raise ValueError(f"malformed tree {tree!s}")
+    return Term(stack[0])
+
+
+class Decoder:
+    """Tree -> term decoder with a cache keyed by ``str(tree)``.
+
+    Parameters
+    ----------
+    signals : narx.terms.Signals, optional
+        Passed to :func:`decode` for validation.
+    maxsize : int
+        The cache is emptied when it holds this many entries.
+    """
+
+    def __init__(self, signals: Optional[Signals] = None, maxsize: int = 200_000):
+        self.signals = signals
+        self.maxsize = int(maxsize)
+        self._cache: Dict[str, Term] = {}
+
+    def __len__(self):
+        return len(self._cache)
+
+    def clear(self):
+        self._cache.clear()
+
+    def decode(self, tree) -> Term:
+        """The term of one tree (cached)."""
+        key = str(tree)
+        term = self._cache.get(key)
+        if term is None:
+            term = decode(tree, self.signals)
+            if len(self._cache) >= self.maxsize:
+                self._cache.clear()
+            self._cache[key] = term
+        return term
+
+    def decode_individual(self, ind) -> Tuple[Term, ...]:
+        """Distinct terms of an individual's genes, first occurrence first.
+
+        The result is cached on the individual (``ind._terms``) until it
+        changes (see :class:`mggp.individual.Individual`).
+        """
+        cached = getattr(ind, "_terms", None)
+        if cached is not None:
+            return cached
+        seen, terms = set(), []
+        for gene in ind:
+            t = self.decode(gene)
+            if t not in seen:
+                seen.add(t)
+                terms.append(t)
+        terms = tuple(terms)
+        if hasattr(ind, "_terms"):
+            ind._terms = terms
+        return terms
+
+
+def decode_individual(ind, decoder: Optional[Decoder] = None) -> Tuple[Term, ...]:
+    """Distinct terms of an individual in first-occurrence order.
+
+    Genes decoding to the same term count once. ``decoder`` supplies the
+    tree cache; without it a throw-away :class:`Decoder` is used.
+    """
+    return (decoder if decoder is not None else Decoder()).decode_individual(ind)
