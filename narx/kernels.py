@@ -2,10 +2,13 @@
 
 Typical use (internal; :mod:`narx.simulate` wraps it)::
 
-    plan = Plan.from_terms(terms)
-    P = plan.input_parts(data)                      # (N, T), once per record
+    plan = Plan.from_terms(terms, data.inputs)
+    P = plan.input_parts(data)                      # (T, N), once per record
     out, diverged = run_windows(plan, P, data.U, y_meas, theta,
                                 starts, length, write_from)
+
+``P`` may also be a larger column store (C, N) with ``idx`` naming the row
+of each term, so callers that cache columns never assemble a matrix.
 
 Every recursive mode is a set of *windows*: window ``w`` starts at sample
 ``s_w`` with the measured outputs before ``s_w`` as initial conditions and
@@ -39,58 +42,76 @@ except ImportError:                      # pragma: no cover
     def njit(*a, **k):
         return (lambda f: f) if not a or not callable(a[0]) else a[0]
 
-__all__ = ["Plan", "run_windows", "KIND_LAG", "KIND_USER"]
+__all__ = ["Plan", "run_windows", "KIND_USER"]
 
-KIND_LAG = 0
 KIND_USER = 99
 
 
 @njit(cache=True, nogil=True)
-def _kernel(y_meas, U, P, theta, t_ptr, t_fac, f_kind, f_sig, f_lag,
+def _kernel(y_meas, U, P, idx, theta, static, dyn, rel, absol, p_kind, p_sig, p_lag,
             starts, length, write_from, maxlag, bound, out):
+    # Input-only terms (``static``) are summed once, outside the recursion.
+    # Each term with output factors (``dyn``) has a fixed-width row of
+    # factor reads from ``buf``: relative ``pos - rel`` for an output lag,
+    # absolute ``absol`` otherwise (slot 0 holds 1.0 for padding, slots
+    # 1..n_phi the Φ-calls with an output argument at the current step).
     n = y_meas.shape[0]
-    n_terms = P.shape[1]
-    n_fac = f_kind.shape[0]
-    buf = np.empty(maxlag + length)
-    fv = np.empty(n_fac)
+    n_phi = p_kind.shape[0]
+    n_dyn, width = rel.shape
+    first = n
+    for w in range(starts.shape[0]):
+        first = min(first, starts[w])
+    base = np.zeros(n)
+    for i in range(static.shape[0]):
+        t = static[i]
+        row = idx[t]
+        th = theta[t]
+        if th != 0.0:
+            for k in range(first, n):
+                base[k] += th * P[row, k]
+    off = 1 + n_phi
+    buf = np.empty(off + maxlag + length)
+    buf[0] = 1.0
+    bad = 0
     for w in range(starts.shape[0]):
         s = starts[w]
         for j in range(maxlag):
-            buf[j] = y_meas[s - maxlag + j]
+            buf[off + j] = y_meas[s - maxlag + j]
         for j in range(length):
             k = s + j
             if k >= n:
                 break
-            pos = maxlag + j
-            for f in range(n_fac):
-                kind = f_kind[f]
-                if kind == 0:
-                    fv[f] = buf[pos - f_lag[f, 0]]
+            pos = off + maxlag + j
+            for f in range(n_phi):
+                if p_sig[f, 0] < 0:
+                    a = buf[pos - p_lag[f, 0]]
                 else:
-                    if f_sig[f, 0] < 0:
-                        a = buf[pos - f_lag[f, 0]]
-                    else:
-                        a = U[f_sig[f, 0], k - f_lag[f, 0]]
-                    if f_sig[f, 1] < 0:
-                        b = buf[pos - f_lag[f, 1]]
-                    else:
-                        b = U[f_sig[f, 1], k - f_lag[f, 1]]
-                    d = a - b
-                    if kind == 1:
-                        fv[f] = d
-                    else:
-                        fv[f] = 1.0 if d > 0 else (-1.0 if d < 0 else 0.0)
-            acc = 0.0
-            for t in range(n_terms):
-                v = theta[t] * P[k, t]
-                for q in range(t_ptr[t], t_ptr[t + 1]):
-                    v *= fv[t_fac[q]]
+                    a = U[p_sig[f, 0], k - p_lag[f, 0]]
+                if p_sig[f, 1] < 0:
+                    b = buf[pos - p_lag[f, 1]]
+                else:
+                    b = U[p_sig[f, 1], k - p_lag[f, 1]]
+                d = a - b
+                if p_kind[f] == 1:
+                    buf[1 + f] = d
+                else:
+                    buf[1 + f] = 1.0 if d > 0 else (-1.0 if d < 0 else 0.0)
+            acc = base[k]
+            for i in range(n_dyn):
+                t = dyn[i]
+                v = theta[t] * P[idx[t], k]
+                for q in range(width):
+                    c = rel[i, q]
+                    v *= buf[pos - c if c > 0 else absol[i, q]]
                 acc += v
-            if not (abs(acc) <= bound):          # catches NaN and inf too
-                return True
+            bad += not (abs(acc) <= bound)       # NaN and inf count too
             buf[pos] = acc
             if j >= write_from:
                 out[k] = acc
+            if (j & 255) == 255 and bad:
+                return True
+        if bad:
+            return True
     return False
 
 
@@ -102,10 +123,14 @@ class Plan:
     maxlag: int
     out_factors: tuple          # distinct output-dependent factors
     t_ptr: np.ndarray
-    t_fac: np.ndarray
-    f_kind: np.ndarray
-    f_sig: np.ndarray
-    f_lag: np.ndarray
+    t_fac: np.ndarray           # index into out_factors (reference path)
+    static: np.ndarray          # terms without output factors
+    dyn: np.ndarray             # terms with output factors
+    rel: np.ndarray             # (n_dyn, width) output lag, 0 if absolute
+    absol: np.ndarray           # (n_dyn, width) absolute buffer slot
+    p_kind: np.ndarray          # per Φ-call with an output argument
+    p_sig: np.ndarray
+    p_lag: np.ndarray
     noise_terms: np.ndarray     # bool: term has e[k-j] (zero in simulation)
     inputs: Tuple[str, ...]
 
@@ -125,43 +150,50 @@ class Plan:
                     facs.append(f)
                 t_fac.append(index[f])
             t_ptr.append(len(t_fac))
-        F = len(facs)
-        arity = max([1] + [len(f.args) for f in facs if not isinstance(f, Lag)])
-        kind = np.zeros(F, dtype=np.int64)
-        sig = np.full((F, max(arity, 2)), -1, dtype=np.int64)
-        lag = np.zeros((F, max(arity, 2)), dtype=np.int64)
-        for j, f in enumerate(facs):
-            if isinstance(f, Lag):
-                kind[j], lag[j, 0] = KIND_LAG, f.lag
-                continue
+        phis = [f for f in facs if not isinstance(f, Lag)]
+        arity = max([2] + [len(f.args) for f in phis])
+        kind = np.zeros(len(phis), dtype=np.int64)
+        sig = np.full((len(phis), arity), -1, dtype=np.int64)
+        lag = np.zeros((len(phis), arity), dtype=np.int64)
+        for j, f in enumerate(phis):
             reg.get(f.name)                      # unknown name -> KeyError
-            code = BUILTIN_KERNEL_CODES.get(f.name)
-            kind[j] = code if code is not None else KIND_USER
+            kind[j] = BUILTIN_KERNEL_CODES.get(f.name, KIND_USER)
             for a, arg in enumerate(f.args):
                 sig[j, a] = -1 if arg.role == "y" else inputs.index(arg.signal)
                 lag[j, a] = arg.lag
+        dyn = [i for i in range(len(terms)) if t_ptr[i + 1] > t_ptr[i]]
+        static = [i for i in range(len(terms)) if t_ptr[i + 1] == t_ptr[i]]
+        width = max([1] + [t_ptr[i + 1] - t_ptr[i] for i in dyn])
+        rel = np.zeros((len(dyn), width), dtype=np.int64)
+        absol = np.zeros((len(dyn), width), dtype=np.int64)
+        for r, i in enumerate(dyn):
+            for q, fi in enumerate(t_fac[t_ptr[i]:t_ptr[i + 1]]):
+                f = facs[fi]
+                if isinstance(f, Lag):
+                    rel[r, q] = f.lag
+                else:
+                    absol[r, q] = 1 + phis.index(f)
         ml = max((t.max_lag for t in terms), default=0)
         return cls(terms, ml, tuple(facs), np.asarray(t_ptr, dtype=np.int64),
-                   np.asarray(t_fac, dtype=np.int64), kind, sig, lag, noise, inputs)
+                   np.asarray(t_fac, dtype=np.int64),
+                   np.asarray(static, dtype=np.int64), np.asarray(dyn, dtype=np.int64),
+                   rel, absol, kind, sig, lag, noise, inputs)
 
     @property
     def compiled(self) -> bool:
         """True when every output-dependent factor runs in the kernel."""
-        return not np.any(self.f_kind == KIND_USER)
+        return not np.any(self.p_kind == KIND_USER)
 
     def input_parts(self, data, registry: Optional[PhiRegistry] = None) -> np.ndarray:
-        """(N, T) matrix of input parts; noise terms get a zero column."""
+        """(T, N) matrix of input parts (row i: term i)."""
         from .regressors import input_part
-        P = np.empty((data.n, len(self.terms)))
+        P = np.empty((len(self.terms), data.n))
         for i, t in enumerate(self.terms):
-            if self.noise_terms[i]:
-                P[:, i] = 0.0
-            else:
-                P[:, i] = input_part(t, data, registry)
+            P[i] = input_part(t, data, registry)
         return P
 
 
-def _run_python(plan, P, U, y_meas, theta, starts, length, write_from, bound,
+def _run_python(plan, P, idx, U, y_meas, theta, starts, length, write_from, bound,
                 out, registry):
     """Reference implementation, vectorised over windows (any Φ-function)."""
     reg = registry or default_registry()
@@ -194,7 +226,7 @@ def _run_python(plan, P, U, y_meas, theta, starts, length, write_from, bound,
         acc = np.zeros(W)
         with np.errstate(all="ignore"):
             for t in range(len(plan.terms)):
-                v = theta[t] * P[kk, t]
+                v = theta[t] * P[idx[t], kk]
                 for q in range(plan.t_ptr[t], plan.t_ptr[t + 1]):
                     v = v * fv[plan.t_fac[q]]
                 acc += v
@@ -210,14 +242,18 @@ def run_windows(plan: Plan, P, U, y_meas, theta, starts, length: int,
                 write_from: int = 0, bound: Optional[float] = None,
                 out: Optional[np.ndarray] = None,
                 registry: Optional[PhiRegistry] = None,
-                force_python: bool = False):
+                force_python: bool = False, idx=None):
     """Run the recursion over windows; returns ``(out, diverged)``.
 
-    ``out`` (length N, NaN where nothing was written) receives step
-    ``j >= write_from`` of each window at sample ``starts[w] + j``.
+    ``P`` is (T, N) input parts, or a column store (C, N) with ``idx`` the
+    row of each term. ``out`` (length N, NaN where nothing was written)
+    receives step ``j >= write_from`` of each window at sample
+    ``starts[w] + j``. Noise terms are zero (their θ is ignored).
     """
     y_meas = np.ascontiguousarray(y_meas, dtype=np.float64)
-    theta = np.ascontiguousarray(theta, dtype=np.float64)
+    theta = np.where(plan.noise_terms, 0.0, np.asarray(theta, dtype=np.float64))
+    idx = (np.arange(len(plan.terms), dtype=np.int64) if idx is None
+           else np.ascontiguousarray(idx, dtype=np.int64))
     starts = np.ascontiguousarray(starts, dtype=np.int64)
     if starts.size and starts.min() < plan.maxlag:
         raise ValueError(f"a window starts at sample {starts.min()} but the "
@@ -229,11 +265,12 @@ def run_windows(plan: Plan, P, U, y_meas, theta, starts, length: int,
         out = np.full(y_meas.shape[0], np.nan)
     P = np.ascontiguousarray(P)
     if plan.compiled and not force_python:
-        diverged = _kernel(y_meas, np.ascontiguousarray(U), P, theta, plan.t_ptr,
-                           plan.t_fac, plan.f_kind, plan.f_sig, plan.f_lag, starts,
+        diverged = _kernel(y_meas, np.ascontiguousarray(U), P, idx, theta, plan.static,
+                           plan.dyn, plan.rel, plan.absol, plan.p_kind, plan.p_sig,
+                           plan.p_lag, starts,
                            int(length), int(write_from), int(plan.maxlag),
                            float(bound), out)
     else:
-        diverged = _run_python(plan, P, U, y_meas, theta, starts, int(length),
+        diverged = _run_python(plan, P, idx, U, y_meas, theta, starts, int(length),
                                int(write_from), float(bound), out, registry)
     return out, bool(diverged)

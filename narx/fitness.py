@@ -1,0 +1,251 @@
+"""Score term sets on one record: LS/CLS, then the chosen simulation's MSE.
+
+Typical use (the inner loop of a structure search)::
+
+    from narx.fitness import StructureScorer
+    sc = StructureScorer(data, fitness="ms", window=100, start=16)
+    mse, theta = sc.evaluate(terms)
+
+For a term set :math:`\\{t_i\\}` the scorer estimates θ by least squares
+on the one-step regressors of rows ``start..N-1`` (``start`` fixed for the
+whole search so results are comparable and cacheable), then returns
+
+.. math::  J = \\frac{1}{|K|}\\sum_{k\\in K} (y_k - \\hat y_k)^2
+
+where ŷ is the one-step (``pem``), free-run, k-steps-ahead (``ksa``) or
+multiple-shooting (``ms``) simulation and K its valid samples; a diverging
+simulation scores ``inf``.
+
+Speed comes from caching across term sets, as a structure search meets the
+same terms again and again:
+
+* every distinct regressor column (on measured data) and every input-only
+  part is computed once and kept in a :class:`ColumnStore` (bounded LRU);
+* every Gram entry :math:`\\psi_i^T\\psi_j` and :math:`\\psi_i^T y` is
+  computed once; θ then comes from the small normal equations, solved on
+  unit-diagonal scaling by a rank-revealing pivoted-QR least-squares solve
+  (``gelsy``), which is the minimum-norm LS solution when columns are
+  dependent. Final models are refitted with :func:`narx.estimate.least_squares`
+  on the regressor matrix itself (``Model.fit``);
+* the compiled kernel reads input parts straight from the store.
+"""
+from __future__ import annotations
+
+from collections import OrderedDict
+from typing import Dict, Optional, Sequence, Tuple
+
+import numpy as np
+import scipy.linalg
+
+from .data import Data
+from .estimate import EstimationError
+from .kernels import Plan, run_windows
+from .phi import PhiRegistry, default_registry
+from .regressors import factor_column, input_part
+from .simulate import window_starts
+from .steady import steady_state_constraints
+from .terms import Term
+
+__all__ = ["StructureScorer", "ColumnStore", "FITNESS"]
+
+FITNESS = ("pem", "freerun", "ksa", "ms")
+
+
+class ColumnStore:
+    """Fixed-size (C, N) array of cached columns with LRU slot reuse."""
+
+    def __init__(self, n: int, budget_bytes: int = 256 * 2**20, min_slots: int = 64):
+        self.capacity = max(min_slots, int(budget_bytes // (8 * max(n, 1))))
+        self.n = n
+        self.array = np.empty((0, n))
+        self.slots: "OrderedDict[str, int]" = OrderedDict()
+        self.free = []
+        self.builds = 0
+
+    def _grow(self):
+        old = self.array.shape[0]
+        new = min(self.capacity, max(16, 2 * old))
+        arr = np.empty((new, self.n))
+        arr[:old] = self.array
+        self.array = arr
+        self.free.extend(range(new - 1, old - 1, -1))
+
+    def get(self, key: str, build) -> int:
+        """Slot of ``key``, calling ``build()`` (a length-N array) if absent."""
+        slot = self.slots.get(key)
+        if slot is not None:
+            self.slots.move_to_end(key)
+            return slot
+        if not self.free:
+            if self.array.shape[0] < self.capacity:
+                self._grow()
+            else:
+                _, slot = self.slots.popitem(last=False)
+                self.free.append(slot)
+        slot = self.free.pop()
+        self.array[slot] = build()
+        self.slots[key] = slot
+        self.builds += 1
+        return slot
+
+    def __contains__(self, key):
+        return key in self.slots
+
+
+class StructureScorer:
+    """LS/CLS + simulation fitness of term sets on one record.
+
+    Parameters
+    ----------
+    data : Data
+        The record (inputs and measured output).
+    fitness : {'pem', 'freerun', 'ksa', 'ms'}
+    window : int
+        Δm for ``ms`` (default 100).
+    k : int
+        Horizon for ``ksa`` (default 10).
+    constraints : None or 'steady-state'
+        CLS with the derived continuum-of-steady-states constraints.
+    start : int, optional
+        First row used for estimation and scoring; must be at least the
+        largest lag of every scored set (default: the set's own).
+    """
+
+    def __init__(self, data: Data, fitness: str = "ms", *, window: Optional[int] = None,
+                 k: Optional[int] = None, constraints: Optional[str] = None,
+                 start: Optional[int] = None, registry: Optional[PhiRegistry] = None,
+                 budget_bytes: int = 256 * 2**20):
+        if fitness == "osa":
+            fitness = "pem"
+        if fitness not in FITNESS:
+            raise ValueError(f"fitness must be one of {', '.join(FITNESS)}, got {fitness!r}")
+        if constraints not in (None, "steady-state"):
+            raise ValueError(f"constraints must be None or 'steady-state', got {constraints!r}")
+        self.data = data
+        self.y = data.require_output("scoring a structure")
+        self.fitness = fitness
+        self.window = int(window) if window is not None else 100
+        self.k = int(k) if k is not None else 10
+        if self.window < 1 or self.k < 1:
+            raise ValueError(f"window and k must be >= 1, got window={window!r}, k={k!r}")
+        self.constraints = constraints
+        self.start = None if start is None else int(start)
+        self.registry = registry or default_registry()
+        self.store = ColumnStore(data.n, budget_bytes)
+        self._gram: Dict[Tuple[str, str, int], float] = {}
+        scale = float(np.max(np.abs(self.y))) if self.y.size else 1.0
+        self.bound = 1e4 * (scale if scale > 0 else 1.0)
+        self.evaluations = 0
+
+    # ------------------------------------------------------------ columns
+    def _reg_slot(self, t: Term) -> int:
+        key = "r:" + t.text
+
+        def build():
+            col = input_part(t, self.data, self.registry).copy()
+            for f in t.factors:
+                if not f.input_only:
+                    col *= factor_column(f, self.data, self.y, None, self.registry)
+            return np.nan_to_num(col, nan=0.0)
+        return self.store.get(key, build)
+
+    def _in_slot(self, t: Term) -> int:
+        if not t.output_factors and not t.has_noise:
+            return self._reg_slot(t)
+        key = "i:" + "*".join(str(f) for f in t.input_factors)
+        return self.store.get(key, lambda: np.nan_to_num(
+            input_part(t, self.data, self.registry), nan=0.0))
+
+    def _dot(self, a: str, sa: int, b: str, sb: int, s: int) -> float:
+        key = (a, b, s) if a <= b else (b, a, s)
+        v = self._gram.get(key)
+        if v is None:
+            arr = self.store.array
+            x = arr[sa, s:]
+            v = float(np.dot(x, self.y[s:] if sb < 0 else arr[sb, s:]))
+            if len(self._gram) > 4_000_000:
+                self._gram.clear()
+            self._gram[key] = v
+        return v
+
+    # ------------------------------------------------------------ estimation
+    def fit(self, terms: Sequence[Term]) -> Tuple[np.ndarray, int]:
+        """θ of a term set (LS, or CLS when constrained); returns (θ, start)."""
+        terms = tuple(terms)
+        ml = max((t.max_lag for t in terms), default=0)
+        s = ml if self.start is None else self.start
+        if s < ml:
+            raise ValueError(f"start={s} is below the terms' largest lag {ml}")
+        slots = [self._reg_slot(t) for t in terms]
+        keys = [t.text for t in terms]
+        T = len(terms)
+        G = np.empty((T, T))
+        b = np.empty(T)
+        for i in range(T):
+            b[i] = self._dot(keys[i], slots[i], "\x00y", -1, s)
+            for j in range(i, T):
+                G[i, j] = G[j, i] = self._dot(keys[i], slots[i], keys[j], slots[j], s)
+        d = np.sqrt(np.diag(G))
+        d[d == 0] = 1.0
+        Gs = G / np.outer(d, d)
+        bs = b / d
+        if self.constraints is None:
+            z = scipy.linalg.lstsq(Gs, bs, lapack_driver="gelsy", check_finite=False)[0]
+            return z / d, s
+        cons = steady_state_constraints(terms, self.registry)
+        S = cons.S / d                                  # constraints on z = d*θ
+        zp = np.linalg.lstsq(S, cons.c, rcond=None)[0]
+        if np.max(np.abs(S @ zp - cons.c)) > 1e-9:
+            raise EstimationError("inconsistent steady-state constraints")
+        _, sv, Vt = np.linalg.svd(S)
+        Z = Vt[int(np.sum(sv > 1e-12 * sv[0])):].T
+        if Z.shape[1]:
+            w = scipy.linalg.lstsq(Z.T @ Gs @ Z, Z.T @ (bs - Gs @ zp),
+                                   lapack_driver="gelsy", check_finite=False)[0]
+            zp = zp + Z @ w
+        return zp / d, s
+
+    # ------------------------------------------------------------ scoring
+    def evaluate(self, terms: Sequence[Term]) -> Tuple[float, Optional[np.ndarray]]:
+        """(fitness, θ); fitness is ``inf`` for a diverging or failed fit."""
+        terms = tuple(terms)
+        self.evaluations += 1
+        if not terms:
+            return float("inf"), None
+        try:
+            theta, s = self.fit(terms)
+        except (EstimationError, np.linalg.LinAlgError, ValueError):
+            return float("inf"), None
+        if not np.all(np.isfinite(theta)):
+            return float("inf"), None
+        return self._simulate_mse(terms, theta, s), theta
+
+    def score(self, terms: Sequence[Term]) -> float:
+        return self.evaluate(terms)[0]
+
+    def _simulate_mse(self, terms, theta, s) -> float:
+        n, y = self.data.n, self.y
+        if self.fitness == "pem":
+            idx = [self._reg_slot(t) for t in terms]
+            pred = theta @ self.store.array[idx, s:]
+            r = y[s:] - pred
+            mse = float(np.dot(r, r) / r.size)
+            return mse if np.isfinite(mse) else float("inf")
+        plan = Plan.from_terms(terms, self.data.inputs, self.registry)
+        idx = np.array([self._in_slot(t) for t in terms], dtype=np.int64)
+        if self.fitness == "freerun":
+            starts, length, wf, first = np.array([s]), n - s, 0, s
+        elif self.fitness == "ms":
+            starts, length, wf, first = window_starts(n, s, self.window), self.window, 0, s
+        else:
+            starts = np.arange(s, n - self.k + 1, dtype=np.int64)
+            length, wf, first = self.k, self.k - 1, s + self.k - 1
+        if starts.size == 0:
+            return float("inf")
+        out, diverged = run_windows(plan, self.store.array, self.data.U, y, theta,
+                                    starts, length, wf, bound=self.bound,
+                                    registry=self.registry, idx=idx)
+        if diverged:
+            return float("inf")
+        r = y[first:] - out[first:]
+        return float(np.dot(r, r) / r.size)
