@@ -46,7 +46,47 @@ from .simulate import window_starts
 from .steady import steady_state_constraints
 from .terms import Term
 
-__all__ = ["StructureScorer", "ColumnStore", "FITNESS"]
+__all__ = ["StructureScorer", "ColumnStore", "FITNESS", "fixed_dot"]
+
+try:
+    from numba import njit
+except ImportError:                       # pragma: no cover
+    def njit(*a, **k):
+        return (lambda f: f) if not a or not callable(a[0]) else a[0]
+
+
+@njit(cache=True, nogil=True)
+def fixed_dot(a, b):
+    """Dot product with a fixed summation order (4 interleaved partial sums).
+
+    BLAS ``ddot`` may round differently depending on memory alignment; the
+    cache layout differs between worker processes, so a search whose
+    results must not depend on the number of workers needs this one.
+    """
+    n = a.shape[0]
+    m = n - n % 4
+    s0 = s1 = s2 = s3 = 0.0
+    for i in range(0, m, 4):
+        s0 += a[i] * b[i]
+        s1 += a[i + 1] * b[i + 1]
+        s2 += a[i + 2] * b[i + 2]
+        s3 += a[i + 3] * b[i + 3]
+    for i in range(m, n):
+        s0 += a[i] * b[i]
+    return (s0 + s1) + (s2 + s3)
+
+
+@njit(cache=True, nogil=True)
+def _osa_sse(P, idx, theta, y, s):
+    """Σ (y_k − Σ_i θ_i P[idx_i, k])² over k >= s, in a fixed order."""
+    acc = 0.0
+    for k in range(s, y.shape[0]):
+        p = 0.0
+        for i in range(idx.shape[0]):
+            p += theta[i] * P[idx[i], k]
+        r = y[k] - p
+        acc += r * r
+    return acc
 
 FITNESS = ("pem", "freerun", "ksa", "ms")
 
@@ -162,7 +202,7 @@ class StructureScorer:
         if v is None:
             arr = self.store.array
             x = arr[sa, s:]
-            v = float(np.dot(x, self.y[s:] if sb < 0 else arr[sb, s:]))
+            v = float(fixed_dot(x, self.y[s:] if sb < 0 else arr[sb, s:]))
             if len(self._gram) > 4_000_000:
                 self._gram.clear()
             self._gram[key] = v
@@ -226,10 +266,8 @@ class StructureScorer:
     def _simulate_mse(self, terms, theta, s) -> float:
         n, y = self.data.n, self.y
         if self.fitness == "pem":
-            idx = [self._reg_slot(t) for t in terms]
-            pred = theta @ self.store.array[idx, s:]
-            r = y[s:] - pred
-            mse = float(np.dot(r, r) / r.size)
+            idx = np.array([self._reg_slot(t) for t in terms], dtype=np.int64)
+            mse = _osa_sse(self.store.array, idx, theta, y, s) / (n - s)
             return mse if np.isfinite(mse) else float("inf")
         plan = Plan.from_terms(terms, self.data.inputs, self.registry)
         idx = np.array([self._in_slot(t) for t in terms], dtype=np.int64)
@@ -248,4 +286,4 @@ class StructureScorer:
         if diverged:
             return float("inf")
         r = y[first:] - out[first:]
-        return float(np.dot(r, r) / r.size)
+        return float(fixed_dot(r, r) / r.size)

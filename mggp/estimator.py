@@ -1,0 +1,299 @@
+"""scikit-learn-style estimator: MGGP structure search for NARX models.
+
+Typical use::
+
+    from mggp import MGGPRegressor
+    est = MGGPRegressor(fitness="ms", window=100, population=200,
+                        generations=50, random_state=0, n_jobs=2).fit(u, y)
+    est.model_                      # narx.Model, θ by LS (QR) on all data
+    est.model_cls_                  # CLS refit (constraints='steady-state')
+    print(est.pareto_front_)        # complexity, loss, equation
+    est.simulate(u_val, y_val, mode="freerun").mape
+
+The search (``mggp.evolve``) proposes term sets; each is scored by LS and
+the chosen simulation (``mggp.evaluate``); the best structure is refitted
+by QR least squares on the full record, and with
+``constraints='steady-state'`` also by constrained LS under the
+continuum-of-steady-states equalities derived from its terms [1]_.
+
+References
+----------
+.. [1] Abreu, P. E. O. G. B., Tavares, L. A., Teixeira, B. O. S., Aguirre,
+   L. A., "Identification and nonlinearity compensation of hysteresis using
+   NARX models", Nonlinear Dynamics, 2020.
+"""
+from __future__ import annotations
+
+import random
+import time
+from typing import List, Optional
+
+import numpy as np
+
+from narx import Model
+from narx.data import Data, DataError, as_data
+from narx.fitness import StructureScorer
+from narx.phi import default_registry
+
+from .evaluate import Evaluator, criterion_value
+from .evolve import evolve
+from .primitives import make_pset, max_lag_for_height
+
+__all__ = ["MGGPRegressor", "ParetoFront"]
+
+
+class ParetoFront(list):
+    """Rows (complexity, loss, terms) of the non-dominated models, as a table."""
+
+    def __repr__(self):
+        lines = [f"{'complexity':>10}  {'loss':>12}  equation"]
+        for r in self:
+            lines.append(f"{r['complexity']:>10d}  {r['loss']:>12.6g}  {' + '.join(r['terms'])}")
+        return "\n".join(lines)
+
+    def to_markdown(self) -> str:
+        out = ["| complexity | loss | terms |", "|---:|---:|---|"]
+        for r in self:
+            out.append(f"| {r['complexity']} | {r['loss']:.6g} | "
+                       f"{', '.join('`%s`' % t for t in r['terms'])} |")
+        return "\n".join(out)
+
+
+class MGGPRegressor:
+    """Multi-gene GP structure search for polynomial NARX models.
+
+    Parameters (all keyword; defaults are the published setup)
+    ----------
+    fitness : {'ms', 'pem', 'freerun', 'ksa'}
+        Simulation whose MSE scores a structure.
+    window : int
+        Δm of multiple shooting (100).
+    k : int
+        Horizon of ``ksa`` (10).
+    criterion : {'mse', 'bic', 'aic'}
+        Fitness: the MSE, or an information criterion penalising terms.
+    constraints : None or 'steady-state'
+        Refit the best structure by CLS as well (``model_cls_``).
+    search_constraints : None or 'steady-state'
+        Use CLS inside the search too.
+    population, generations, cxpb, mutpb, high_level_cx_rate,
+    high_level_mut_rate, tournament_size, elite_fraction, max_terms,
+    max_height : evolution parameters (500, 200, 0.8, 0.2, 0.5, 0.5, 2, 0.1,
+        15, 5).
+    use_phi : bool
+        Include Φ-functions in the primitive set (``--no-phi`` = False).
+    phi_names : list of str, optional
+        Φ-functions to use (default: all registered).
+    prune : bool
+        Backward elimination of the best structure under ``criterion``.
+    random_state : int, optional
+        Seed; the result does not depend on ``n_jobs`` or ``backend``.
+    n_jobs : int
+        Worker processes for evaluation.
+    backend : {'loky', 'threading', 'sequential', 'dask'}
+    scheduler : str or dask Client, optional
+    inputs, output : signal names when ``fit`` gets arrays.
+    checkpoint : path, optional;  resume : bool
+    callbacks : list of callables ``f(state)`` called every generation.
+    """
+
+    def __init__(self, *, fitness="ms", window=100, k=10, criterion="mse",
+                 constraints=None, search_constraints=None, population=500,
+                 generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
+                 high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
+                 max_terms=15, max_height=5, use_phi=True, phi_names=None,
+                 prune=False, random_state=None, n_jobs=1, backend="loky",
+                 scheduler=None, inputs=None, output="y", checkpoint=None,
+                 resume=False, callbacks=None, registry=None):
+        self.fitness = fitness
+        self.window = window
+        self.k = k
+        self.criterion = criterion
+        self.constraints = constraints
+        self.search_constraints = search_constraints
+        self.population = population
+        self.generations = generations
+        self.cxpb = cxpb
+        self.mutpb = mutpb
+        self.high_level_cx_rate = high_level_cx_rate
+        self.high_level_mut_rate = high_level_mut_rate
+        self.tournament_size = tournament_size
+        self.elite_fraction = elite_fraction
+        self.max_terms = max_terms
+        self.max_height = max_height
+        self.use_phi = use_phi
+        self.phi_names = phi_names
+        self.prune = prune
+        self.random_state = random_state
+        self.n_jobs = n_jobs
+        self.backend = backend
+        self.scheduler = scheduler
+        self.inputs = inputs
+        self.output = output
+        self.checkpoint = checkpoint
+        self.resume = resume
+        self.callbacks = callbacks
+        self.registry = registry
+
+    # -------------------------------------------------------------- sklearn
+    def get_params(self, deep=True):
+        import inspect
+        names = [p for p in inspect.signature(type(self).__init__).parameters if p != "self"]
+        return {n: getattr(self, n) for n in names}
+
+    def set_params(self, **params):
+        valid = self.get_params()
+        for k, v in params.items():
+            if k not in valid:
+                raise ValueError(f"invalid parameter {k!r} for MGGPRegressor")
+            setattr(self, k, v)
+        return self
+
+    # -------------------------------------------------------------- fit
+    def _validate(self, data: Data):
+        if self.constraints not in (None, "steady-state"):
+            raise ValueError(f"constraints must be None or 'steady-state', got {self.constraints!r}")
+        for name in ("population", "generations", "max_terms", "max_height", "window", "k"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < (
+                    0 if name == "generations" else 1):
+                raise ValueError(f"{name} must be a positive integer, got {v!r}")
+        start = max_lag_for_height(self.max_height)
+        if data.n < start + max(4 * self.max_terms, 20):
+            raise DataError(f"{data.n} samples are too few: the search needs at least "
+                            f"{start + max(4 * self.max_terms, 20)} (largest lag {start} "
+                            f"for max_height={self.max_height})")
+        for name in data.inputs:
+            if np.ptp(data.input(name)) == 0:
+                raise DataError(f"input {name!r} is constant: nothing can be identified")
+        return start
+
+    def _seed(self) -> int:
+        rs = self.random_state
+        if rs is None:
+            return random.SystemRandom().randrange(2**31)
+        if isinstance(rs, np.random.Generator):
+            return int(rs.integers(2**31))
+        if isinstance(rs, (int, np.integer)) and not isinstance(rs, bool):
+            return int(rs)
+        raise ValueError(f"random_state must be None, an int or a numpy Generator, got {rs!r}")
+
+    def fit(self, u, y=None):
+        """Search a structure on ``(u, y)`` (arrays or a narx.Data); returns self."""
+        t0 = time.perf_counter()
+        inputs = self.inputs
+        data = as_data(u, y, inputs=inputs, output=self.output)
+        data.require_output("fit")
+        start = self._validate(data)
+        registry = self.registry or default_registry()
+        pset = make_pset(data.signals, registry, use_phi=self.use_phi, phi_names=self.phi_names)
+        evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
+                              constraints=self.search_constraints, start=start,
+                              criterion=self.criterion, n_jobs=self.n_jobs,
+                              backend=self.backend, scheduler=self.scheduler,
+                              registry=registry)
+        callbacks = list(self.callbacks or [])
+
+        def on_generation(state):
+            for cb in callbacks:
+                cb(state)
+        seed = self._seed()
+        try:
+            res = evolve(pset, evaluator, seed=seed, population_size=self.population,
+                         generations=self.generations, cxpb=self.cxpb, mutpb=self.mutpb,
+                         high_level_cx_rate=self.high_level_cx_rate,
+                         high_level_mut_rate=self.high_level_mut_rate,
+                         tournament_size=self.tournament_size,
+                         elite_fraction=self.elite_fraction, max_terms=self.max_terms,
+                         max_height=self.max_height, on_generation=on_generation,
+                         checkpoint=self.checkpoint, resume=self.resume)
+        finally:
+            evaluator.close()
+        if res.best is None:
+            raise ValueError("no structure with a finite fitness was found: every "
+                             "candidate diverged; try fitness='pem' or a shorter window")
+        terms = tuple(res.best.terms)
+        self.search_terms_ = terms
+        scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
+                                 constraints=self.search_constraints, start=start,
+                                 registry=registry)
+        if self.prune:
+            terms = self._prune(scorer, terms, data.n - start)
+        self.terms_ = terms
+        self.fitness_ = res.best.fitness if terms == self.search_terms_ else \
+            criterion_value(scorer.score(terms), len(terms), data.n - start, self.criterion)
+        meta = {"fitness": self.fitness, "window": self.window, "k": self.k,
+                "criterion": self.criterion, "seed": seed,
+                "population": self.population, "generations": self.generations,
+                "max_terms": self.max_terms, "max_height": self.max_height,
+                "use_phi": self.use_phi, "search_fitness_value": self.fitness_}
+        meta["versions"] = _versions()
+        self.model_ = Model(terms, inputs=data.inputs, output=data.output,
+                            meta=dict(meta, estimation="ls"), registry=registry).fit(data)
+        self.model_cls_ = None
+        if self.constraints == "steady-state":
+            try:
+                self.model_cls_ = Model(terms, inputs=data.inputs, output=data.output,
+                                        meta=dict(meta, estimation="cls"),
+                                        registry=registry).fit(data, constraints="steady-state")
+            except ValueError as exc:
+                self.cls_error_ = str(exc)
+        self.pareto_front_ = ParetoFront(
+            {"complexity": int(r.complexity), "loss": float(r.fitness),
+             "terms": [str(t) for t in r.terms]} for r in res.pareto)
+        self.logbook_ = res.logbook
+        self.n_evaluations_ = res.evaluations
+        self.seed_ = seed
+        self.result_ = res
+        self.fit_time_ = time.perf_counter() - t0
+        return self
+
+    @staticmethod
+    def _prune(scorer, terms, n, criterion=None):
+        crit = criterion or "bic"
+        cur = criterion_value(scorer.score(terms), len(terms), n, crit)
+        while len(terms) > 1:
+            trials = []
+            for i in range(len(terms)):
+                sub = terms[:i] + terms[i + 1:]
+                trials.append((criterion_value(scorer.score(sub), len(sub), n, crit), i))
+            best, i = min(trials)
+            if not best < cur:
+                break
+            cur, terms = best, terms[:i] + terms[i + 1:]
+        return terms
+
+    # -------------------------------------------------------------- use
+    def _check_fitted(self):
+        if not hasattr(self, "model_"):
+            raise ValueError("this MGGPRegressor is not fitted yet: call fit(u, y) first")
+
+    def get_best(self, constrained: Optional[bool] = None) -> Model:
+        """The best model: the CLS refit if one was made (unless False)."""
+        self._check_fitted()
+        if constrained is None:
+            constrained = self.model_cls_ is not None
+        if constrained and self.model_cls_ is None:
+            raise ValueError("no CLS refit: fit with constraints='steady-state'")
+        return self.model_cls_ if constrained else self.model_
+
+    def simulate(self, u, y=None, mode="freerun", constrained=None, **kw):
+        return self.get_best(constrained).simulate(u, y, mode, **kw)
+
+    def predict(self, u, y=None, mode="freerun", constrained=None, **kw):
+        return self.simulate(u, y, mode, constrained, **kw).y_hat
+
+
+def _versions():
+    import deap
+    import numpy
+    import scipy
+    from . import __version__
+    v = {"mggp": __version__, "deap": deap.__version__, "numpy": numpy.__version__,
+         "scipy": scipy.__version__}
+    try:
+        import numba
+        v["numba"] = numba.__version__
+    except ImportError:                     # pragma: no cover
+        pass
+    return v
