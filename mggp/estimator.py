@@ -84,8 +84,16 @@ class MGGPRegressor:
         Include Φ-functions in the primitive set (``--no-phi`` = False).
     phi_names : list of str, optional
         Φ-functions to use (default: all registered).
-    prune : bool
-        Backward elimination of the best structure under ``criterion``.
+    max_lag, max_degree : int, optional
+        Genes decoding to a term with a larger lag or more factors
+        contribute no term (e.g. lags up to 4, degree up to 3).
+    prune : False, 'bic' or 't'
+        Backward elimination of the best structure: by the BIC of the
+        search fitness, or by LS t-statistics (drop the least significant
+        term while its |t| < ``t_threshold``).
+    t_threshold : float, optional
+        Default: Bonferroni, Φ⁻¹(1 − 0.05/(2M)) with M the number of
+        candidate monomials allowed by ``max_lag`` and ``max_degree``.
     random_state : int, optional
         Seed; the result does not depend on ``n_jobs`` or ``backend``.
     n_jobs : int
@@ -102,7 +110,8 @@ class MGGPRegressor:
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi=True, phi_names=None,
-                 prune=False, random_state=None, n_jobs=1, backend="loky",
+                 max_lag=None, max_degree=None, prune=False, t_threshold=None,
+                 random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
                  resume=False, callbacks=None, registry=None):
         self.fitness = fitness
@@ -123,7 +132,10 @@ class MGGPRegressor:
         self.max_height = max_height
         self.use_phi = use_phi
         self.phi_names = phi_names
+        self.max_lag = max_lag
+        self.max_degree = max_degree
         self.prune = prune
+        self.t_threshold = t_threshold
         self.random_state = random_state
         self.n_jobs = n_jobs
         self.backend = backend
@@ -193,13 +205,17 @@ class MGGPRegressor:
                               backend=self.backend, scheduler=self.scheduler,
                               registry=registry)
         callbacks = list(self.callbacks or [])
+        allowed = self._allowed
+
+        def evaluate_batch(term_sets):
+            return evaluator([tuple(t for t in ts if allowed(t)) for ts in term_sets])
 
         def on_generation(state):
             for cb in callbacks:
                 cb(state)
         seed = self._seed()
         try:
-            res = evolve(pset, evaluator, seed=seed, population_size=self.population,
+            res = evolve(pset, evaluate_batch, seed=seed, population_size=self.population,
                          generations=self.generations, cxpb=self.cxpb, mutpb=self.mutpb,
                          high_level_cx_rate=self.high_level_cx_rate,
                          high_level_mut_rate=self.high_level_mut_rate,
@@ -212,13 +228,17 @@ class MGGPRegressor:
         if res.best is None:
             raise ValueError("no structure with a finite fitness was found: every "
                              "candidate diverged; try fitness='pem' or a shorter window")
-        terms = tuple(res.best.terms)
+        terms = tuple(t for t in res.best.terms if allowed(t))
         self.search_terms_ = terms
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
                                  registry=registry)
-        if self.prune:
+        if self.prune == "bic":
             terms = self._prune(scorer, terms, data.n - start)
+        elif self.prune == "t":
+            terms = self._prune_t(data, terms, start)
+        elif self.prune:
+            raise ValueError(f"prune must be False, 'bic' or 't', got {self.prune!r}")
         self.terms_ = terms
         self.fitness_ = res.best.fitness if terms == self.search_terms_ else \
             criterion_value(scorer.score(terms), len(terms), data.n - start, self.criterion)
@@ -247,6 +267,39 @@ class MGGPRegressor:
         self.result_ = res
         self.fit_time_ = time.perf_counter() - t0
         return self
+
+    def _allowed(self, term) -> bool:
+        if _identically_zero(term, self.registry or default_registry()):
+            return False
+        if self.max_lag is not None and term.max_lag > self.max_lag:
+            return False
+        if self.max_degree is not None and term.degree > self.max_degree:
+            return False
+        return True
+
+    def _t_threshold(self, data) -> float:
+        if self.t_threshold is not None:
+            return float(self.t_threshold)
+        from math import comb
+        from scipy.stats import norm
+        lag = self.max_lag or max_lag_for_height(self.max_height)
+        deg = self.max_degree or 3
+        m = comb((len(data.inputs) + 1) * lag + deg, deg) - 1
+        return float(norm.ppf(1 - 0.05 / (2 * m)))
+
+    def _prune_t(self, data, terms, start):
+        from narx.estimate import t_statistics
+        from narx.regressors import regressor_matrix
+        crit = self._t_threshold(data)
+        self.t_threshold_ = crit
+        while len(terms) > 1:
+            Psi, target, _ = regressor_matrix(terms, data, start=start)
+            t = t_statistics(Psi, target)
+            i = int(np.argmin(t))
+            if t[i] >= crit:
+                break
+            terms = terms[:i] + terms[i + 1:]
+        return terms
 
     @staticmethod
     def _prune(scorer, terms, n, criterion=None):
@@ -282,6 +335,18 @@ class MGGPRegressor:
 
     def predict(self, u, y=None, mode="freerun", constrained=None, **kw):
         return self.simulate(u, y, mode, constrained, **kw).y_hat
+
+
+def _identically_zero(term, registry) -> bool:
+    """A Φ-call whose arguments are all the same lagged signal and whose
+    value at equal arguments is 0 (Phi1, Phi2) makes the term vanish."""
+    from narx.terms import PhiCall
+    for f in term.factors:
+        if isinstance(f, PhiCall) and len(set(f.args)) == 1:
+            fn = registry.get(f.name)
+            if fn.steady_is_constant and fn.steady_value() == 0.0:
+                return True
+    return False
 
 
 def _versions():

@@ -37,7 +37,7 @@ import numpy as np
 import scipy.linalg
 
 __all__ = ["Estimate", "EstimationError", "least_squares",
-           "constrained_least_squares"]
+           "constrained_least_squares", "t_statistics"]
 
 
 class EstimationError(ValueError):
@@ -79,6 +79,7 @@ def _solve(Psi, target):
     norms[norms == 0] = 1.0
     A = Psi / norms
     x, _, rank, _ = scipy.linalg.lstsq(A, target, lapack_driver="gelsy",
+                                       cond=max(A.shape) * np.finfo(float).eps,
                                        check_finite=False)
     return x / norms, int(rank)
 
@@ -142,3 +143,34 @@ def constrained_least_squares(Psi, target, S, c, *, labels=None,
         theta = theta_p + Z @ z
     r = target - Psi @ theta
     return Estimate(theta, z_rank + rank, p, float(r @ r), "cls")
+
+
+def t_statistics(Psi, target, theta=None) -> np.ndarray:
+    r"""|θ_i| / se(θ_i) of an LS fit (``inf`` where the residual is zero).
+
+    .. math::  \mathrm{se}(\theta_i) = \hat\sigma \, \|(R^{-T})_{:,i}\|,
+               \quad \Psi = QR,\; \hat\sigma^2 = \frac{\|y-\Psi\theta\|^2}{N-p}
+
+    (the diagonal of σ²(ΨᵀΨ)⁻¹ from the triangular factor; columns scaled to
+    unit norm first). Dependent columns get t = 0.
+    """
+    Psi, target = _check(Psi, target)
+    n, p = Psi.shape
+    if theta is None:
+        theta = least_squares(Psi, target).theta
+    r = target - Psi @ theta
+    dof = max(n - p, 1)
+    sigma = np.sqrt(float(r @ r) / dof)
+    norms = np.sqrt(np.einsum("ij,ij->j", Psi, Psi))
+    norms[norms == 0] = 1.0
+    R = np.linalg.qr(Psi / norms, mode="r")
+    diag = np.abs(np.diag(R))
+    out = np.zeros(p)
+    ok = diag > 1e-10 * max(diag.max(initial=0.0), 1e-300)
+    if not np.all(ok):
+        return out
+    Rinv_t = scipy.linalg.solve_triangular(R, np.eye(p), lower=False).T
+    se = sigma * np.sqrt(np.sum(Rinv_t ** 2, axis=0)) / norms
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.where(se > 0, np.abs(theta) / se, np.inf)
+    return out

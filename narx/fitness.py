@@ -89,6 +89,9 @@ def _osa_sse(P, idx, theta, y, s):
     return acc
 
 FITNESS = ("pem", "freerun", "ksa", "ms")
+#: rank tolerance of the unit-diagonal Gram matrix (its condition number is
+#: the square of the regressors'): columns dependent to ~1e-6 are dropped
+_GRAM_COND = 1e-12
 
 
 class ColumnStore:
@@ -230,7 +233,8 @@ class StructureScorer:
         Gs = G / np.outer(d, d)
         bs = b / d
         if self.constraints is None:
-            z = scipy.linalg.lstsq(Gs, bs, lapack_driver="gelsy", check_finite=False)[0]
+            z = scipy.linalg.lstsq(Gs, bs, lapack_driver="gelsy", cond=_GRAM_COND,
+                                   check_finite=False)[0]
             return z / d, s
         cons = steady_state_constraints(terms, self.registry)
         S = cons.S / d                                  # constraints on z = d*θ
@@ -241,7 +245,8 @@ class StructureScorer:
         Z = Vt[int(np.sum(sv > 1e-12 * sv[0])):].T
         if Z.shape[1]:
             w = scipy.linalg.lstsq(Z.T @ Gs @ Z, Z.T @ (bs - Gs @ zp),
-                                   lapack_driver="gelsy", check_finite=False)[0]
+                                   lapack_driver="gelsy", cond=_GRAM_COND,
+                                   check_finite=False)[0]
             zp = zp + Z @ w
         return zp / d, s
 

@@ -36,6 +36,8 @@ class ModelFileError(ValueError):
 
 def model_to_dict(model) -> dict:
     import numpy, scipy
+    if model.theta is None:
+        raise ValueError("cannot save a model without parameters: fit it or give theta")
     from . import __version__
     meta = dict(model.meta)
     meta.setdefault("versions", {"narx": __version__, "numpy": numpy.__version__,
@@ -70,7 +72,12 @@ def model_from_dict(d, source: str = "model", registry=None):
     if not isinstance(theta, list) or not all(
             isinstance(v, (int, float)) and not isinstance(v, bool) for v in theta):
         _fail(source, f"'theta' must be a list of numbers, got {json.dumps(theta)[:60]}")
-    bad = [i for i, v in enumerate(theta) if not math.isfinite(v)]
+    def finite(v):
+        try:
+            return math.isfinite(v)
+        except OverflowError:
+            return False
+    bad = [i for i, v in enumerate(theta) if not finite(v)]
     if bad:
         _fail(source, f"'theta'[{bad[0]}] is not finite ({theta[bad[0]]})")
     if len(theta) != len(terms):
@@ -100,12 +107,23 @@ def load_model(path, registry=None):
         raise ModelFileError(f"{path}: cannot read model file ({exc.strerror})") from None
     if size > MAX_BYTES:
         _fail(path, f"file is {size} bytes, over the {MAX_BYTES}-byte limit")
+    def no_duplicates(pairs):
+        keys = [k for k, _ in pairs]
+        dup = next((k for k in keys if keys.count(k) > 1), None)
+        if dup is not None:
+            _fail(path, f"key {dup!r} appears more than once")
+        return dict(pairs)
     try:
         with open(path, encoding="utf-8") as fh:
-            d = json.load(fh, parse_constant=lambda c: _fail(
-                path, f"non-standard JSON constant {c}"))
+            d = json.load(fh, object_pairs_hook=no_duplicates,
+                          parse_constant=lambda c: _fail(
+                              path, f"non-standard JSON constant {c}"))
     except UnicodeDecodeError:
         _fail(path, "not UTF-8 text")
     except json.JSONDecodeError as exc:
         _fail(path, f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}")
+    except RecursionError:
+        _fail(path, "JSON nested too deeply")
+    except OSError as exc:
+        _fail(path, f"cannot read model file ({exc.strerror or exc})")
     return model_from_dict(d, path, registry)

@@ -134,6 +134,8 @@ class PhiRegistry:
             except (TypeError, ValueError):
                 raise ValueError("steady must be a number or a callable, got "
                                  f"{steady!r}") from None
+            if not np.isfinite(steady):
+                raise ValueError(f"steady must be finite, got {steady!r}")
         old = self._f.get(name)
         if old is not None and (old.builtin or not overwrite):
             raise ValueError(f"Φ-function {name!r} is already registered"

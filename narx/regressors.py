@@ -77,15 +77,24 @@ def _product(cols, n):
     return out
 
 
+def _key(f, reg: PhiRegistry) -> str:
+    """Cache key of a factor: its text, plus the identity of its function
+    (a re-registered or other registry's Φ-function gets new columns)."""
+    if isinstance(f, PhiCall):
+        return f"{f}@{id(reg.get(f.name).func):x}"
+    return str(f)
+
+
 def input_part(term: Term, data: Data,
                registry: Optional[PhiRegistry] = None) -> np.ndarray:
     """Product of the input-only factors of ``term`` (cached per record)."""
+    reg = registry or default_registry()
     fs = term.input_factors
-    key = "in:" + "*".join(str(f) for f in fs)
+    key = "in:" + "*".join(_key(f, reg) for f in fs)
 
     def build():
-        cols = [data.cached("f:" + str(f),
-                            lambda f=f: factor_column(f, data, registry=registry))
+        cols = [data.cached("f:" + _key(f, reg),
+                            lambda f=f: factor_column(f, data, registry=reg))
                 for f in fs]
         return _product(cols, data.n)
     return data.cached(key, build)

@@ -131,6 +131,9 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
     plan, P : optional precomputed :class:`Plan` and input parts.
     """
     mode = _mode(mode)
+    for name, v in (("k", k), ("window", window)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
+            raise ValueError(f"{name} must be an integer, got {v!r}")
     terms = tuple(terms)
     theta = np.asarray(theta, dtype=np.float64).ravel()
     if theta.shape[0] != len(terms):
@@ -152,8 +155,10 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
             raise DataError(f"y0 must hold {ml} finite initial outputs, got {y0.shape[0]}")
         y_meas = np.zeros(n)
         y_meas[:ml] = y0[:ml]
+        bound = 1e300            # no measured scale: only non-finite output diverges
     else:
         y_meas = y
+        bound = None
     if P is None:
         P = plan.input_parts(data, registry)
     valid = np.zeros(n, dtype=bool)
@@ -190,7 +195,7 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
                 raise DataError(f"record of {n} samples is too short for k={horizon} "
                                 f"with largest lag {ml}")
         y_hat, diverged = run_windows(plan, P, data.U, y_meas, theta, starts, length,
-                                      write_from, registry=registry,
+                                      write_from, bound=bound, registry=registry,
                                       force_python=force_python)
     y_hat[:ml] = y_meas[:ml]
     return SimulationResult(y_hat, y, valid, mode, bool(diverged), horizon, ml)

@@ -208,7 +208,7 @@ def _is_noise(f) -> bool:
 
 
 # ---------------------------------------------------------------- parsing
-_TOKEN = re.compile(r"\s*(?:(?P<num>\d+)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)"
+_TOKEN = re.compile(r"\s*(?:(?P<num>[0-9]+)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)"
                     r"|(?P<op>\*\*|[\[\]\(\),*^+\-]))")
 
 

@@ -85,9 +85,6 @@ def test_rank_deficient_regressors_do_not_crash():
     assert np.all(np.isfinite(est.theta)) and est.theta[1] == pytest.approx(0.5)
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: least_squares does not detect an exactly "
-                   "duplicated regressor (gelsy with default cond): it reports full rank "
-                   "and returns θ ~ ±1e14 with a residual larger than the LS optimum")
 @pytest.mark.parametrize("seed", [0, 2, 3])
 def test_duplicate_column_gives_the_minimum_norm_ls_solution(seed):
     Psi, target, _ = random_problem(seed, p=6)

@@ -355,9 +355,6 @@ def test_y0_path_without_measured_output():
         r.residual
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: the divergence bound is 1e4*max|y_meas|, and "
-                   "with y0 (no measured output) y_meas is y0 padded with zeros, so a "
-                   "stable simulation whose output exceeds 1e4*max|y0| is flagged diverged")
 def test_y0_path_does_not_misflag_a_stable_large_output_as_diverged():
     u = np.full(300, 1e4)
     m = Model(["y[k-1]", "u[k-1]"], [0.5, 1.0])          # stable, steady state 2e4
@@ -419,9 +416,6 @@ def test_discrete_bouc_wen_from_y0_and_needs_its_registry(abs_registry):
             Model(terms, theta)
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: Data's column cache is keyed by factor text "
-                   "only, so a Φ-function re-registered (overwrite=True) or taken from "
-                   "another registry silently reuses the old function's cached columns")
 def test_input_columns_follow_the_registry_in_use():
     rng = np.random.default_rng(0)
     u, y = rng.normal(size=100), rng.normal(size=100)
@@ -469,8 +463,6 @@ def test_bad_arguments_raise_informative_errors():
         simulate(t, th, data, "ksa", k=700)
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: a non-integer horizon (k=2.5, window=2.5) is "
-                   "silently truncated by int() instead of raising ValueError")
 @pytest.mark.parametrize("kw", [{"mode": "ksa", "k": 2.5}, {"mode": "ms", "window": 2.5}])
 def test_non_integer_horizon_is_rejected(kw):
     m, d = _piroddi_model()

@@ -312,8 +312,6 @@ def test_phi_func_and_steady_validation():
     assert "F" not in reg
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: register() accepts a non-finite steady "
-                   "value (NaN/inf), which later poisons the steady-state constraints")
 @pytest.mark.parametrize("bad", [float("nan"), float("inf")])
 def test_phi_steady_must_be_finite(bad):
     with pytest.raises(ValueError, match="steady"):
