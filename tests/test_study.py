@@ -1,0 +1,39 @@
+"""Smoke test of the headline study script (tiny budget) and its goal logic."""
+import json
+import os
+
+from benchmarks import pem_vs_ms
+from benchmarks.casestudy import case_data, model19, score_model
+
+
+def test_study_runs_end_to_end_and_writes_report(tmp_path):
+    out = tmp_path / "rep"
+    js = tmp_path / "s.json"
+    code = pem_vs_ms.main(["--n", "4000", "--population", "12", "--generations", "2",
+                           "--window", "200", "--jobs", "1", "--peers", "no",
+                           "--no-damper", "--out", str(out), "--json", str(js)])
+    assert code == 0
+    text = (out / "report.md").read_text()
+    for name in ("PEM-LS", "MS-LS", "model (19) CLS", "missing"):
+        assert name in text
+    for fig in ("loops.png", "freerun.png", "held.png", "convergence.png"):
+        assert os.path.getsize(out / fig) > 1000
+    doc = json.loads(js.read_text())
+    assert {r["name"] for r in doc["summary"]} >= {"PEM-LS", "MS-LS", "model (19) CLS"}
+
+
+def test_goal_logic_flags_shortfalls():
+    summ = [dict(name="PEM-LS", val_mape=1.0), dict(name="MS-LS", val_mape=0.25),
+            dict(name="MS-CLS", val_mape=0.5, drift_loading_max=0.0, drift_unloading_max=1.0,
+                 ss_loading=0.1, ss_unloading=0.1)]
+    checks = {t: ok for t, ok, _ in pem_vs_ms.goals(summ, False, 100.0)}
+    assert checks["MS-LS val MAPE <= 0.3"]
+    assert not checks["PEM-LS at least 5x worse than MS-LS"]
+    assert not checks["MS-CLS val MAPE <= 0.4"]
+    assert not checks["MS-CLS drift under 1e-6 of the output range (µm)"]
+
+
+def test_published_model19_scores_as_published():
+    cs = case_data(n=2000)
+    r = score_model(model19(), cs)
+    assert abs(r["val_mape"] - 0.241) < 0.03
