@@ -91,6 +91,12 @@ class MGGPRegressor:
         Backward elimination of the best structure: by the BIC of the
         search fitness, or by LS t-statistics (drop the least significant
         term while its |t| < ``t_threshold``).
+    noise_lags : int
+        With q > 0, a moving-average noise model is selected after the
+        search (NARMAX): candidates ``e[k-j]`` and ``x*e[k-j]`` (x a lag
+        1..q of an input or the output), j = 1..q, are added one at a time
+        by extended least squares while the best has |t| >= ``t_threshold``.
+        Keeps the process parameters unbiased under coloured noise.
     t_threshold : float, optional
         Default: Bonferroni, Φ⁻¹(1 − 0.05/(2M)) with M the number of
         candidate monomials allowed by ``max_lag`` and ``max_degree``.
@@ -110,7 +116,8 @@ class MGGPRegressor:
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi=True, phi_names=None,
-                 max_lag=None, max_degree=None, prune=False, t_threshold=None,
+                 max_lag=None, max_degree=None, prune=False, noise_lags=0,
+                 t_threshold=None,
                  random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
                  resume=False, callbacks=None, registry=None):
@@ -135,6 +142,7 @@ class MGGPRegressor:
         self.max_lag = max_lag
         self.max_degree = max_degree
         self.prune = prune
+        self.noise_lags = noise_lags
         self.t_threshold = t_threshold
         self.random_state = random_state
         self.n_jobs = n_jobs
@@ -239,6 +247,8 @@ class MGGPRegressor:
             terms = self._prune_t(data, terms, start)
         elif self.prune:
             raise ValueError(f"prune must be False, 'bic' or 't', got {self.prune!r}")
+        if self.noise_lags:
+            terms = terms + self._select_noise(data, terms, start, registry)
         self.terms_ = terms
         self.fitness_ = res.best.fitness if terms == self.search_terms_ else \
             criterion_value(scorer.score(terms), len(terms), data.n - start, self.criterion)
@@ -300,6 +310,41 @@ class MGGPRegressor:
                 break
             terms = terms[:i] + terms[i + 1:]
         return terms
+
+    def _select_noise(self, data, terms, start, registry):
+        """Forward selection of MA noise terms by ELS t-statistics."""
+        from narx.estimate import t_statistics
+        from narx.regressors import regressor_matrix
+        from narx.terms import parse_term
+        q = int(self.noise_lags)
+        sig = data.signals
+        cands = []
+        for j in range(1, q + 1):
+            e = f"{sig.noise}[k-{j}]"
+            cands.append(e)
+            for name in (sig.output,) + tuple(sig.inputs):
+                cands += [f"{name}[k-{i}]*{e}" for i in range(1, q + 1)]
+        cands = [parse_term(c, sig, registry=registry) for c in cands]
+        crit = self._t_threshold(data)
+        chosen = ()
+        while True:
+            best = None
+            for c in cands:
+                if c in chosen:
+                    continue
+                trial = terms + chosen + (c,)
+                m = Model(trial, inputs=data.inputs, output=data.output,
+                          registry=registry).fit(data)
+                noise = np.zeros(data.n)
+                noise[m.fit_info_["start"]:] = m.fit_info_["residuals"]
+                Psi, target, _ = regressor_matrix(trial, data, noise=noise, start=start,
+                                                  registry=registry)
+                t = t_statistics(Psi, target, m.theta)[-1]
+                if best is None or t > best[0]:
+                    best = (t, c)
+            if best is None or best[0] < crit:
+                return chosen
+            chosen = chosen + (best[1],)
 
     @staticmethod
     def _prune(scorer, terms, n, criterion=None):

@@ -150,6 +150,7 @@ class Model:
             prev = est.theta
         self.theta = est.theta
         self.fit_info_ = {"method": est.method, "rank": est.rank,
+                          "residuals": target - Psi @ est.theta,
                           "n_samples": int(Psi.shape[0]), "start": int(start),
                           "residual_ss": est.residual_ss,
                           "constraints": labels if S is not None else None}
