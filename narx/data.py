@@ -19,7 +19,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .terms import Signals
+from .terms import HasSignals, Signals
 
 __all__ = ["Data", "DataError", "as_data"]
 
@@ -47,7 +47,7 @@ def _check_finite(name, arr):
         raise DataError(f"{name} has a non-finite value ({val}) at sample {int(idx[0])}")
 
 
-class Data:
+class Data(HasSignals):
     """A validated record: inputs ``U`` (N, m), output ``y`` (N,), names.
 
     Parameters
@@ -93,14 +93,6 @@ class Data:
     @property
     def n(self) -> int:
         return self.U.shape[1]
-
-    @property
-    def inputs(self):
-        return self.signals.inputs
-
-    @property
-    def output(self):
-        return self.signals.output
 
     def input(self, name: str) -> np.ndarray:
         return self.U[self.signals.inputs.index(name)]

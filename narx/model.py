@@ -31,12 +31,12 @@ from .phi import PhiRegistry, default_registry
 from .regressors import max_lag, regressor_matrix
 from .simulate import SimulationResult, simulate
 from .steady import cluster_sums, steady_state_constraints
-from .terms import Signals, Term, parse_terms
+from .terms import HasSignals, Signals, Term, parse_terms
 
 __all__ = ["Model"]
 
 
-class Model:
+class Model(HasSignals):
     """A polynomial NARX(MAX) model.
 
     Parameters
@@ -75,14 +75,6 @@ class Model:
         if not np.all(np.isfinite(th)):
             raise ValueError(f"theta has a non-finite value: {th[~np.isfinite(th)][0]}")
         return th
-
-    @property
-    def inputs(self):
-        return self.signals.inputs
-
-    @property
-    def output(self):
-        return self.signals.output
 
     @property
     def n_terms(self) -> int:

@@ -40,6 +40,18 @@ class TermError(ValueError):
     """Invalid term text or a term that does not fit the model's signals."""
 
 
+class HasSignals:
+    """Mixin: ``inputs`` and ``output`` names from a ``signals`` attribute."""
+
+    @property
+    def inputs(self):
+        return self.signals.inputs
+
+    @property
+    def output(self):
+        return self.signals.output
+
+
 @dataclass(frozen=True)
 class Signals:
     """Names of a model's signals: one output, inputs, and the noise name."""

@@ -8,20 +8,10 @@ import numpy as np
 import pytest
 
 from mggp.cli import main
+from benchmarks.casestudy import MODEL19 as _M19
 from narx.systems import piezo_bouc_wen, sine_input
 
-MODEL19 = {
-    "output": "y", "inputs": ["u"],
-    "terms": ["y[k-1]", "Phi1(u[k-2],u[k-3])",
-              "Phi2(u[k-2],u[k-3])*Phi1(u[k-2],u[k-3])*u[k-2]",
-              "Phi2(u[k-2],u[k-3])*Phi1(u[k-2],u[k-3])*y[k-1]",
-              "Phi1(u[k-2],u[k-3])*u[k-2]*u[k-2]",
-              "Phi1(u[k-2],u[k-3])*u[k-2]*y[k-1]",
-              "Phi2(u[k-2],u[k-3])*y[k-1]", "Phi1(u[k-1],u[k-2])",
-              "Phi2(u[k-2],u[k-3])*Phi1(u[k-2],u[k-3])*Phi1(u[k-2],u[k-3])"],
-    "theta": [1.0, -0.2310, 0.0146, -0.0099, 3.2333e-4, -2.5494e-4, 1.7891e-5,
-              1.0080, -0.0604],
-}
+MODEL19 = {"output": "y", "inputs": ["u"], **_M19}
 
 
 def write_csv(path, header, rows):
