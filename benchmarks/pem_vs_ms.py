@@ -31,8 +31,8 @@ from narx import Model
 
 from .casestudy import MODEL19, PUBLISHED, case_data, model19, score_model
 
-QUICK = dict(n=50_000, population=200, generations=40, seeds=[1], window=500)
-FULL = dict(n=50_000, population=500, generations=200, seeds=[1, 2, 3, 4, 5], window=500)
+QUICK = dict(n=50_000, population=300, generations=60, seeds=[1], window=1000)
+FULL = dict(n=50_000, population=500, generations=200, seeds=[1, 2, 3, 4, 5], window=1000)
 COLS = ("train_mape", "val_mape", "val_rmse", "n_terms", "drift_loading", "drift_unloading",
         "ss_loading", "ss_unloading", "fit_time")
 
@@ -151,6 +151,14 @@ def goals(summary, full: bool, out_range: float):
     return out
 
 
+def _jsonable(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.integer, np.floating, np.bool_)):
+        return o.item()
+    return str(o)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m benchmarks.pem_vs_ms", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -196,13 +204,14 @@ def main(argv=None):
     for text, ok, val in checks:
         log(f"[{'ok' if ok else 'SHORT'}] {text}: {val:.4g}")
     if args.json:
-        keep = {k: v for k, v in vars(args).items()}
-        strip = [{k: v for k, v in r.items() if not isinstance(v, np.ndarray)} for r in rows]
-        doc = {"settings": keep, "rows": strip, "summary": summary, "peers": peers,
+        def strip(r):
+            return {k: v for k, v in r.items() if not isinstance(v, np.ndarray)}
+        doc = {"settings": vars(args), "rows": [strip(r) for r in rows], "summary": summary,
+               "peers": [strip(p) for p in peers],
                "damper": damper, "checks": [{"goal": t, "met": bool(o), "value": v}
                                             for t, o, v in checks]}
         with open(args.json, "w") as fh:
-            json.dump(doc, fh, indent=1, default=float)
+            json.dump(doc, fh, indent=1, default=_jsonable)
     log(f"report written to {os.path.join(args.out, 'report.md')} "
         f"({time.perf_counter() - t_all:.0f} s)")
     return 0

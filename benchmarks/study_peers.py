@@ -36,7 +36,7 @@ def _ready(name, mode):
 
 def _frols(cs, args, log):
     from . import peers
-    row = {"name": "sysidentpy FROLS", **_ready("sysidentpy", args.peers)}
+    row = {**_ready("sysidentpy", args.peers), "name": "sysidentpy FROLS"}
     if not row["available"]:
         return row
     grid = FROLS_GRID if args.full else FROLS_GRID[::2]
@@ -62,7 +62,7 @@ def _frols(cs, args, log):
 
 def _toolbox(cs, args, log):
     from . import peers
-    row = {"name": "published toolbox (MS)", **_ready("toolbox", args.peers)}
+    row = {**_ready("toolbox", args.peers), "name": "published toolbox (MS)"}
     if not row["available"]:
         return row
     limit = 900.0 if args.full else 90.0
