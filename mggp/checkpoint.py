@@ -208,7 +208,7 @@ def load_checkpoint(path, pset, decoder: Optional[Decoder] = None) -> EvolutionS
             doc = json.load(fh)
     except FileNotFoundError:
         raise
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, ValueError, RecursionError) as exc:   # JSON, UTF-8, nesting
         raise fail(f"not a readable JSON file ({exc})") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise fail(f"not an mggp checkpoint (missing format {FORMAT!r})")

@@ -49,7 +49,7 @@ def _cmd_estimate(args) -> int:
     from narx.csvdata import read_csv
     inputs = args.input or ["u"]
     output = args.output or "y"
-    data = read_csv(args.data, inputs=inputs, output=output)
+    data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True)
     model = Model(args.terms, inputs=inputs, output=output)
     need = model.max_lag + model.n_terms
     if data.n <= need:

@@ -95,7 +95,7 @@ def _cmd_fit(args) -> int:
         raise CLIError("--backend dask needs --scheduler ADDRESS")
     inputs = args.input or ["u"]
     output = args.output or "y"
-    data = read_csv(args.data, inputs=inputs, output=output)
+    data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True)
     for path in (args.out,):
         if path and os.path.isdir(path):
             raise CLIError(f"--out {path} is a folder, not a file")
@@ -109,7 +109,14 @@ def _cmd_fit(args) -> int:
                         scheduler=args.scheduler, inputs=inputs, output=output,
                         checkpoint=args.checkpoint, resume=args.resume,
                         callbacks=[_Progress(args.generations, sys.stderr, args.quiet)])
-    est.fit(data)
+    from narx.data import DataError
+    from .evaluate import WorkerLostError
+    try:
+        est.fit(data)
+    except DataError as exc:                  # e.g. too few samples for the lags
+        raise CLIError(f"{args.data}: {exc}") from None
+    except WorkerLostError as exc:
+        raise CLIError(str(exc)) from None
     m = est.model_
     fr = m.simulate(data, mode="freerun")
     print(f"seed {est.seed_}; {est.n_evaluations_} structures evaluated in "

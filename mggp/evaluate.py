@@ -5,17 +5,35 @@ Typical use::
     from mggp.evaluate import Evaluator
     ev = Evaluator(data, fitness="ms", window=100, start=16, n_jobs=2)
     fitnesses = ev(list_of_term_tuples)      # one value per term set, in order
+    ev.close()
 
-Each worker process holds one :class:`narx.fitness.StructureScorer` per
-record and settings (keyed by a content hash), so regressor columns and Gram
-entries are computed once per worker and reused across generations. The
-batch is cut into contiguous chunks in a fixed way and results come back in
-order; since a term set's score is a pure function of the set and the data,
-the search gives the same result for any number of workers or any backend.
+    # the same on a dask.distributed cluster (pip install 'mggp-narx[dask]')
+    ev = Evaluator(data, fitness="ms", backend="dask", scheduler="tcp://10.0.0.5:8786")
+
+Each worker keeps a :class:`narx.fitness.StructureScorer` per record and
+settings (keyed by a content hash), so regressor columns and Gram entries
+are computed once per worker and reused across generations; a worker
+running several threads keeps one scorer per concurrently busy thread (a
+scorer is never shared by two threads). The batch is cut into contiguous
+chunks in a fixed way and results come back in order; since a term set's
+score is a pure function of the set and the data, the search gives the same
+result for any number of workers or any backend.
 
 Backends are joblib's: ``'loky'`` processes by default, ``'threading'``,
-``'sequential'``, or ``'dask'`` for a ``dask.distributed`` cluster (give
-``scheduler='tcp://host:8786'`` or an existing ``Client``).
+``'sequential'``, or ``'dask'`` for a ``dask.distributed`` cluster through
+joblib's Dask backend (give ``scheduler='tcp://host:8786'`` or a
+``Client``; the record is broadcast to the workers once per run, and with
+the dask backend ``n_jobs`` is ignored: the cluster's threads are used).
+The Φ-function registry is shipped with every chunk as a snapshot, so
+user plug-ins registered in the calling process reach the workers.
+
+Fault tolerance: when a worker process dies while scoring (joblib's
+``TerminatedWorkerError``, a lost Dask worker), the chunks not yet returned
+are scored again, up to ``max_retries`` times per batch; then
+:class:`WorkerLostError` says so. Chunks already returned are kept, and the
+scores do not depend on which worker computed them, so a run that lost a
+worker ends exactly like one that did not. Each fault is recorded in
+``Evaluator.faults``.
 
 The fitness minimised by the search is, per ``criterion``:
 
@@ -28,20 +46,32 @@ from __future__ import annotations
 
 import hashlib
 import math
+import os
+import threading
+from collections import OrderedDict
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from narx.data import Data
 from narx.fitness import StructureScorer
-from narx.phi import PhiRegistry
+from narx.phi import PhiRegistry, default_registry
 from narx.terms import Term
 
-__all__ = ["Evaluator", "CRITERIA", "criterion_value"]
+__all__ = ["Evaluator", "CRITERIA", "criterion_value", "WorkerLostError",
+           "worker_fault_types"]
 
 CRITERIA = ("mse", "bic", "aic")
+BACKENDS = ("loky", "threading", "sequential", "dask")
 
-_WORKER_SCORERS = {}          # per process: key -> StructureScorer
+#: per process: key -> idle scorers (one is checked out per busy thread)
+_IDLE: "OrderedDict[str, list]" = OrderedDict()
+_LOCK = threading.Lock()
+_MAX_KEYS = 8
+
+
+class WorkerLostError(RuntimeError):
+    """Worker processes kept dying while a batch was scored."""
 
 
 def criterion_value(mse: float, p: int, n: int, criterion: str) -> float:
@@ -55,24 +85,61 @@ def criterion_value(mse: float, p: int, n: int, criterion: str) -> float:
     return n * ln + pen
 
 
-def _scorer(key, data, settings, registry):
-    sc = _WORKER_SCORERS.get(key)
-    if sc is None:
-        if len(_WORKER_SCORERS) > 8:
-            _WORKER_SCORERS.clear()
-        sc = StructureScorer(data, registry=registry, **settings)
-        _WORKER_SCORERS[key] = sc
-    return sc
+def worker_fault_types() -> tuple:
+    """Exception classes that mean "a worker was lost", not "a bad score".
+
+    joblib/loky's ``TerminatedWorkerError`` and broken pools, and, when
+    ``dask.distributed`` is installed, ``KilledWorker``, a closed comm and
+    a cancelled future (a worker holding the scattered data vanished).
+    """
+    from concurrent.futures import BrokenExecutor, CancelledError
+    types = [BrokenExecutor, CancelledError]
+    try:
+        from joblib.externals.loky.process_executor import TerminatedWorkerError
+        types.append(TerminatedWorkerError)
+    except ImportError:                      # pragma: no cover
+        pass
+    try:
+        from distributed.comm.core import CommClosedError
+        from distributed.scheduler import KilledWorker
+        types += [KilledWorker, CommClosedError]
+        from distributed.client import FutureCancelledError
+        types.append(FutureCancelledError)
+    except ImportError:
+        pass
+    return tuple(types)
+
+
+def _checkout(key, data, settings, registry) -> StructureScorer:
+    with _LOCK:
+        idle = _IDLE.get(key)
+        if idle:
+            _IDLE.move_to_end(key)
+            return idle.pop()
+    return StructureScorer(data, registry=registry, **settings)
+
+
+def _checkin(key, scorer) -> None:
+    with _LOCK:
+        _IDLE.setdefault(key, []).append(scorer)
+        _IDLE.move_to_end(key)
+        while len(_IDLE) > _MAX_KEYS:
+            _IDLE.popitem(last=False)
+
+
+def _drop(key) -> None:
+    with _LOCK:
+        _IDLE.pop(key, None)
 
 
 def _score_chunk(key, data, settings, registry, criterion, chunk):
-    sc = _scorer(key, data, settings, registry)
-    n_scored = data.n - (sc.start or 0)
-    out = []
-    for terms in chunk:
-        mse = sc.score(terms)
-        out.append(criterion_value(mse, len(terms), n_scored, criterion))
-    return out
+    sc = _checkout(key, data, settings, registry)
+    try:
+        n_scored = data.n - (sc.start or 0)
+        return [criterion_value(sc.score(terms), len(terms), n_scored, criterion)
+                for terms in chunk]
+    finally:
+        _checkin(key, sc)
 
 
 class Evaluator:
@@ -91,18 +158,32 @@ class Evaluator:
     criterion : {'mse', 'bic', 'aic'}
     n_jobs : int
         Worker count (``-1``: all cores). Results do not depend on it.
-    backend : str
-        joblib backend: 'loky' (default), 'threading', 'sequential', 'dask'.
+        Ignored by the dask backend (the cluster's threads are used).
+    backend : {'loky', 'threading', 'sequential', 'dask'}
     scheduler : str or dask.distributed.Client, optional
-        For the dask backend.
+        For the dask backend: a scheduler address (a client is opened and
+        closed by :meth:`close`) or a client; default the current client.
+    registry : PhiRegistry, optional
+        Φ-functions (default: the process-wide registry); a snapshot is
+        taken now and shipped to the workers.
+    max_retries : int
+        Re-scorings of a batch after lost workers before giving up.
+
+    Attributes
+    ----------
+    faults : list of str
+        One line per lost-worker event survived (exception type and text).
     """
 
     def __init__(self, data: Data, fitness: str = "ms", *, window: int = 100,
                  k: int = 10, constraints: Optional[str] = None, start: int = 0,
                  criterion: str = "mse", n_jobs: int = 1, backend: str = "loky",
-                 scheduler=None, registry: Optional[PhiRegistry] = None):
+                 scheduler=None, registry: Optional[PhiRegistry] = None,
+                 max_retries: int = 3):
         if criterion not in CRITERIA:
             raise ValueError(f"criterion must be one of {', '.join(CRITERIA)}, got {criterion!r}")
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
         self.data = data
         self.settings = dict(fitness=fitness, window=window, k=k,
                              constraints=constraints, start=start)
@@ -111,63 +192,135 @@ class Evaluator:
         self.n_jobs = int(n_jobs)
         if self.n_jobs == 0 or self.n_jobs < -1:
             raise ValueError(f"n_jobs must be >= 1 or -1, got {n_jobs!r}")
+        if not isinstance(max_retries, int) or max_retries < 0:
+            raise ValueError(f"max_retries must be an integer >= 0, got {max_retries!r}")
+        self.max_retries = max_retries
         self.backend = backend
         self.scheduler = scheduler
-        from narx.phi import default_registry
         self.registry = (registry or default_registry()).snapshot()
         h = hashlib.sha1()
         h.update(np.ascontiguousarray(data.U).tobytes())
         h.update(data.y.tobytes())
+        h.update(repr((data.inputs, data.output)).encode())
         h.update(repr(sorted(self.settings.items())).encode())
+        # a re-registered plug-in must not reuse columns of the old function
+        h.update(repr([(f.name, f.arity, id(f.func))
+                       for f in self.registry.user_functions()]).encode())
         self.key = h.hexdigest()
         self.evaluations = 0
+        self.faults: List[str] = []
         self._client = None
+        self._own_client = False
         self._parallel = None
 
     # ------------------------------------------------------------------
     def _workers(self) -> int:
         if self.backend == "sequential":
             return 1
+        if self.backend == "dask":
+            client = self._get_client()
+            return max(1, sum(client.nthreads().values()))
         if self.n_jobs == -1:
-            import os
             return os.cpu_count() or 1
         return self.n_jobs
+
+    def _get_client(self):
+        if self._client is None:
+            self._client, self._own_client = _dask_client(self.scheduler)
+        return self._client
 
     def _get_parallel(self):
         import joblib
         if self._parallel is None:
             if self.backend == "dask":
-                self._client = _dask_client(self.scheduler)
-            self._parallel = joblib.Parallel(n_jobs=self._workers(), backend=self.backend,
-                                             return_as="list")
+                # the record is broadcast to every worker once, not sent with
+                # every chunk; the Parallel keeps that backend (and the
+                # scattered copies) until a fault or close() drops it
+                with joblib.parallel_config(backend="dask", client=self._get_client(),
+                                            scatter=[self.data]):
+                    self._parallel = joblib.Parallel(n_jobs=-1, return_as="generator")
+            else:
+                self._parallel = joblib.Parallel(n_jobs=self._workers(),
+                                                 backend=self.backend,
+                                                 return_as="generator")
         return self._parallel
+
+    def _chunks(self, term_sets, workers):
+        # fixed chunking: a few chunks per worker for balance
+        n_chunks = min(len(term_sets), 4 * workers)
+        bounds = np.linspace(0, len(term_sets), n_chunks + 1).astype(int)
+        return [term_sets[a:b] for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 
     def __call__(self, term_sets: Sequence[Tuple[Term, ...]]) -> List[float]:
         term_sets = [tuple(t) for t in term_sets]
         self.evaluations += len(term_sets)
         workers = self._workers()
-        if workers <= 1 or len(term_sets) < 2 * workers:
+        if self.backend == "dask":
+            local = len(term_sets) < 2          # a cluster of one thread is still used
+        else:
+            local = workers <= 1 or len(term_sets) < 2 * workers
+        if local:
             return _score_chunk(self.key, self.data, self.settings, self.registry,
                                 self.criterion, term_sets)
-        import joblib
-        # fixed chunking: a few chunks per worker for balance
-        n_chunks = min(len(term_sets), 4 * workers)
-        bounds = np.linspace(0, len(term_sets), n_chunks + 1).astype(int)
-        chunks = [term_sets[a:b] for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
-        par = self._get_parallel()
-        parts = par(joblib.delayed(_score_chunk)(self.key, self.data, self.settings,
-                                                 self.registry, self.criterion, c)
-                    for c in chunks)
+        chunks = self._chunks(term_sets, workers)
+        parts = self._run_chunks(chunks)
         return [v for part in parts for v in part]
 
+    def _run_chunks(self, chunks):
+        """Score chunks in parallel; re-score those lost with a worker."""
+        import joblib
+        faults = worker_fault_types()
+        parts = [None] * len(chunks)
+        failures = 0
+        while True:
+            todo = [i for i, p in enumerate(parts) if p is None]
+            if not todo:
+                return parts
+            try:
+                gen = self._get_parallel()(
+                    joblib.delayed(_score_chunk)(self.key, self.data, self.settings,
+                                                 self.registry, self.criterion,
+                                                 chunks[i]) for i in todo)
+                for i, part in zip(todo, gen):
+                    parts[i] = part
+            except faults as exc:
+                failures += 1
+                text = _describe(exc)
+                self._parallel = None            # a fresh pool / backend next time
+                if failures > self.max_retries:
+                    n = sum(len(chunks[i]) for i in todo)
+                    raise WorkerLostError(
+                        f"evaluation failed: a worker was lost {failures} times while "
+                        f"scoring a batch ({n} structures left; last: {text}); resume "
+                        f"from the last checkpoint, or try --jobs 1 / --backend "
+                        f"sequential to find a crashing Φ-function") from None
+                self.faults.append(text)
+
     def close(self):
+        """Drop this run's scorer in this process and an owned dask client."""
         self._parallel = None
-        if self._client is not None and getattr(self, "_own_client", False):
+        _drop(self.key)
+        if self._client is not None and self._own_client:
             self._client.close()
-        self._client = None
+        self._client, self._own_client = None, False
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _describe(exc) -> str:
+    try:
+        msg = str(exc)
+    except Exception:                        # a broken __str__ must not hide the fault
+        msg = repr(exc.args)
+    return " ".join(f"{type(exc).__name__}: {msg}".split())[:300]
 
 
 def _dask_client(scheduler):
+    """(client, owned): a client for ``scheduler`` (address or Client)."""
     try:
         from dask.distributed import Client, get_client
     except ImportError:
@@ -175,10 +328,15 @@ def _dask_client(scheduler):
                          "pip install 'mggp-narx[dask]'") from None
     if scheduler is None:
         try:
-            return get_client()
+            return get_client(), False
         except ValueError:
             raise ValueError("backend 'dask' needs a scheduler address or a running "
                              "dask.distributed Client") from None
     if isinstance(scheduler, str):
-        return Client(scheduler)
-    return scheduler
+        try:
+            return Client(scheduler, set_as_default=False), True
+        except (OSError, TimeoutError) as exc:
+            raise ValueError(f"--scheduler {scheduler}: cannot connect to the dask "
+                             f"scheduler ({type(exc).__name__}: "
+                             f"{' '.join(str(exc).split())[:200]})") from None
+    return scheduler, False

@@ -6,18 +6,23 @@ Typical use::
     data = read_csv("DATA.csv")                               # columns u, y
     data = read_csv("damper.csv", inputs=["v", "E"], output="f")
     data = read_csv("ref.csv", inputs=["r"], output=None)     # no output
+    data = read_csv("train.csv", min_samples=40, varying_inputs=True)  # to identify
 
 The file has a header row; the named columns must each appear once and hold
-finite numbers on every data row; other columns are ignored (their content
-is not checked), blank lines are skipped, rows must all have the header's
-number of fields. Every problem raises :class:`~narx.data.DataError` with
-the file, the line (1-based, header = line 1), the column and the rule.
+finite numbers (plain ASCII decimal notation, as ``float`` reads it, without
+``_`` separators) on every data row; other columns are ignored (their
+content is not checked), blank lines are skipped, rows must all have the
+header's number of fields. Every problem raises
+:class:`~narx.data.DataError` with the file, the line (1-based, header =
+line 1), the column and the rule. Memory is linear in the number of rows
+(8 bytes per value read, no per-row Python objects kept).
 """
 from __future__ import annotations
 
 import csv
 import math
 import os
+from array import array
 from typing import Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -30,8 +35,8 @@ __all__ = ["read_csv", "read_columns", "iter_rows", "write_with_column"]
 MAX_FIELD = 1 << 20
 
 
-def iter_rows(path) -> Iterator[Tuple[int, List[str]]]:
-    """Yield (line number, fields) of non-blank rows, header included."""
+def _records(path) -> Iterator[Tuple[int, int, List[str]]]:
+    """Yield (first line, last line, fields) of non-blank records."""
     path = os.fspath(path)
     csv.field_size_limit(MAX_FIELD)
     try:
@@ -40,21 +45,36 @@ def iter_rows(path) -> Iterator[Tuple[int, List[str]]]:
         raise DataError(f"{path}: cannot read file ({exc.strerror})") from None
     with fh:
         reader = csv.reader(fh)
+        end = 0
         try:
             for fields in reader:
+                first, end = end + 1, reader.line_num
                 if not fields or all(not f.strip() for f in fields):
                     continue
-                yield reader.line_num, fields
+                yield first, end, fields
         except UnicodeDecodeError:
             raise DataError(f"{path}: not UTF-8 text (near line {reader.line_num + 1})") from None
         except csv.Error as exc:
-            raise DataError(f"{path}: line {reader.line_num}: malformed CSV ({exc})") from None
+            where = (f"line {end + 1}" if reader.line_num <= end + 1 else
+                     f"lines {end + 1}-{reader.line_num} (an unclosed quote?)")
+            raise DataError(f"{path}: {where}: malformed CSV ({exc})") from None
+
+
+def iter_rows(path) -> Iterator[Tuple[int, List[str]]]:
+    """Yield (line number, fields) of non-blank rows, header included.
+
+    The line number is where the row starts (a quoted field may span lines).
+    """
+    for first, _, fields in _records(path):
+        yield first, fields
 
 
 def _number(path, line, col, text) -> float:
     s = text.strip()
     try:
         v = float(s)
+        if "_" in s or not s.isascii():
+            raise ValueError(s)
     except ValueError:
         shown = s if len(s) <= 40 else s[:37] + "..."
         raise DataError(f"{path}: line {line}, column {col!r}: {shown!r} is not a number") from None
@@ -67,9 +87,9 @@ def _number(path, line, col, text) -> float:
 def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
     """Read the named columns as a float array (N, len(names)) and the header."""
     path = os.fspath(path)
-    rows = iter_rows(path)
+    rows = _records(path)
     try:
-        line, header = next(rows)
+        line, _, header = next(rows)
     except StopIteration:
         raise DataError(f"{path}: empty file (no header row)") from None
     header = [h.strip() for h in header]
@@ -77,8 +97,10 @@ def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
     for name in names:
         hits = [i for i, h in enumerate(header) if h == name]
         if not hits:
-            shown = ", ".join(h for h in header if h) or "(none)"
-            raise DataError(f"{path}: no column {name!r} (columns: {shown})")
+            shown = ", ".join(h if h.isprintable() else repr(h)
+                              for h in header if h)[:200] or "(none)"
+            raise DataError(f"{path}: line {line} (header): no column {name!r} "
+                            f"(columns: {shown})")
         if len(hits) > 1:
             raise DataError(f"{path}: column {name!r} appears {len(hits)} times in the "
                             f"header (fields {', '.join(str(i + 1) for i in hits)})")
@@ -86,27 +108,56 @@ def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
     if len(set(names)) != len(names):
         raise DataError(f"{path}: the same column is named twice among {list(names)}")
     width = len(header)
-    out: List[List[float]] = []
-    for line, fields in rows:
+    values = array("d")
+    pairs = list(zip(names, idx))
+    for line, end, fields in rows:
         if len(fields) != width:
+            span = "" if end == line else f" (the row runs to line {end}: an unclosed quote?)"
             raise DataError(f"{path}: line {line} has {len(fields)} fields but the "
-                            f"header has {width}")
-        out.append([_number(path, line, names[j], fields[i]) for j, i in enumerate(idx)])
-    if not out:
+                            f"header has {width}{span}")
+        for name, i in pairs:
+            values.append(_number(path, line, name, fields[i]))
+    if not values:
         raise DataError(f"{path}: no data rows after the header")
-    return np.asarray(out, dtype=np.float64).reshape(len(out), len(names)), header
+    arr = np.frombuffer(values, dtype=np.float64).reshape(-1, len(names))
+    return arr.copy() if not arr.flags.writeable else arr, header
 
 
 def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str] = "y",
-             *, min_samples: int = 2) -> Data:
-    """Read a record; ``output=None`` reads inputs only."""
+             *, min_samples: int = 2, varying_inputs: bool = False,
+             purpose: str = "") -> Data:
+    """Read a record; ``output=None`` reads inputs only.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    inputs : sequence of str, optional
+        Input column names (default ``['u']``).
+    output : str or None
+        Output column name (default ``'y'``); None reads no output.
+    min_samples : int
+        Fewer data rows raise :class:`DataError`.
+    varying_inputs : bool
+        Reject an input column that holds one value on every row (nothing
+        can be identified from it); simulation accepts it.
+    purpose : str
+        Said in the too-few-rows message (e.g. ``"for lags up to 16"``).
+    """
     inputs = ["u"] if inputs is None else ([inputs] if isinstance(inputs, str) else list(inputs))
     names = inputs + ([output] if output else [])
     arr, _ = read_columns(path, names)
-    if arr.shape[0] < min_samples:
-        raise DataError(f"{os.fspath(path)}: {arr.shape[0]} data row(s); at least "
-                        f"{min_samples} are needed")
+    n = arr.shape[0]
+    if n < min_samples:
+        raise DataError(f"{os.fspath(path)}: {n} data row(s); at least {min_samples} are "
+                        f"needed{' ' + purpose if purpose else ''}")
     m = len(inputs)
+    if varying_inputs:
+        for j, name in enumerate(inputs):
+            col = arr[:, j]
+            if n > 1 and col.min() == col.max():
+                raise DataError(f"{os.fspath(path)}: input {name!r} is constant (column "
+                                f"{name!r} holds {col[0]:g} on all {n} data rows): an "
+                                f"input must vary to identify a model")
     return Data(arr[:, :m], arr[:, m] if output else None, inputs=inputs,
                 output=output or "y")
 

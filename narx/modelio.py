@@ -11,8 +11,15 @@ A model file holds ``{"output": "y", "inputs": ["u"], "terms": [TERM, ...],
 fitness mode, seed, package versions). Loading parses JSON with the standard
 library and each term with the term parser (:mod:`narx.terms`), which
 never evaluates text; every problem raises :class:`ModelFileError` naming
-the file, the key and the rule. Saving is atomic (temporary file, then
-``os.replace``), so an interrupted save never leaves a half-written file.
+the file, the key (``'terms'[3]``) and the rule. Saving is atomic
+(temporary file, then ``os.replace``), so an interrupted save never leaves a
+half-written file.
+
+Hostile files are bounded before any work is done: at most ``MAX_BYTES``
+bytes, ``MAX_TERMS`` terms of at most ``MAX_TERM_CHARS`` characters and
+``MAX_DEGREE`` factors, integers of at most ``MAX_DIGITS`` digits, lags up
+to :data:`narx.terms.MAX_LAG`; nesting too deep for the JSON parser is an
+error, not a crash. Nothing in a file is ever evaluated or imported.
 """
 from __future__ import annotations
 
@@ -21,13 +28,17 @@ import math
 import os
 
 from .atomic import atomic_write_text
-from .terms import TermError
+from .terms import Signals, TermError, parse_term
 
 __all__ = ["ModelFileError", "model_to_dict", "model_from_dict", "save_model",
            "load_model", "atomic_write_text", "FORMAT"]
 
 FORMAT = "mggp-narx-model"
 MAX_BYTES = 20 * 2**20
+MAX_TERMS = 256
+MAX_TERM_CHARS = 1000
+MAX_DEGREE = 64
+MAX_DIGITS = 400
 
 
 class ModelFileError(ValueError):
@@ -53,7 +64,56 @@ def _fail(source, msg):
     raise ModelFileError(f"{source}: {msg}")
 
 
+def _show(v, n=60) -> str:
+    """Short JSON text of a value (type name if it cannot be shown)."""
+    try:
+        text = json.dumps(v)
+    except (TypeError, ValueError, RecursionError):
+        return type(v).__name__
+    return text if len(text) <= n else text[:n - 3] + "..."
+
+
+def _finite(v) -> bool:
+    try:
+        return math.isfinite(v)
+    except OverflowError:
+        return False
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _parse_terms(source, terms, signals, registry):
+    """Parse each term text, naming ``'terms'[i]`` in any error."""
+    from .phi import default_registry
+    reg = registry or default_registry()
+    out, seen = [], {}
+    for i, text in enumerate(terms):
+        where = f"'terms'[{i}]"
+        if not isinstance(text, str):
+            _fail(source, f"'terms' must be a non-empty list of strings: {where} is "
+                          f"{_show(text)}")
+        if len(text) > MAX_TERM_CHARS:
+            _fail(source, f"{where} is {len(text)} characters long, more than the "
+                          f"{MAX_TERM_CHARS} allowed")
+        try:
+            t = parse_term(text, signals, registry=reg)
+        except (TermError, ValueError) as exc:
+            _fail(source, f"{where}: {exc}")
+        if t.degree > MAX_DEGREE:
+            _fail(source, f"{where} has {t.degree} factors, more than the {MAX_DEGREE} "
+                          "allowed")
+        if t in seen:
+            _fail(source, f"{where}: term {str(t)!r} appears twice ('terms'[{seen[t]}] "
+                          f"and {where})")
+        seen[t] = i
+        out.append(t)
+    return out
+
+
 def model_from_dict(d, source: str = "model", registry=None):
+    """Build a Model from the dict of a model file, checking every field."""
     from .model import Model
     if not isinstance(d, dict):
         _fail(source, f"top level must be a JSON object, got {type(d).__name__}")
@@ -62,36 +122,47 @@ def model_from_dict(d, source: str = "model", registry=None):
             _fail(source, f"missing key {key!r}")
     out, inputs, terms, theta = d["output"], d["inputs"], d["terms"], d["theta"]
     if not isinstance(out, str):
-        _fail(source, f"'output' must be a string, got {json.dumps(out)[:60]}")
+        _fail(source, f"'output' must be a string, got {_show(out)}")
     if isinstance(inputs, str):
         inputs = [inputs]
-    if not isinstance(inputs, list) or not inputs or not all(isinstance(s, str) for s in inputs):
-        _fail(source, f"'inputs' must be a non-empty list of strings, got {json.dumps(inputs)[:60]}")
-    if not isinstance(terms, list) or not terms or not all(isinstance(s, str) for s in terms):
-        _fail(source, f"'terms' must be a non-empty list of strings, got {json.dumps(terms)[:60]}")
-    if not isinstance(theta, list) or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) for v in theta):
-        _fail(source, f"'theta' must be a list of numbers, got {json.dumps(theta)[:60]}")
-    def finite(v):
-        try:
-            return math.isfinite(v)
-        except OverflowError:
-            return False
-    bad = [i for i, v in enumerate(theta) if not finite(v)]
-    if bad:
-        _fail(source, f"'theta'[{bad[0]}] is not finite ({theta[bad[0]]})")
+    if not isinstance(inputs, list) or not inputs:
+        _fail(source, f"'inputs' must be a non-empty list of strings, got {_show(inputs)}")
+    for i, name in enumerate(inputs):
+        if not isinstance(name, str):
+            _fail(source, f"'inputs' must be a non-empty list of strings: 'inputs'[{i}] "
+                          f"is {_show(name)}")
+    if not isinstance(terms, list) or not terms:
+        _fail(source, f"'terms' must be a non-empty list of strings, got {_show(terms)}")
+    if len(terms) > MAX_TERMS:
+        _fail(source, f"'terms' has {len(terms)} entries, more than the {MAX_TERMS} allowed")
+    if not isinstance(theta, list):
+        _fail(source, f"'theta' must be a list of numbers, got {_show(theta)}")
+    for i, v in enumerate(theta):
+        if not _is_number(v):
+            _fail(source, f"'theta' must be a list of numbers: 'theta'[{i}] is {_show(v)}")
+        if not _finite(v):
+            _fail(source, f"'theta'[{i}] is not finite ({_show(v, 30)})")
     if len(theta) != len(terms):
         _fail(source, f"'theta' has {len(theta)} values but 'terms' has {len(terms)}")
     noise = d.get("noise", "e")
     if not isinstance(noise, str):
-        _fail(source, f"'noise' must be a string, got {json.dumps(noise)[:60]}")
+        _fail(source, f"'noise' must be a string, got {_show(noise)}")
     meta = d.get("meta", {})
     if not isinstance(meta, dict):
         _fail(source, f"'meta' must be an object, got {type(meta).__name__}")
+    for key, name in [("output", out), ("noise", noise)] + [
+            (f"inputs'[{i}", n) for i, n in enumerate(inputs)]:
+        if name.startswith("__"):
+            _fail(source, f"'{key}': signal name {_show(name, 30)} must not start with '__'")
     try:
-        return Model(terms, theta, inputs=inputs, output=out, noise=noise, meta=meta,
-                     registry=registry)
+        signals = Signals(out, tuple(inputs), noise)
     except (TermError, ValueError) as exc:
+        _fail(source, f"'output'/'inputs'/'noise': {exc}")
+    parsed = _parse_terms(source, terms, signals, registry)
+    try:
+        return Model(parsed, theta, inputs=inputs, output=out, noise=noise, meta=meta,
+                     registry=registry)
+    except (TermError, ValueError, OverflowError) as exc:
         _fail(source, str(exc))
 
 
@@ -100,6 +171,7 @@ def save_model(model, path) -> None:
 
 
 def load_model(path, registry=None):
+    """Read a model file; any problem raises :class:`ModelFileError`."""
     path = os.fspath(path)
     try:
         size = os.path.getsize(path)
@@ -107,15 +179,23 @@ def load_model(path, registry=None):
         raise ModelFileError(f"{path}: cannot read model file ({exc.strerror})") from None
     if size > MAX_BYTES:
         _fail(path, f"file is {size} bytes, over the {MAX_BYTES}-byte limit")
+
     def no_duplicates(pairs):
-        keys = [k for k, _ in pairs]
-        dup = next((k for k in keys if keys.count(k) > 1), None)
-        if dup is not None:
-            _fail(path, f"key {dup!r} appears more than once")
+        seen = set()
+        for k, _ in pairs:
+            if k in seen:
+                _fail(path, f"key {_show(k, 40)} appears more than once in an object")
+            seen.add(k)
         return dict(pairs)
+
+    def integer(text):
+        if len(text.lstrip("-")) > MAX_DIGITS:
+            _fail(path, f"an integer of {len(text.lstrip('-'))} digits (at most "
+                        f"{MAX_DIGITS} are accepted)")
+        return int(text)
     try:
         with open(path, encoding="utf-8") as fh:
-            d = json.load(fh, object_pairs_hook=no_duplicates,
+            d = json.load(fh, object_pairs_hook=no_duplicates, parse_int=integer,
                           parse_constant=lambda c: _fail(
                               path, f"non-standard JSON constant {c}"))
     except UnicodeDecodeError:
@@ -126,4 +206,8 @@ def load_model(path, registry=None):
         _fail(path, "JSON nested too deeply")
     except OSError as exc:
         _fail(path, f"cannot read model file ({exc.strerror or exc})")
+    except ModelFileError:
+        raise
+    except ValueError as exc:                      # e.g. a number Python cannot hold
+        _fail(path, f"invalid JSON ({' '.join(str(exc).split())[:120]})")
     return model_from_dict(d, path, registry)
