@@ -1,0 +1,111 @@
+"""``mggp compensate``: the actuator input that makes it follow a reference.
+
+Typical use::
+
+    mggp compensate model.json reference.csv --out input.csv --input-range -80 80
+
+MODEL.json is an identified actuator model (``mggp fit``/``estimate``),
+inverted step by step by polynomial roots (:mod:`narx.compensate`), or a
+data-driven compensator saved by
+:meth:`mggp.compensate.InverseCompensator.save` (its ``meta`` says so), run
+in free run. REFERENCE.csv has a header row and the desired output in column
+``r`` (``--reference NAME`` otherwise). INPUT.csv gets the columns ``r``, the
+model's input name (the actuator input to apply), ``y_model`` (the model's
+output under it; empty for a data-driven compensator) and ``fallback`` (1
+where no root was admissible). Errors: one ``error:`` line, exit code 2; the
+output is written atomically, after every check.
+"""
+from __future__ import annotations
+
+import csv
+import os
+
+import numpy as np
+
+from .cli import CLIError, fmt
+
+__all__ = ["register"]
+
+
+def register(sub):
+    p = sub.add_parser("compensate", help="compute the actuator input that tracks a reference")
+    p.add_argument("model", metavar="MODEL.json")
+    p.add_argument("reference", metavar="REFERENCE.csv")
+    p.add_argument("--out", metavar="INPUT.csv")
+    p.add_argument("--reference-column", "--reference", dest="column", default="r",
+                   metavar="NAME", help="column of the reference (default r)")
+    p.add_argument("--input-range", nargs=2, type=float, metavar=("LOW", "HIGH"),
+                   default=None, help="actuator input bounds")
+    p.add_argument("--lead", type=int, default=None,
+                   help="samples of reference preview (default: the model's input delay d)")
+    p.add_argument("--fallback", choices=["minimise", "hold"], default="minimise",
+                   help="input when no root is admissible (default minimise |y - r|)")
+    p.add_argument("--max-step", type=float, default=None, metavar="DU",
+                   help="largest input change per sample (slew limit)")
+    p.add_argument("--u-past", type=float, default=0.0,
+                   help="actuator input before the record (default 0: at rest)")
+    p.add_argument("--y-past", type=float, default=0.0,
+                   help="model output before the record (default 0)")
+    p.set_defaults(func=_cmd_compensate)
+
+
+def _cmd_compensate(args) -> int:
+    from narx import load_model
+    from narx.compensate import RootCompensator
+    from narx.csvdata import read_columns
+    from narx.atomic import atomic_writer
+    from .compensate import INVERSE_KIND, InverseCompensator
+    if args.lead is not None and args.lead < 0:
+        raise CLIError(f"--lead must be >= 0, got {args.lead}")
+    if args.input_range is not None:
+        lo, hi = args.input_range
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise CLIError(f"--input-range must be finite LOW HIGH with LOW < HIGH, "
+                           f"got {lo:g} {hi:g}")
+    if args.max_step is not None and not 0 < args.max_step < np.inf:
+        raise CLIError(f"--max-step must be a finite number > 0, got {args.max_step:g}")
+    if args.out and os.path.isdir(args.out):
+        raise CLIError(f"--out {args.out} is a folder, not a file")
+    model = load_model(args.model)
+    arr, _ = read_columns(args.reference, [args.column])
+    r = arr[:, 0]
+    info = model.meta.get("compensator")
+    inverse = isinstance(info, dict) and info.get("kind") == INVERSE_KIND
+    if inverse:
+        comp = InverseCompensator.from_model(model, args.input_range)
+        if args.lead is not None:
+            comp.lead = args.lead
+        res = comp.run(r, u_past=args.u_past, r_past=args.y_past)
+        name = model.output
+        print(f"data-driven compensator, lead {comp.lead}: {r.size} samples")
+    else:
+        try:
+            comp = RootCompensator(model, input_range=args.input_range, lead=args.lead,
+                                   fallback=args.fallback, max_step=args.max_step,
+                                   u_past=args.u_past,
+                                   y_past=args.y_past)
+        except ValueError as exc:
+            raise CLIError(f"{args.model}: {exc}") from None
+        res = comp.run(r)
+        name = model.inputs[0]
+        d, n = res.delay, r.size
+        hit = ~res.fallback[: max(0, n - d)]        # y_model[j + d] answers target[j]
+        err = np.abs(res.y_model[d:] - res.target[: n - d])[hit] if n > d else np.zeros(0)
+        print(f"root compensator: input delay d = {d}, lead {res.lead}: {n} samples; "
+              f"fallbacks {res.fallbacks} ({100 * res.fallback_rate:.2f} %), "
+              f"{res.saturated} with the root outside the input range; "
+              f"max |y_model - target| at the other steps {fmt(float(err.max()) if err.size else 0.0)}")
+    if name in (args.column, "y_model", "fallback"):
+        name = name + "_input"
+    print(f"actuator input spans {fmt(float(res.m.min()))} .. {fmt(float(res.m.max()))}")
+    if args.out:
+        ym = res.y_model
+        with atomic_writer(args.out, newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow([args.column, name, "y_model", "fallback"])
+            for j in range(r.size):
+                w.writerow([repr(float(r[j])), repr(float(res.m[j])),
+                            "" if ym is None else repr(float(ym[j])),
+                            int(res.fallback[j])])
+        print(f"input written to {args.out}")
+    return 0

@@ -1,0 +1,299 @@
+"""Compensation (issue 7): root inversion, fallbacks, data-driven inverse, PI loop, CLI."""
+import json
+
+import numpy as np
+import pytest
+
+import narx
+from narx.compensate import RootCompensator, compensate
+from narx.systems import (bouc_wen_discrete, bouc_wen_discrete_narx, piezo_bouc_wen,
+                          sine_input, training_input)
+from mggp.compensate import (InverseCompensator, PiezoPlant, identify_inverse,
+                             pi_loop)
+from mggp.cli import main
+
+from conftest import MODEL19_TERMS, MODEL19_THETA
+
+
+def held_random(n, amplitude, seed):
+    """Band-limited input with stretches where it is held (equal-input case)."""
+    u = training_input(n, amplitude=amplitude, bandwidth=5.0, seed=seed)
+    for a in range(n // 10, n, n // 5):
+        u[a:a + n // 20] = u[a]
+    return u
+
+
+# ------------------------------------------------------------ exact inversion
+def test_root_compensator_recovers_bouc_wen_input_exactly(abs_registry):
+    terms, theta = bouc_wen_discrete_narx()
+    model = narx.Model(terms, theta, registry=abs_registry)
+    u = held_random(3000, 30.0, seed=3)
+    y = bouc_wen_discrete(u)
+    assert model.simulate(u, y, mode="osa").rmse < 1e-9        # y is exactly the model
+    s = 2
+    res = compensate(model, y[s:], u_past=u[:s], y_past=y[:s])
+    assert res.delay == 1 and res.lead == 1 and res.fallbacks == 0
+    np.testing.assert_allclose(res.m[:-1], u[s:-1], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(res.y_model, y[s:], rtol=0, atol=1e-9)
+
+
+def test_root_compensator_generic_branches_and_degree():
+    """Cubic in the current input, a Phi2 against u[k-3] (not the last input),
+    Phi1 of the current input times a past one, held stretches (sign 0)."""
+    terms = ["y[k-1]", "u[k-1]", "u[k-1]*u[k-1]*u[k-1]", "Phi2(u[k-1],u[k-3])",
+             "Phi1(u[k-1],u[k-2])*u[k-2]", "Phi2(u[k-2],u[k-3])*y[k-1]"]
+    model = narx.Model(terms, [0.5, 0.8, 0.001, 0.1, 0.01, 0.02])
+    u = held_random(3000, 10.0, seed=5)
+    y = model.simulate(u, None, mode="freerun", y0=np.zeros(3)).y_hat
+    s = 3
+    res = compensate(model, y[s:], u_past=u[:s], y_past=y[:s])
+    assert not res.fallback[:-1].any()      # the last target (held r) may be out of reach
+    np.testing.assert_allclose(res.m[:-1], u[s:-1], rtol=0, atol=1e-9)
+    held = np.flatnonzero(np.diff(u[s:-1]) == 0)
+    assert held.size > 100 and np.all(np.diff(res.m[:-1])[held] == 0)
+
+
+def test_lead_and_delay_two():
+    model = narx.Model(["y[k-1]", "Phi1(u[k-2],u[k-3])"], [1.0, 2.0])
+    u = np.sin(np.linspace(0, 6, 400))
+    y = model.simulate(u, None, mode="freerun", y0=np.zeros(3)).y_hat
+    res = compensate(model, y[3:], u_past=u[:3], y_past=y[:3])
+    assert res.delay == 2 and res.lead == 2
+    np.testing.assert_allclose(res.m[:-2], u[3:-2], atol=1e-12)
+    late = compensate(model, y[3:], lead=0, u_past=u[:3], y_past=y[:3])
+    np.testing.assert_allclose(late.y_model[2:], y[3:-2], atol=1e-12)   # 2 samples late
+
+
+# ------------------------------------------------------------ fallbacks
+def test_no_real_root_is_counted_and_minimised():
+    model = narx.Model(["u[k-1]*u[k-1]"], [1.0])
+    r = np.array([4.0, 9.0, -1.0, -2.0, -0.5])
+    res = compensate(model, r, lead=0, u_past=1.0)
+    assert res.fallbacks == 3 and res.saturated == 0
+    np.testing.assert_array_equal(res.fallback, r < 0)
+    np.testing.assert_allclose(res.m[:2], [2.0, 3.0])   # roots nearest the previous input
+    np.testing.assert_array_equal(res.m[2:], 0.0)       # argmin |x^2 - r| is 0
+    np.testing.assert_allclose(res.y_model[1:], [4.0, 9.0, 0.0, 0.0])
+    assert res.fallback_rate == pytest.approx(0.6)
+
+
+def test_roots_on_the_wrong_branch_are_not_admissible():
+    # a jump of +-1 with the direction of the input: a dead zone |r - y_prev| < 1
+    model = narx.Model(["y[k-1]", "Phi1(u[k-1],u[k-2])", "Phi2(u[k-1],u[k-2])"],
+                       [1.0, 1.0, 1.0])
+    comp = RootCompensator(model, lead=0)
+    assert comp.step(3.0) == pytest.approx(2.0) and comp.last_ == (1, False)
+    x = comp.step(3.6)                       # would need a rise of 0.6 minus a jump of 1
+    assert comp.last_[0] == 0
+    assert comp.y[-1] == pytest.approx(3.0 + 1.0)   # closest reachable: just above, +1
+    assert x == pytest.approx(2.0) and x > 2.0
+    hold = RootCompensator(model, lead=0, fallback="hold")
+    hold.step(3.0)
+    assert hold.step(3.6) == hold.m[-2] and hold.y[-1] == 3.0
+    res = compensate(model, [3.0, 3.4, 3.2, 6.0], lead=0)
+    assert res.fallbacks == 2 and list(res.n_roots) == [1, 0, 0, 1]
+
+
+def test_input_range_saturation_is_counted():
+    model = narx.Model(["u[k-1]"], [2.0])
+    res = compensate(model, [1.0, 5.0, -1.0], lead=0, input_range=(-1, 1))
+    assert res.fallbacks == 1 and res.saturated == 1
+    np.testing.assert_allclose(res.m, [0.5, 1.0, -0.5])
+
+
+def test_max_step_limits_the_input_slew():
+    model = narx.Model(["y[k-1]", "Phi1(u[k-1],u[k-2])"], [1.0, 1.0])
+    res = compensate(model, [0.0, 5.0, 5.0, 5.0, 5.0], lead=0, max_step=2.0)
+    np.testing.assert_allclose(res.m, [0.0, 2.0, 4.0, 5.0, 5.0])
+    assert res.fallbacks == 2 and res.saturated == 2
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(lead=-1), "lead must be an integer >= 0"),
+    (dict(input_range=(80, -80)), "input_range must be None or finite"),
+    (dict(fallback="nearest"), "fallback must be one of"),
+    (dict(rtol=0.5), "rtol"),
+    (dict(max_step=0.0), "max_step must be"),
+    (dict(u_past=[1.0, np.nan, 2.0]), "u_past must be"),
+])
+def test_bad_parameters(kw, match):
+    with pytest.raises(ValueError, match=match):
+        RootCompensator(narx.Model(list(MODEL19_TERMS), MODEL19_THETA), **kw)
+
+
+def test_models_that_cannot_be_inverted(abs_registry):
+    with pytest.raises(ValueError, match="no input term"):
+        RootCompensator(narx.Model(["y[k-1]"], [0.5]))
+    with pytest.raises(ValueError, match="exactly one input"):
+        RootCompensator(narx.Model(["u[k-1]", "v[k-1]"], [1, 1], inputs=("u", "v")))
+    with pytest.raises(ValueError, match="Abs of the current input"):
+        RootCompensator(narx.Model(["Abs(u[k-1])"], [1.0], registry=abs_registry))
+    with pytest.raises(ValueError, match="no parameters"):
+        RootCompensator(narx.Model(["u[k-1]"]))
+    with pytest.raises(ValueError, match="r must be"):
+        compensate(narx.Model(["u[k-1]"], [1.0]), [1.0, np.inf])
+
+
+def test_one_step_evaluation_equals_free_run():
+    """TermPlan without an unknown (the data-driven compensator's recursion)."""
+    model = narx.Model(list(MODEL19_TERMS), MODEL19_THETA)
+    _, u = sine_input(duration=1.0)
+    ref = model.simulate(u, None, mode="freerun", y0=np.zeros(3)).y_hat
+    stepper = InverseCompensator(model, lead=0)
+    got = stepper.run(u[3:], u_past=ref[:3], r_past=u[:3]).m
+    np.testing.assert_allclose(got, ref[3:], atol=1e-10)
+
+
+# ------------------------------------------------------------ on the piezo
+def test_published_model_compensates_the_piezo_five_times_better():
+    model = narx.Model(list(MODEL19_TERMS), MODEL19_THETA)
+    u = training_input(20_000)
+    g = float(u @ piezo_bouc_wen(u) / (u @ u))          # least-squares static gain
+    _, r = sine_input(duration=2.0, amplitude=60.0, freq=2.0)
+    base = np.sqrt(np.mean((piezo_bouc_wen(r / g) - r) ** 2))
+    res = compensate(model, r, input_range=(-80, 80))
+    comp = np.sqrt(np.mean((piezo_bouc_wen(res.m) - r) ** 2))
+    assert res.fallbacks == 0
+    assert comp * 5 < base
+
+
+def test_piezo_plant_steps_like_the_batch_simulation():
+    u = training_input(2000, seed=2)
+    p = PiezoPlant()
+    np.testing.assert_allclose([p.step(v) for v in u], piezo_bouc_wen(u), atol=1e-10)
+
+
+def test_pi_loop_around_compensator_beats_pi_alone():
+    model = narx.Model(list(MODEL19_TERMS), MODEL19_THETA)
+    _, r = sine_input(duration=1.0, amplitude=60.0, freq=2.0)
+    alone = pi_loop(PiezoPlant(), r, kp=0.1, ki=0.2, gain=1.03, input_range=(-80, 80))
+    comp = RootCompensator(model, input_range=(-80, 80), lead=0)
+    both = pi_loop(PiezoPlant(), r, compensator=comp, kp=0.1, ki=0.2, input_range=(-80, 80))
+    assert both.rmse * 5 < alone.rmse
+    with pytest.raises(ValueError, match="ki must be"):
+        pi_loop(PiezoPlant(), r, ki=-1.0)
+
+
+# ------------------------------------------------------------ data-driven
+def test_inverse_compensator_runs_a_hand_built_inverse(tmp_path):
+    p1, p2 = "Phi1(r[k-1],r[k-2])", "Phi2(r[k-1],r[k-2])"
+    terms = ["u[k-1]", p1, f"u[k-1]*{p1}*{p2}", f"r[k-1]*{p1}*{p2}"]
+    u = training_input(10_000)
+    y = piezo_bouc_wen(u)
+    d = narx.Data(y[1:], u[:-1], inputs=("r",), output="u")
+    inv = InverseCompensator(narx.Model(terms, inputs=("r",), output="u").fit(d), lead=1)
+    _, r = sine_input(duration=2.0, amplitude=60.0, freq=0.5)
+    res = inv.run(r, input_range=(-80, 80))
+    rho = np.r_[0.0, 0.0, r[1:], r[-1]]             # at rest before the record
+    ref = inv.model.simulate(rho, None, y0=np.zeros(2)).y_hat[2:]
+    np.testing.assert_allclose(res.m, np.clip(ref, -80, 80), atol=1e-9)
+    assert np.sqrt(np.mean((piezo_bouc_wen(res.m) - r) ** 2)) < 2.0
+    inv.save(tmp_path / "inv.json")
+    again = InverseCompensator.from_model(narx.load_model(tmp_path / "inv.json"))
+    assert again.lead == 1
+    with pytest.raises(ValueError, match="not a data-driven compensator"):
+        InverseCompensator.from_model(narx.Model(["u[k-1]"], [1.0]))
+
+
+def test_identify_inverse_small_search():
+    u = training_input(3000, seed=1)
+    inv = identify_inverse(u, piezo_bouc_wen(u), population=20, generations=2,
+                           random_state=0, n_jobs=1, backend="sequential", max_terms=4)
+    assert inv.model.inputs == ("r",) and inv.model.output == "u"
+    assert inv.estimator_.n_evaluations_ > 0
+    with pytest.raises(ValueError, match="same length"):
+        identify_inverse(u, u[:10])
+
+
+# ------------------------------------------------------------ CLI
+def _csv(path, header, rows):
+    path.write_text(",".join(header) + "\n" + "".join(
+        ",".join(str(v) for v in row) + "\n" for row in rows))
+    return str(path)
+
+
+@pytest.fixture
+def files(tmp_path):
+    m = tmp_path / "m19.json"
+    m.write_text(json.dumps({"output": "y", "inputs": ["u"], "terms": list(MODEL19_TERMS),
+                             "theta": list(MODEL19_THETA)}))
+    t, r = sine_input(duration=1.0, amplitude=50.0)
+    ref = _csv(tmp_path / "ref.csv", ["t", "r"], zip(t, r))
+    return str(m), ref, tmp_path
+
+
+def test_cli_writes_the_input(files, capsys):
+    model, ref, tmp = files
+    out = tmp / "input.csv"
+    code = main(["compensate", model, ref, "--out", str(out), "--input-range", "-80", "80"])
+    text, err = capsys.readouterr()
+    assert code == 0, err
+    assert "fallbacks 0" in text and "input delay d = 1" in text
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    assert data.dtype.names == ("r", "u", "y_model", "fallback")
+    y = piezo_bouc_wen(data["u"])
+    assert np.sqrt(np.mean((y - data["r"]) ** 2)) < 1.0
+
+
+@pytest.mark.parametrize("case, match", [
+    ("nocol", "no column 'r'"),
+    ("nan", "not finite"),
+    ("badmodel", "invalid JSON"),
+    ("range", "--input-range must be"),
+    ("noinput", "nothing to invert"),
+    ("outdir", "is a folder"),
+    ("lead", "--lead must be >= 0"),
+    ("step", "--max-step must be"),
+])
+def test_cli_bad_input(files, capsys, case, match):
+    model, ref, tmp = files
+    args = ["compensate", model, ref, "--out", str(tmp / "o.csv")]
+    if case == "nocol":
+        args[2] = _csv(tmp / "x.csv", ["t", "y"], [(0, 1), (1, 2)])
+    elif case == "nan":
+        args[2] = _csv(tmp / "x.csv", ["r"], [(1,), ("nan",)])
+    elif case == "badmodel":
+        (tmp / "bad.json").write_text("{")
+        args[1] = str(tmp / "bad.json")
+    elif case == "range":
+        args += ["--input-range", "80", "-80"]
+    elif case == "noinput":
+        (tmp / "y.json").write_text(json.dumps({"output": "y", "inputs": ["u"],
+                                                "terms": ["y[k-1]"], "theta": [1.0]}))
+        args[1] = str(tmp / "y.json")
+    elif case == "outdir":
+        args[4] = str(tmp)
+    elif case == "lead":
+        args += ["--lead", "-1"]
+    elif case == "step":
+        args += ["--max-step", "0"]
+    code = main(args)
+    _, err = capsys.readouterr()
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith("error: "), err
+    assert match in lines[0]
+    assert not (tmp / "o.csv").exists()
+
+
+def test_cli_runs_a_data_driven_compensator(files, capsys):
+    model, ref, tmp = files
+    inv = InverseCompensator(narx.Model(["u[k-1]", "Phi1(r[k-1],r[k-2])"], [1.0, 0.9],
+                                        inputs=("r",), output="u"), lead=1)
+    inv.save(tmp / "inv.json")
+    code = main(["compensate", str(tmp / "inv.json"), ref, "--out", str(tmp / "o.csv")])
+    text, err = capsys.readouterr()
+    assert code == 0, err
+    assert "data-driven" in text
+    data = np.genfromtxt(tmp / "o.csv", delimiter=",", names=True)
+    assert np.all(np.isnan(data["y_model"]))
+
+
+@pytest.mark.slow
+def test_benchmark_quick_run(tmp_path):
+    from benchmarks.compensation import main as bench
+    assert bench(["--quick", "--seeds", "1", "--out", str(tmp_path),
+                  "--json", str(tmp_path / "c.json")]) == 0
+    doc = json.loads((tmp_path / "c.json").read_text())
+    row = doc["rows"]["sine 0.5 Hz"]
+    assert row["root, model (19), lead 1 (= d)"]["ratio"] >= 5
+    assert (tmp_path / "sine_2_Hz.png").exists() and (tmp_path / "compensation.md").exists()
