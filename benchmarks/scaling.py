@@ -2,19 +2,20 @@
 
 Typical call::
 
-    python -m benchmarks.scaling                          # N = 1e4, 1e5, 1e6
+    python -m benchmarks.scaling                          # N = 1e4, 1e5, 1e6, best of 3
     python -m benchmarks.scaling --n 10000 100000 --stages csv ls freerun
     python -m benchmarks.scaling --json scaling.json --markdown
 
-Each (stage, N) runs in two fresh subprocesses, so one stage's caches and
+Each (stage, N) runs in fresh subprocesses, so one stage's caches and
 allocations never count for another. Each loads the record (``.npy``) and
-warms every compiled kernel on a 2,000-sample record; then one measures the
-wall time of one call and its peak RSS increase (the kernel's peak counter
-is reset through ``/proc/self/clear_refs``; without it the lifetime
-``ru_maxrss`` is used), the other the peak of memory traced by
-``tracemalloc`` during the same call (numpy arrays included; the RSS
-increase can under-state small runs, whose arrays fit in memory the
-allocator already holds, and ``tracemalloc`` misses numba's own arrays).
+warms every compiled kernel on a 2,000-sample record. ``--repeats`` of
+them time one call (the fastest counts) and take its peak RSS increase
+(the peak counter is reset through ``/proc/self/clear_refs``; without it
+the lifetime ``ru_maxrss`` is used); one more takes the peak of the memory
+traced by ``tracemalloc`` during the call. The traced peak is the figure to
+compare across N: the RSS increase under-states small runs, whose arrays
+fit in memory the allocator already holds (``tracemalloc`` in turn misses
+numba's own few arrays).
 The call is:
 
 ``csv``      ``narx.csvdata.read_csv`` of the N-row file (columns t, u, y)
@@ -161,12 +162,13 @@ def _spawn(stage, folder, n, trace) -> dict:
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
-def run(stages, sizes, folder) -> list:
+def run(stages, sizes, folder, repeats=1) -> list:
     rows = []
     for stage in stages:
         for n in sizes:
-            row, traced = (_spawn(stage, folder, n, trace) for trace in (False, True))
-            row["traced_peak_mb"] = traced["traced_peak_mb"]
+            timed = [_spawn(stage, folder, n, False) for _ in range(repeats)]
+            row = min(timed, key=lambda r: r["seconds"])
+            row["traced_peak_mb"] = _spawn(stage, folder, n, True)["traced_peak_mb"]
             work = n * row.get("evaluations", 1)
             row["us_per_sample"] = 1e6 * row["seconds"] / work
             row["bytes_per_sample"] = row["traced_peak_mb"] * 2**20 / n
@@ -198,6 +200,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--n", type=int, nargs="+", default=[10_000, 100_000, 1_000_000])
     p.add_argument("--stages", nargs="+", choices=STAGES, default=list(STAGES))
+    p.add_argument("--repeats", type=int, default=3,
+                   help="timing subprocesses per row; the fastest counts (default 3)")
     p.add_argument("--json", metavar="FILE", help="write the rows as JSON")
     p.add_argument("--markdown", action="store_true", help="print a Markdown table")
     p.add_argument("--worker", choices=STAGES, help=argparse.SUPPRESS)
@@ -213,7 +217,7 @@ def main(argv=None) -> int:
         print(f"records written in {time.perf_counter() - t0:.1f} s "
               f"({platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
               f"Python {platform.python_version()})", flush=True)
-        rows = run(a.stages, a.n, folder)
+        rows = run(a.stages, a.n, folder, a.repeats)
     if a.json:
         with open(a.json, "w") as fh:
             json.dump(rows, fh, indent=2)
