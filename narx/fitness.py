@@ -40,6 +40,7 @@ import scipy.linalg
 from .data import Data
 from .estimate import EstimationError
 from .kernels import Plan, run_windows
+from .ms_kernel import ms_mse
 from .phi import PhiRegistry, default_registry
 from .regressors import factor_column, input_part
 from .simulate import window_starts
@@ -274,6 +275,10 @@ class StructureScorer:
             idx = np.array([self._reg_slot(t) for t in terms], dtype=np.int64)
             mse = _osa_sse(self.store.array, idx, theta, y, s) / (n - s)
             return mse if np.isfinite(mse) else float("inf")
+        if self.fitness == "ms":                 # window-major fast path
+            mse = ms_mse(self, terms, theta, s)
+            if mse is not None:
+                return mse
         plan = Plan.from_terms(terms, self.data.inputs, self.registry)
         idx = np.array([self._in_slot(t) for t in terms], dtype=np.int64)
         if self.fitness == "freerun":

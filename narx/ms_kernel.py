@@ -1,0 +1,212 @@
+"""Window-major multiple-shooting kernel for the ``ms`` fitness of a search.
+
+Typical use (internal: :meth:`narx.fitness.StructureScorer._simulate_mse`
+dispatches here first)::
+
+    from narx.ms_kernel import ms_mse
+    mse = ms_mse(scorer, terms, theta, s)   # None: not handled, use run_windows
+
+Why: multiple shooting is ``W`` independent windows of Δm steps. The general
+kernel (:mod:`narx.kernels`) runs them one after the other, so every step
+waits for the previous one (the recursion ``ŷ_k <- ŷ_{k-1}`` is a chain of
+dependent multiply-adds). Here step ``j`` of *all* windows is computed
+together: the innermost loop runs over windows, which are independent, so it
+vectorises. The input parts are kept in a second column store laid out
+window-major (``PT[c, j*W + w] = P[c, s + w*Δm + j]``, zero past the end),
+built once per column for the scorer's fixed ``start`` and window, so the
+inner loop reads contiguous memory. That store is an LRU of at most
+``BUDGET`` bytes per scorer (96 MB, env ``NARX_MS_BUDGET_MB``): a GP run's
+working set fits, and worker processes stay small.
+
+Results are bit-for-bit those of the general kernel followed by
+``fixed_dot`` (the same operations in the same order for every window; the
+squared errors are summed afterwards in natural sample order with the same
+four interleaved partial sums), hence identical for any number of workers.
+
+Handled: the scorer has a fixed ``start``; no term has noise lags or a
+Φ-call with an output argument (the search's primitive set never builds
+one). Anything else returns ``None`` and the general kernel runs.
+"""
+from __future__ import annotations
+
+import os
+from typing import Dict, Optional, Sequence
+
+import numpy as np
+
+from .terms import Lag, Term
+
+try:
+    from numba import njit
+except ImportError:                       # pragma: no cover
+    def njit(*a, **k):
+        return (lambda f: f) if not a or not callable(a[0]) else a[0]
+
+__all__ = ["ms_mse", "WindowStore", "ENABLED"]
+
+#: False runs the general kernel instead (benchmarks compare the two);
+#: the environment variable NARX_MS_KERNEL=0 sets it in worker processes too
+ENABLED = os.environ.get("NARX_MS_KERNEL", "1") != "0"
+#: bytes of window-major columns kept per scorer (LRU beyond that)
+BUDGET = int(os.environ.get("NARX_MS_BUDGET_MB", "96")) * 2**20
+
+
+@njit(cache=True, nogil=True)
+def _ms_errors(y, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound):
+    """(diverged, r) of multiple shooting, window-major; ``r[i]`` is the
+    error ``y_k - ŷ_k`` at sample ``k = s + i`` (natural order).
+
+    Window ``w`` starts at ``s + w*L``; ``B[ml + j, w]`` is its step ``j``
+    and ``B[:ml, w]`` the measured samples before it.
+    """
+    n = y.shape[0]
+    B = np.empty((ml + L, W))
+    acc = np.empty(W)
+    r = np.empty(W * L)
+    for j in range(ml):
+        for w in range(W):
+            B[j, w] = y[s + w * L - ml + j]
+    last = n - (s + (W - 1) * L)            # steps of the last window
+    n_dyn = dyn.shape[0]
+    for j in range(L):
+        Wj = W if j < last else W - 1
+        if Wj == 0:
+            break
+        pos = ml + j
+        off = j * W
+        # 1-D views: unit stride, no index wrap-around, so loops vectorise
+        for w in range(Wj):
+            acc[w] = 0.0
+        for i in range(static.shape[0]):        # same order as the base sum
+            t = static[i]
+            th = theta[t]
+            if th != 0.0:
+                p = PT[idx[t], off:off + Wj]
+                for w in range(Wj):
+                    acc[w] += th * p[w]
+        for i in range(n_dyn):
+            t = dyn[i]
+            th = theta[t]
+            p = PT[idx[t], off:off + Wj]
+            nl = nlag[i]
+            b0 = B[pos - lags[i, 0]]
+            if nl == 1:
+                for w in range(Wj):
+                    acc[w] += th * p[w] * b0[w]
+            elif nl == 2:
+                b1 = B[pos - lags[i, 1]]
+                for w in range(Wj):
+                    acc[w] += th * p[w] * b0[w] * b1[w]
+            else:
+                for w in range(Wj):
+                    v = th * p[w] * b0[w]
+                    for q in range(1, nl):
+                        v *= B[pos - lags[i, q], w]
+                    acc[w] += v
+        bad = 0
+        for w in range(Wj):
+            bad += not (abs(acc[w]) <= bound)       # NaN and inf count too
+        if bad:
+            return True, r
+        out = B[pos]
+        for w in range(Wj):
+            out[w] = acc[w]
+        for w in range(Wj):                         # natural order for Σ r²
+            r[w * L + j] = y[s + w * L + j] - acc[w]
+    return False, r
+
+
+class WindowStore:
+    """Input-part columns laid out window-major for one (N, start, Δm)."""
+
+    def __init__(self, n: int, start: int, window: int, budget_bytes: int):
+        from .fitness import ColumnStore        # late: fitness imports us
+        self.n, self.start, self.window = int(n), int(start), int(window)
+        self.W = len(range(self.start, self.n, self.window))
+        self.cols = ColumnStore(self.W * self.window, budget_bytes)
+
+    def permute(self, col: np.ndarray) -> np.ndarray:
+        """``out[j*W + w] = col[start + w*Δm + j]`` (0 past the end)."""
+        pad = np.zeros(self.W * self.window)
+        pad[:self.n - self.start] = col[self.start:]
+        return np.ascontiguousarray(pad.reshape(self.W, self.window).T).ravel()
+
+    def slot(self, key: str, natural) -> int:
+        """Slot of ``key``; ``natural()`` gives the length-N column on a miss."""
+        return self.cols.get(key, lambda: self.permute(natural()))
+
+
+class _State:
+    """Per-scorer cache: the window store and each term's layout."""
+
+    def __init__(self, scorer, s: int):
+        self.start, self.window = s, scorer.window
+        self.store = WindowStore(scorer.data.n, s, scorer.window,
+                                 min(BUDGET, scorer.store.capacity * 8 * scorer.data.n))
+        self.info: Dict[Term, Optional[tuple]] = {}
+
+
+def _term_info(t: Term):
+    """(input-part key, output lags) or None if the fast path cannot run it."""
+    if t.has_noise:
+        return None
+    lags = []
+    for f in t.output_factors:
+        if not isinstance(f, Lag):
+            return None                  # Φ of an output: general kernel
+        lags.append(f.lag)
+    return "*".join(str(f) for f in t.input_factors), tuple(lags)
+
+
+def ms_mse(scorer, terms: Sequence[Term], theta, s: int) -> Optional[float]:
+    """Multiple-shooting MSE of ``terms`` with ``theta`` from row ``s``.
+
+    Same value, bit for bit, as the general path of
+    ``StructureScorer._simulate_mse``; ``None`` when not handled here.
+    """
+    if not ENABLED or scorer.start is None or s >= scorer.data.n:
+        return None
+    st = getattr(scorer, "_ms_state", None)
+    if st is None or st.start != s or st.window != scorer.window:
+        st = scorer._ms_state = _State(scorer, s)
+    infos = []
+    for t in terms:
+        info = st.info.get(t, 0)
+        if info == 0:
+            if len(st.info) > 200_000:
+                st.info.clear()
+            info = st.info[t] = _term_info(t)
+        if info is None:
+            return None
+        infos.append(info)
+    idx = np.empty(len(terms), dtype=np.int64)
+    static, dyn, lag_rows = [], [], []
+    for i, (t, (key, lags)) in enumerate(zip(terms, infos)):
+        idx[i] = st.store.slot(key, lambda t=t: _natural(scorer, t))
+        if lags:
+            dyn.append(i)
+            lag_rows.append(lags)
+        else:
+            static.append(i)
+    width = max((len(r) for r in lag_rows), default=1)
+    lags = np.zeros((len(lag_rows), width), dtype=np.int64)
+    for i, r in enumerate(lag_rows):
+        lags[i, :len(r)] = r
+    nlag = np.array([len(r) for r in lag_rows], dtype=np.int64)
+    ml = max((max(r) for r in lag_rows), default=0)
+    ws = st.store
+    diverged, r = _ms_errors(scorer.y, ws.cols.array, idx,
+                            np.ascontiguousarray(theta, dtype=np.float64),
+                            np.array(static, dtype=np.int64),
+                            np.array(dyn, dtype=np.int64), lags, nlag,
+                            s, ws.window, ws.W, ml, float(scorer.bound))
+    if diverged:
+        return float("inf")
+    from .fitness import fixed_dot              # the general path's summation
+    r = r[:scorer.data.n - s]
+    return float(fixed_dot(r, r) / r.size)
+
+
+def _natural(scorer, t: Term) -> np.ndarray:
+    slot = scorer._in_slot(t)            # may grow the array: index after
+    return scorer.store.array[slot]

@@ -1,0 +1,110 @@
+"""Smoke tests of the speed benchmarks and of the window-major MS kernel.
+
+Tiny records only; the timed studies themselves are run by hand
+(``python -m benchmarks.speed`` etc., see benchmarks/RESULTS.md).
+"""
+import random
+
+import numpy as np
+import pytest
+
+import narx
+import narx.ms_kernel as msk
+from benchmarks import evals, full_setup, speed
+from narx.data import as_data
+from narx.fitness import StructureScorer
+from narx.systems import piezo_bouc_wen, training_input
+
+
+@pytest.fixture(scope="module")
+def record():
+    u = training_input(3000, seed=3)
+    return u, piezo_bouc_wen(u)
+
+
+def test_hand_written_loop_is_model33(record):
+    u, y = record
+    m = narx.Model(list(speed.MODEL33)).fit(u, y)
+    ours = m.simulate(u, y, mode="freerun").y_hat
+    hand = speed.model33_loop(u.tolist(), y.tolist(), m.theta.tolist(), [0.0] * len(u))
+    assert speed.rel_diff(hand, ours, y) < 1e-9
+
+
+def test_speed_markdown_renders():
+    rows = {k: {"seconds": 1e-3, "rel_diff": 0.0} for k in
+            ("ours_model_simulate", "ours_simulate_reused_data", "ours_kernel_only",
+             "python_loop", "numba_floor")}
+    rows["toolbox_predict_freeRun"] = {"available": False, "reason": "unavailable: offline"}
+    res = speed._ratios({"n": 10, "repeats": 1, "load_before": "x", "rows": rows}, 1e-9)
+    assert res["agree"] and res["ratios"]["kernel/floor"] == pytest.approx(1.0)
+    text = speed.markdown({"freerun": res})
+    assert "unavailable: offline" in text and "kernel/floor" in text
+    rows["python_loop"]["rel_diff"] = 1.0
+    bad = speed._ratios({"n": 10, "repeats": 1, "load_before": "x", "rows": rows}, 1e-9)
+    assert not bad["agree"] and "ratios" not in bad
+
+
+def test_random_term_sets_respect_limits():
+    sets = evals.random_term_sets(30, seed=1)
+    assert len(sets) == 30 and all(1 <= len(s) <= 15 for s in sets)
+    assert all(len(set(s)) == len(s) for s in sets)
+
+
+def _sets(n, seed=0):
+    return evals.random_term_sets(n, seed=seed)
+
+
+@pytest.mark.parametrize("window", [1, 7, 100, 5000])
+def test_ms_kernel_bit_identical_to_general_kernel(record, window):
+    u, y = record
+    sets = _sets(25, seed=window) + [tuple(narx.parse_terms(speed.MODEL33))]
+    out = {}
+    for flag in (False, True):
+        old = msk.ENABLED
+        msk.ENABLED = flag
+        try:
+            sc = StructureScorer(as_data(u, y), "ms", window=window, start=16)
+            out[flag] = [sc.score(s) for s in sets] + [sc.score(s) for s in sets[::-1]]
+        finally:
+            msk.ENABLED = old
+    assert out[True] == out[False]                       # bit for bit, infs included
+    assert any(np.isfinite(v) for v in out[True])
+
+
+def test_ms_kernel_agrees_with_narx_simulate(record):
+    u, y = record
+    sc = StructureScorer(as_data(u, y), "ms", window=50, start=16)
+    checked = 0
+    for s in _sets(20, seed=5) + [tuple(narx.parse_terms(speed.MODEL33))]:
+        mse, theta = sc.evaluate(s)
+        if not np.isfinite(mse):
+            continue
+        ml = max(t.max_lag for t in s)
+        ref = narx.simulate(s, theta, as_data(u[16 - ml:], y[16 - ml:]), "ms", window=50)
+        assert mse == pytest.approx(ref.mse, rel=1e-12)
+        checked += 1
+    assert checked >= 5
+
+
+def test_ms_kernel_falls_back_when_not_handled(record):
+    u, y = record
+    # a Φ-call with an output argument, and a scorer without a fixed start
+    terms = tuple(narx.parse_terms(["y[k-1]", "Phi1(y[k-1],u[k-2])", "u[k-1]"]))
+    sc = StructureScorer(as_data(u, y), "ms", window=40, start=16)
+    assert msk.ms_mse(sc, terms, np.array([0.9, 0.01, 0.1]), 16) is None
+    plain = tuple(narx.parse_terms(["y[k-1]", "u[k-1]"]))
+    free = StructureScorer(as_data(u, y), "ms", window=40)
+    assert msk.ms_mse(free, plain, np.array([0.9, 0.1]), 1) is None
+    assert np.isfinite(sc.score(terms)) and np.isfinite(free.score(plain))
+
+
+def test_evals_sequential_smoke(record):
+    u, y = record
+    r = evals.sequential(u, y, _sets(6), window=100, repeats=1, fast=True)
+    assert r["cold_eps"] > 0 and r["warm_eps"] > 0 and len(r["values"]) == 6
+
+
+def test_full_setup_smoke():
+    r = full_setup.run(n=1500, population=6, generations=1, jobs=1, seed=0)
+    assert r["evaluations"] >= 1 and np.isfinite(r["best_fitness"])
+    assert "wall time" in full_setup.markdown(r)
