@@ -1,0 +1,42 @@
+"""Diagnosis: what a model's simulation gets wrong, why, and the gain of fixing it.
+
+Typical use::
+
+    from narx.csvdata import read_csv
+    from mggp.diagnose import diagnose, Budget
+    dx = diagnose(read_csv("train.csv"), validation=read_csv("val.csv"),
+                  budget=Budget(population=100, generations=20), seed=0, jobs=2)
+    print(dx.summary())                 # findings, changes, gain
+    dx.effects                          # e.g. ['hysteresis', 'prediction-bias']
+    dx.to_dict()                        # the ``mggp diagnose --json`` document
+    from mggp.diagnose.report import write_report
+    write_report("report/", dx)         # Markdown + figures
+
+Steps (:func:`diagnose`): the baseline (the user's model, or MGGP with
+multiple-shooting fitness and no Φ-functions); evidence from its one-step
+residuals (Billings–Voon correlation tests, :mod:`.correlation`), from its
+simulation residual (direction test, prediction-bias bootstrap,
+:mod:`.evidence`) and from held-input segments of the data (drift,
+:mod:`.holds`); findings named by the rules and vocabulary of
+:mod:`.findings`; the extension the causes call for (:mod:`.extend`);
+the gain measured on samples not used for fitting (:mod:`.run`).
+
+JSON document (``Diagnosis.to_dict``)::
+
+    {"findings": [{"effect", "evidence", "statistic", "threshold"}],
+     "baseline": {"terms", "theta", "validation": {"rmse", "mape"}},
+     "extended": {"terms", "theta", "validation": {"rmse", "mape"}, "changes"},
+     "gain": {"metric": "rmse", "baseline", "extended", "ratio"},
+     "samples": {"fit": {...}, "measure": {...}}, "tests": [...], "settings": {...}}
+
+``validation`` holds the free-run errors on the measuring samples (the
+validation record, or the training tail); ``ratio`` = baseline / extended
+RMSE (> 1: the extension is better); ``null`` stands for a diverged
+simulation (an infinite error).
+"""
+from .extend import Budget
+from .findings import EXTENSIONS, VOCABULARY, Check, Finding
+from .run import Diagnosis, Gain, Scored, Split, diagnose
+
+__all__ = ["diagnose", "Diagnosis", "Budget", "Finding", "Check", "Gain", "Scored", "Split",
+           "VOCABULARY", "EXTENSIONS"]

@@ -1,0 +1,181 @@
+"""Billings–Voon correlation tests of one-step residuals.
+
+Typical use::
+
+    from mggp.diagnose.correlation import correlation_tests
+    tests = correlation_tests(eps, {"u": u}, max_lag=20, alpha=0.01)
+    for t in tests:
+        print(t.label, t.max_abs, t.band, t.significant)
+
+For an adequate NARX model the one-step residuals :math:`\\varepsilon_k`
+are unpredictable from past inputs and residuals, so [1]_
+
+.. math::
+
+    \\phi_{\\varepsilon\\varepsilon}(\\tau) = \\delta(\\tau), \\quad
+    \\phi_{u\\varepsilon}(\\tau) = 0, \\quad
+    \\phi_{u^{2\\prime}\\varepsilon}(\\tau) = 0, \\quad
+    \\phi_{u^{2\\prime}\\varepsilon^{2\\prime}}(\\tau) = 0,
+
+with :math:`u^{2\\prime}_k = u_k^2 - \\overline{u^2}` and the normalised
+correlation
+
+.. math::
+
+    \\phi_{ab}(\\tau) = \\frac{\\sum_{k} (a_{k-\\tau} - \\bar a)(b_k - \\bar b)}
+                             {\\sqrt{\\sum_k (a_k - \\bar a)^2 \\sum_k (b_k - \\bar b)^2}} ,
+
+here for τ = 0..L (the input leads the residual; τ = 1..L for
+:math:`\\phi_{\\varepsilon\\varepsilon}`). Under the hypothesis each
+:math:`\\sqrt{N}\\,\\phi(\\tau)` is approximately standard normal, which gives
+the classical 95 % band ±1.96/√N; its excursions are counted and plotted.
+
+**False-alarm rule.** With m lags tested, about 5 % of them leave the 95 %
+band by chance, so a count of excursions proves nothing. A test is
+*significant* only if its largest :math:`|\\phi(\\tau)|` leaves the
+Bonferroni band :math:`z_{1-\\alpha/(2m)}/\\sqrt{N}`; the probability that
+a test of an adequate model is significant is then at most α whatever the
+number of lags (Bonferroni's inequality).
+
+References
+----------
+.. [1] Billings, S. A., Voon, W. S. F., "Correlation based model validity
+   tests for non-linear models", Int. J. Control 44(1), 1986, 235-244.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Dict, List
+
+import numpy as np
+from scipy.stats import norm
+
+__all__ = ["CorrelationTest", "correlation_tests", "cross_correlation",
+           "bonferroni_z", "TEST_LABELS"]
+
+#: test key -> label shown in reports
+TEST_LABELS = {"ee": "φ_ee", "ue": "φ_ue", "u2e": "φ_u²'e", "u2e2": "φ_u²'e²"}
+
+
+@dataclass(frozen=True)
+class CorrelationTest:
+    """One correlation function and its bands.
+
+    Attributes
+    ----------
+    key : {'ee', 'ue', 'u2e', 'u2e2'}
+    signal : str
+        The input involved ('' for ``ee``).
+    lags, r : ndarray
+        Lags τ and :math:`\\phi(\\tau)`.
+    n : int
+        Samples used.
+    band95 : float
+        1.96/√N.
+    band : float
+        Bonferroni band :math:`z_{1-\\alpha/(2m)}/\\sqrt N`, m = len(lags).
+    """
+
+    key: str
+    signal: str
+    lags: np.ndarray
+    r: np.ndarray
+    n: int
+    band95: float
+    band: float
+
+    @property
+    def label(self) -> str:
+        lab = TEST_LABELS[self.key]
+        return lab if not self.signal or self.signal == "u" else lab.replace("u", self.signal, 1)
+
+    @property
+    def max_abs(self) -> float:
+        return float(np.max(np.abs(self.r))) if self.r.size else 0.0
+
+    @property
+    def worst_lag(self) -> int:
+        return int(self.lags[int(np.argmax(np.abs(self.r)))]) if self.r.size else 0
+
+    @property
+    def excursions(self) -> int:
+        """Lags outside the 95 % band (about 5 % of them by chance)."""
+        return int(np.sum(np.abs(self.r) > self.band95))
+
+    @property
+    def significant(self) -> bool:
+        return self.max_abs > self.band
+
+    def describe(self) -> str:
+        return (f"{self.label}: {self.excursions} of {self.lags.size} lags outside ±1.96/√N "
+                f"= ±{self.band95:.3g} (≈{0.05 * self.lags.size:.1f} expected by chance); "
+                f"max |φ| = {self.max_abs:.3g} at τ = {self.worst_lag}, "
+                f"Bonferroni band ±{self.band:.3g}")
+
+
+def bonferroni_z(alpha: float, m: int) -> float:
+    """Two-sided normal quantile with a Bonferroni correction over m tests."""
+    return float(norm.ppf(1.0 - alpha / (2.0 * max(int(m), 1))))
+
+
+def _centred(x):
+    x = np.asarray(x, dtype=float)
+    return x - x.mean()
+
+
+def cross_correlation(a, b, lags) -> np.ndarray:
+    """Normalised :math:`\\phi_{ab}(\\tau)` (a leads b by τ >= 0)."""
+    a, b = _centred(a), _centred(b)
+    den = float(np.sqrt(np.dot(a, a) * np.dot(b, b)))
+    n = a.size
+    out = np.zeros(len(lags))
+    if den <= 0 or not np.isfinite(den):
+        return out
+    for i, t in enumerate(lags):
+        t = int(t)
+        out[i] = np.dot(a[:n - t], b[t:]) / den
+    return out
+
+
+def correlation_tests(eps, inputs: Dict[str, np.ndarray], max_lag: int = 20,
+                      alpha: float = 0.01) -> List[CorrelationTest]:
+    """The four Billings–Voon tests for residuals ``eps`` and each input.
+
+    Parameters
+    ----------
+    eps : array (N,)
+        One-step residuals.
+    inputs : dict name -> array (N,)
+        Inputs aligned with ``eps`` (same samples).
+    max_lag : int
+        L, the largest lag tested.
+    alpha : float
+        False-alarm probability of each test (Bonferroni over its lags).
+
+    Returns
+    -------
+    list of CorrelationTest
+        ``ee`` first, then ``ue``, ``u2e``, ``u2e2`` per input. Constant
+        signals give zero correlation (nothing to test).
+    """
+    eps = np.asarray(eps, dtype=float)
+    n = eps.size
+    L = int(max(1, min(max_lag, n // 4)))
+    lag0 = np.arange(0, L + 1)
+    lag1 = np.arange(1, L + 1)
+    sq = np.sqrt(n)
+    band95 = 1.96 / sq
+    e2 = eps ** 2
+    out = [CorrelationTest("ee", "", lag1, cross_correlation(eps, eps, lag1), n, band95,
+                           bonferroni_z(alpha, lag1.size) / sq)]
+    for name, u in inputs.items():
+        u = np.asarray(u, dtype=float)
+        u2 = u ** 2
+        band = bonferroni_z(alpha, lag0.size) / sq
+        out.append(CorrelationTest("ue", name, lag0, cross_correlation(u, eps, lag0), n,
+                                   band95, band))
+        out.append(CorrelationTest("u2e", name, lag0, cross_correlation(u2, eps, lag0), n,
+                                   band95, band))
+        out.append(CorrelationTest("u2e2", name, lag0, cross_correlation(u2, e2, lag0), n,
+                                   band95, band))
+    return out

@@ -1,0 +1,293 @@
+"""Baseline search and the extension that follows the named causes.
+
+Typical use::
+
+    from mggp.diagnose.extend import Budget, baseline_search, plan_extension, fit_extension
+    base, setting = baseline_search(fit_data, Budget(), seed=0, jobs=2)
+    plan = plan_extension(["hysteresis"], setting, Budget())
+    ext = fit_extension(plan, base, fit_data, Budget(), seed=0, jobs=2)
+    ext.model, ext.chosen, ext.candidates
+
+The baseline, when the user gives no model, is a plain polynomial NARX
+model found by MGGP with multiple-shooting fitness and no Φ-functions.
+The extension changes the search the way each cause calls for
+(:data:`mggp.diagnose.findings.EXTENSIONS`):
+
+* ``hysteresis`` — Φ-functions in the primitive set (if the baseline
+  already had them: five more terms), and the three Bouc–Wen direction
+  terms (:func:`~mggp.diagnose.hysteresis.direction_terms`) added to the
+  baseline's terms, to the search's, and as a discrete Bouc–Wen
+  increment model of their own;
+* ``prediction-bias`` — multiple-shooting fitness (if the baseline already
+  used it: windows four times longer, closer to a free run);
+* ``steady-state-drift`` — CLS under the continuum-of-steady-states
+  constraints derived from the terms (:mod:`narx.steady`), in the search
+  and in the final fit; with no other cause the baseline's own terms are
+  refitted by CLS, and a CLS search is run only if that refit is impossible
+  or diverges on the fitting record;
+* ``unmodelled-nonlinearity`` / ``unmodelled-dynamics`` — one more degree /
+  taller trees (longer lags) and five more terms, applied only when no
+  specific cause above was named (they are then its symptoms).
+
+When a search is run, its model and its union with the baseline's terms
+are candidates (with the direction-term candidates for hysteresis); each
+is fitted (LS or CLS) on the fitting samples and the one with the smallest
+free-run RMSE *on the fitting samples* is kept, so the samples that
+measure the gain play no part in building the extension. Under CLS
+(drift named, so the system holds) candidates that do not keep still in
+holds inserted into the fitting input
+(:func:`~mggp.diagnose.holds.probe_holds`) rank after those that do,
+by how far they move.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from narx import Model
+from narx.data import Data
+from narx.estimate import EstimationError
+from narx.terms import Signals, parse_term
+
+from .holds import probe_holds
+from .hysteresis import direction_terms
+
+__all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search",
+           "user_setting", "plan_extension", "fit_extension"]
+
+_SPECIFIC = ("hysteresis", "prediction-bias", "steady-state-drift")
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Search effort and sample sizes of the statistics.
+
+    The defaults finish in a few minutes for 10,000 samples on 2 cores.
+    """
+
+    population: int = 200
+    generations: int = 40
+    max_terms: int = 15
+    max_height: int = 5
+    max_degree: int = 3
+    window: int = 100
+    shifts: int = 99
+    bootstrap: int = 199
+    corr_lags: int = 20
+
+
+@dataclass(frozen=True)
+class Setting:
+    """How a model is (or was) searched and estimated."""
+
+    fitness: Optional[str]
+    window: int
+    use_phi: bool
+    constraints: Optional[str]
+    max_degree: int
+    max_height: int
+    max_terms: int
+
+    def describe(self) -> str:
+        return (f"fitness {self.fitness or 'unknown'}"
+                + (f" (window {self.window})" if self.fitness == "ms" else "")
+                + f", {'with' if self.use_phi else 'no'} Φ-functions, "
+                f"{'CLS' if self.constraints else 'LS'}, at most {self.max_terms} terms, "
+                f"degree <= {self.max_degree}, tree height <= {self.max_height}")
+
+
+@dataclass(frozen=True)
+class ExtensionPlan:
+    """The new search setting, whether to search, refit by CLS, and add
+    the Bouc–Wen direction terms as candidates, and the changes in words."""
+
+    setting: Setting
+    search: bool
+    refit_cls: bool
+    direction: bool
+    changes: Tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Extension:
+    """The fitted extension: the chosen model, its name among the
+    candidates, and every candidate as (name, terms, free-run RMSE on the
+    fitting samples, movement in probe holds — NaN when not checked)."""
+
+    model: Model
+    chosen: str
+    candidates: Tuple[Tuple[str, int, float, float], ...]
+    plan: ExtensionPlan
+
+
+def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data):
+    from ..estimator import MGGPRegressor
+    return MGGPRegressor(fitness=setting.fitness or "ms", window=setting.window,
+                         use_phi=setting.use_phi, constraints=setting.constraints,
+                         search_constraints=setting.constraints,
+                         population=budget.population, generations=budget.generations,
+                         max_terms=setting.max_terms, max_height=setting.max_height,
+                         max_degree=setting.max_degree, random_state=int(seed),
+                         n_jobs=jobs, inputs=list(data.inputs), output=data.output)
+
+
+def _fit_window(window: int, data: Data) -> int:
+    return int(max(1, min(window, data.n // 4)))
+
+
+def baseline_search(data: Data, budget: Budget, seed=0, jobs=1) -> Tuple[Model, Setting]:
+    """MGGP with MS fitness and no Φ on ``data``; returns the LS model."""
+    setting = Setting("ms", _fit_window(budget.window, data), False, None, budget.max_degree,
+                      budget.max_height, budget.max_terms)
+    est = _regressor(setting, budget, seed, jobs, data).fit(data)
+    model = est.model_
+    model.meta.update({"source": "mggp diagnose baseline", "fitness": "ms",
+                       "use_phi": False})
+    return model, setting
+
+
+def user_setting(model: Model, budget: Budget) -> Setting:
+    """What can be read of a user model's search from its terms and meta."""
+    fit = model.meta.get("fitness")
+    fit = fit if fit in ("pem", "freerun", "ksa", "ms") else None
+    has_phi = any(t.phi_names for t in model.terms)
+    cls = bool(model.meta.get("estimation") == "cls")
+    deg = max(t.degree for t in model.terms)
+    height = max(budget.max_height, math.ceil(max(model.max_lag - 1, 0) / 3))
+    win = model.meta.get("window")
+    win = int(win) if isinstance(win, (int, float)) and win >= 1 else budget.window
+    return Setting(fit, win, has_phi, "steady-state" if cls else None,
+                   max(budget.max_degree, deg), height, max(budget.max_terms, model.n_terms))
+
+
+def plan_extension(effects: Sequence[str], base: Setting, budget: Budget,
+                   n_fit: Optional[int] = None) -> ExtensionPlan:
+    """Turn named effects into a new search setting and a list of changes."""
+    effects = set(effects)
+    s, changes, search, refit = base, [], False, False
+    if "hysteresis" in effects:
+        search = True
+        if not s.use_phi:
+            s = replace(s, use_phi=True)
+            changes.append("hysteresis: Φ-functions (Phi1, Phi2) added to the search "
+                           "(use_phi=True), and the Bouc–Wen direction terms "
+                           "|Δu|, y[k-1]|Δu|, u[k-1]|Δu| as candidates")
+        else:
+            s = replace(s, max_terms=s.max_terms + 5)
+            changes.append(f"hysteresis: the baseline already had Φ-functions; new search "
+                           f"with up to {s.max_terms} terms")
+    if "prediction-bias" in effects:
+        search = True
+        if s.fitness != "ms":
+            old = s.fitness or "unknown"
+            s = replace(s, fitness="ms", window=budget.window)
+            changes.append(f"prediction-bias: multiple-shooting fitness (window "
+                           f"{budget.window}) instead of {old}")
+        else:
+            w = 4 * s.window if n_fit is None else min(4 * s.window, max(1, n_fit // 4))
+            changes.append(f"prediction-bias: the baseline already used multiple shooting; "
+                           f"windows {s.window} -> {w} samples")
+            s = replace(s, window=w)
+    if "steady-state-drift" in effects:
+        s = replace(s, constraints="steady-state")
+        refit = not search
+        changes.append("steady-state-drift: CLS under the derived continuum-of-steady-states "
+                       "constraints (Σ_y = 1, other cluster sums 0)")
+    generic = [e for e in ("unmodelled-nonlinearity", "unmodelled-dynamics") if e in effects]
+    if generic and not effects & set(_SPECIFIC):
+        search = True
+        if "unmodelled-nonlinearity" in effects:
+            s = replace(s, max_degree=s.max_degree + 1)
+            changes.append(f"unmodelled-nonlinearity: degree up to {s.max_degree}")
+        if "unmodelled-dynamics" in effects:
+            s = replace(s, max_height=s.max_height + 1)
+            changes.append(f"unmodelled-dynamics: tree height up to {s.max_height} "
+                           f"(lags up to {1 + 3 * s.max_height})")
+        s = replace(s, max_terms=s.max_terms + 5)
+        changes.append(f"up to {s.max_terms} terms")
+    elif generic:
+        changes.append(f"{', '.join(generic)}: no separate change (attributed to "
+                       f"{', '.join(e for e in _SPECIFIC if e in effects)})")
+    if search and s.fitness is None:
+        s = replace(s, fitness="ms")
+    return ExtensionPlan(s, search, refit, "hysteresis" in effects, tuple(changes))
+
+
+def _unique(terms, data: Data, registry) -> List[str]:
+    """Canonical texts of ``terms``, each once, in order."""
+    sig = Signals(data.output, data.inputs)
+    return list(dict.fromkeys(str(parse_term(t, sig, registry=registry)) for t in terms))
+
+
+def _candidate(terms, data: Data, constraints, registry) -> Optional[Model]:
+    try:
+        return Model(terms, inputs=data.inputs, output=data.output,
+                     registry=registry).fit(data, constraints=constraints)
+    except (EstimationError, ValueError):
+        return None
+
+
+def _score(m: Optional[Model], data: Data) -> float:
+    if m is None:
+        return float("inf")
+    r = m.simulate(data, mode="freerun")
+    return float("inf") if r.diverged else r.rmse
+
+
+def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budget,
+                  seed=0, jobs=1, floor: float = 0.0) -> Extension:
+    """Fit the planned extension on ``data`` (the fitting samples).
+
+    With CLS (drift named: the system holds) a candidate must also keep
+    still in holds inserted into the fitting input (:func:`probe_holds`,
+    movement at most ``floor``); those that do not rank after those that
+    do, by how far they move.
+    """
+    reg = baseline.registry
+    cons = plan.setting.constraints
+    base = baseline.term_texts
+    cands: List[Tuple[str, Optional[Model]]] = []
+    if plan.refit_cls:
+        cands.append(("baseline terms, CLS", _candidate(baseline.terms, data, cons, reg)))
+        m0 = cands[0][1]
+        if not np.isfinite(_score(m0, data)) or probe_holds(m0, data) > floor:
+            plan = replace(plan, search=True, changes=plan.changes + (
+                "the CLS refit of the baseline's terms is impossible, diverges or does not "
+                "keep still in probe holds: CLS structure search",))
+    sets = []
+    if plan.search:
+        setting = replace(plan.setting, window=_fit_window(plan.setting.window, data))
+        est = _regressor(setting, budget, int(seed) + 1, jobs, data).fit(data)
+        found = [str(t) for t in est.model_.terms]
+        sets += [("search", found), ("search + baseline terms", base + found)]
+    if plan.direction:
+        d = [t for n in data.inputs for t in direction_terms(n, data.output)]
+        inc = [f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n in data.inputs]
+        sets += [("baseline + direction terms", base + d), ("Bouc–Wen increment", inc + d)]
+        if plan.search:
+            sets.append(("search + direction terms", found + d))
+    seen = set()
+    for name, terms in sets:
+        terms = _unique(terms, data, reg)
+        if frozenset(terms) not in seen:
+            seen.add(frozenset(terms))
+            cands.append((name, _candidate(terms, data, cons, reg)))
+    if not cands:
+        return Extension(baseline, "baseline (no change)", (), plan)
+    scored = [(name, m, _score(m, data),
+               probe_holds(m, data) if cons and m is not None else float("nan"))
+              for name, m in cands]
+    ok = [c for c in scored if c[1] is not None]
+    if not ok:
+        raise EstimationError("no extension could be fitted: every candidate structure "
+                              "failed its estimation")
+    name, best, _, _ = min(ok, key=lambda c: (max(c[3] - floor, 0.0) if c[3] == c[3] else 0.0,
+                                              c[2], c[1].n_terms))
+    best.meta.update({"source": "mggp diagnose extension", "fitness": plan.setting.fitness,
+                      "window": plan.setting.window, "use_phi": plan.setting.use_phi,
+                      "estimation": "cls" if cons else "ls", "changes": list(plan.changes)})
+    table = tuple((n, (m.n_terms if m is not None else 0), s, h) for n, m, s, h in scored)
+    return Extension(best, name, table, plan)

@@ -1,0 +1,265 @@
+"""The findings vocabulary and the rules that name a finding from evidence.
+
+Typical use::
+
+    from mggp.diagnose.findings import VOCABULARY, name_findings
+    findings, checks = name_findings(evidence)       # evidence: an Evidence
+    [f.effect for f in findings]           # e.g. ['hysteresis', 'prediction-bias']
+
+Vocabulary (the causes a diagnosis can name, and the extension each calls for):
+
+===========================  =================================================  ========================
+effect                       meaning, and the evidence that names it            extension
+===========================  =================================================  ========================
+``hysteresis``               the output depends on the direction or history     Φ-functions in the
+                             of the input beyond what the model's terms         search, and the
+                             express: at equal input the residual differs       Bouc–Wen direction
+                             between falling and rising input (loop-gap         terms as candidates
+                             test), or direction terms remove simulation
+                             error that placebo terms do not
+                             (Φ-augmentation test)
+``steady-state-drift``       the model does not hold its output at a constant   CLS with the derived
+                             input where the system does: movement in a         continuum constraints
+                             held-input segment of the data (hold test),        (``constraints=
+                             explained by cluster sums that break Σ_y = 1,      'steady-state'``)
+                             Σ_other = 0
+``prediction-bias``          one-step fit good, free run poor: the free-run     multiple-shooting
+                             error exceeds what the model's own one-step        fitness (longer windows
+                             residuals cause when propagated (bootstrap)        if already used)
+``unmodelled-nonlinearity``  φ_u²'e or φ_u²'e² outside its band: the one-step   one more degree, more
+                             residual depends on the square of past inputs      terms
+``unmodelled-dynamics``      φ_ue (or φ_ee, where the residual is large         longer lags (taller
+                             enough for its colour to matter) outside its       trees), more terms
+                             band
+===========================  =================================================  ========================
+
+**Thresholds.** Every statistic is compared with a threshold made of a
+statistical bound at false-alarm probability α per test (Bonferroni band,
+t-bound, placebo or bootstrap quantile, noise bound of a hold) and a
+*resolution floor*, ``resolution`` × the output's range in that record
+(default 0.5 %): effects smaller than the floor are not worth a model
+change, and on noise-free data — where every imperfect model is
+"significant" — the floor is what decides. For the correlation tests the
+floor is expressed in correlation units, floor / RMS(ε): a correlation
+must explain at least the floor of the one-step residual. The free-run
+excess of ``prediction-bias`` must also reach the free-run RMSE that the
+noise alone causes (the free run at least √2 times worse than the noise
+explains), so that noisy data do not turn a small misfit into a finding.
+Thresholds are in the statistic's units; a finding is named only when its
+statistic is strictly above its threshold. An effect with several tests
+(``hysteresis``: two; the correlation effects: one per function and input)
+is named when any of them beats its threshold, so its false-alarm
+probability is at most α times the number of its tests.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .correlation import CorrelationTest, bonferroni_z
+from .evidence import BiasTest
+from .holds import HoldResponse
+from .hysteresis import AugmentationTest, LoopGapTest
+
+__all__ = ["VOCABULARY", "EXTENSIONS", "Finding", "Check", "Evidence", "name_findings"]
+
+VOCABULARY: Dict[str, str] = {
+    "hysteresis": "the output depends on the direction or history of the input beyond "
+                  "what the model's terms express",
+    "steady-state-drift": "the model does not hold its output at a constant input where "
+                          "the system does",
+    "prediction-bias": "one-step fit good, free run poor (a structure chosen for "
+                       "one-step prediction)",
+    "unmodelled-nonlinearity": "the one-step residual depends on a nonlinear function of "
+                               "past inputs (Billings-Voon φ_u²'e, φ_u²'e²)",
+    "unmodelled-dynamics": "the one-step residual depends on past inputs or on itself "
+                           "(Billings-Voon φ_ue, φ_ee)",
+}
+
+EXTENSIONS: Dict[str, str] = {
+    "hysteresis": "Φ-functions in the structure search, Bouc–Wen direction terms as "
+                  "candidates",
+    "steady-state-drift": "CLS with the derived continuum-of-steady-states constraints",
+    "prediction-bias": "multiple-shooting fitness",
+    "unmodelled-nonlinearity": "one more degree and more terms",
+    "unmodelled-dynamics": "longer lags and more terms",
+}
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A named cause: ``effect`` (from :data:`VOCABULARY`), the evidence in
+    words, and the statistic that beat its threshold."""
+
+    effect: str
+    evidence: str
+    statistic: float
+    threshold: float
+
+    def to_dict(self) -> dict:
+        return {"effect": self.effect, "evidence": self.evidence,
+                "statistic": _num(self.statistic), "threshold": _num(self.threshold)}
+
+
+@dataclass(frozen=True)
+class Check:
+    """One statistic against its threshold, named or not (for reports)."""
+
+    test: str
+    effect: str
+    statistic: float
+    threshold: float
+    detail: str
+
+    @property
+    def beats(self) -> bool:
+        return bool(np.isfinite(self.threshold) and self.statistic > self.threshold)
+
+    def to_dict(self) -> dict:
+        return {"test": self.test, "effect": self.effect, "statistic": _num(self.statistic),
+                "threshold": _num(self.threshold), "beats_threshold": self.beats,
+                "detail": self.detail}
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """Everything measured on the baseline.
+
+    ``floor`` is the resolution floor (output units) of the fitting record;
+    hold responses carry their own record and use that record's floor
+    (``hold_floors[record]``).
+    """
+
+    correlation: Sequence[CorrelationTest]
+    osa_rms: float
+    loop_gap: Sequence[LoopGapTest]
+    augmentation: Optional[AugmentationTest]
+    bias: Optional[BiasTest]
+    holds: Sequence[HoldResponse]
+    floor: float
+    hold_floors: Dict[str, float]
+    cluster_violations: Sequence[Tuple[str, float, float]]
+    alpha: float
+    resolution: float
+    output: str = "y"
+
+
+def _num(v):
+    v = float(v)
+    return v if np.isfinite(v) else None
+
+
+def _g(v) -> str:
+    return "inf" if not np.isfinite(v) else f"{v:.3g}"
+
+
+def _hysteresis_checks(ev: Evidence) -> List[Check]:
+    out = []
+    pct = f"{100 * (1 - ev.alpha):g} %"
+    for g in ev.loop_gap:
+        thr = max(g.bound, ev.floor)
+        detail = (f"at equal {g.signal}, the residual of simulations restarted before each "
+                  f"reversal differs by {_g(g.statistic)} on average between falling and "
+                  f"rising {g.signal} ({g.gaps.size} reversals, t-test p = {g.p_value:.3g}, "
+                  f"{pct} bound {_g(g.bound)}); resolution floor {_g(ev.floor)}")
+        out.append(Check(f"loop gap ({g.signal})", "hysteresis", g.statistic, thr, detail))
+    a = ev.augmentation
+    if a is not None:
+        thr = max(a.null_quantile, ev.floor)
+        detail = (f"the Bouc–Wen direction terms |Δu|, {ev.output}[k-1]·|Δu|, u[k-1]·|Δu| "
+                  f"(|Δu| = Phi1·Phi2 of u[k-1], u[k-2]) lower the {a.mode} RMSE of the "
+                  f"baseline's terms (refitted by LS) from {_g(a.reference_rmse)} to "
+                  f"{_g(a.augmented_rmse)} ({a.form}, {len(a.terms)} terms), a drop of "
+                  f"{_g(a.statistic)}; placebo terms from the input shifted in time "
+                  f"({a.n_shifts} shifts) drop it by at most {_g(a.null_quantile)} "
+                  f"({pct} quantile); resolution floor {_g(ev.floor)}")
+        out.append(Check("Φ-augmentation", "hysteresis", a.statistic, thr, detail))
+    return out
+
+
+def _bias_check(ev: Evidence) -> List[Check]:
+    b = ev.bias
+    if b is None:
+        return []
+    thr = max(b.excess_null, ev.floor, b.null_median_rmse)
+    fr = "diverged" if b.diverged else _g(b.freerun_rmse)
+    detail = (f"one-step RMSE {_g(b.osa_rmse)}, free-run RMSE {fr}; driven by its own "
+              f"resampled one-step residuals ({b.n_boot} runs) the model's free-run RMSE "
+              f"would be {_g(b.null_median_rmse)} (median), {_g(b.null_quantile_rmse)} "
+              f"({100 * (1 - ev.alpha):g} % quantile): excess free-run error "
+              f"{_g(b.excess)} against {_g(b.excess_null)} by chance; materiality: at "
+              f"least the noise-driven RMSE {_g(b.null_median_rmse)} and the resolution "
+              f"floor {_g(ev.floor)}")
+    return [Check("free-run excess", "prediction-bias", b.excess, thr, detail)]
+
+
+def _hold_checks(ev: Evidence) -> List[Check]:
+    held = [h for h in ev.holds if np.isfinite(h.data_move)]
+    if not held:
+        return []
+    z = bonferroni_z(ev.alpha, len(held))
+    out = []
+    viol = ", ".join(f"{lab} = {v:.6g} (continuum needs {c:g})"
+                     for lab, v, c in ev.cluster_violations) or "none"
+    for h in held:
+        floor = ev.hold_floors.get(h.record, ev.floor)
+        bound = max(z * h.noise_se, floor)
+        if abs(h.data_move) > bound:
+            detail = (f"{h.record} samples {h.start}-{h.stop - 1}: the data do not hold "
+                      f"(move {_g(h.data_move)}), so this segment says nothing about drift")
+            out.append(Check(f"hold {h.record}:{h.start}", "steady-state-drift", 0.0,
+                             float("inf"), detail))
+            continue
+        moves = (f"moves {_g(h.model_move)}" if np.isfinite(h.model_move) else "diverges")
+        detail = (f"input held at {h.level:.4g} in {h.record} samples {h.start}-{h.stop - 1}: "
+                  f"the data move {_g(h.data_move)}, the model started from the measured "
+                  f"state {moves} (compared from sample {h.compare_from}); "
+                  f"bound max(z·se = {_g(z * h.noise_se)}, resolution floor {_g(floor)}); "
+                  f"the model's steady-state equation moves {_g(h.rate)} per sample at this "
+                  f"level; cluster sums off the continuum: {viol}")
+        out.append(Check(f"hold {h.record}:{h.start}", "steady-state-drift", h.excess,
+                         bound, detail))
+    return out
+
+
+_CORR_EFFECT = {"ee": "unmodelled-dynamics", "ue": "unmodelled-dynamics",
+                "u2e": "unmodelled-nonlinearity", "u2e2": "unmodelled-nonlinearity"}
+
+
+def _correlation_checks(ev: Evidence) -> List[Check]:
+    out = []
+    rms = ev.osa_rms
+    for t in ev.correlation:
+        floor_r = ev.floor / rms if rms > 0 else float("inf")
+        thr = max(t.band, floor_r)
+        detail = (t.describe() + f"; resolution floor {_g(floor_r)} in correlation units "
+                  f"(floor {_g(ev.floor)} / one-step residual RMS {_g(rms)})")
+        out.append(Check(t.label, _CORR_EFFECT[t.key], t.max_abs, thr, detail))
+    return out
+
+
+def _ratio(c: Check) -> float:
+    if not np.isfinite(c.statistic):
+        return float("inf")
+    return c.statistic / c.threshold if c.threshold > 0 else float("inf")
+
+
+def name_findings(ev: Evidence) -> Tuple[List[Finding], List[Check]]:
+    """Apply the rules: a finding per effect whose strongest check beats its
+    threshold (its evidence lists every check of that effect that does)."""
+    checks = (_hysteresis_checks(ev) + _bias_check(ev) + _hold_checks(ev)
+              + _correlation_checks(ev))
+    findings = []
+    for effect in VOCABULARY:
+        hits = [c for c in checks if c.effect == effect and c.beats]
+        if not hits:
+            continue
+        best = max(hits, key=_ratio)
+        text = best.detail
+        if len(hits) > 1:
+            text += "; also " + "; ".join(
+                f"{c.test}: {_g(c.statistic)} > {_g(c.threshold)}" for c in hits if c is not best)
+        findings.append(Finding(effect, text, best.statistic, best.threshold))
+    return findings, checks

@@ -1,0 +1,230 @@
+"""Terminal summary, Markdown report and figures of a diagnosis.
+
+Typical use::
+
+    from mggp.diagnose.report import write_report, terminal_summary
+    print(terminal_summary(dx))
+    write_report("report/", dx, command="mggp diagnose train.csv ...")
+
+Figures (PNG, headless): the measuring record against both models in free
+run (time and u–y loop); the baseline's simulation residual against the
+input in the u–e plane, rising and falling input apart, with the binned
+means whose gap is the direction statistic (and the extension's residual
+beside it); the Billings–Voon correlation functions with the ±1.96/√N band
+and the Bonferroni band that decides; the responses in every held-input
+segment (data, baseline and extension, each model started from the
+measured state when the input stops).
+"""
+from __future__ import annotations
+
+import os
+from typing import List, Optional
+
+import numpy as np
+
+from narx.atomic import atomic_write_text
+
+from ..report import _save, figure
+from .evidence import direction_of_change, simulation_residual
+from .findings import EXTENSIONS, VOCABULARY
+from .holds import hold_responses
+
+__all__ = ["terminal_summary", "write_report"]
+
+
+def _g(v) -> str:
+    return "inf" if v is None or not np.isfinite(v) else f"{v:.4g}"
+
+
+def terminal_summary(dx) -> str:
+    """A short readable summary (the CLI prints it)."""
+    b, e, g = dx.baseline, dx.extended, dx.gain
+    lines = [f"baseline: {b.source}, {b.model.n_terms} terms",
+             f"samples:  {dx.split.describe()}"]
+    if dx.findings:
+        lines.append("findings:")
+        for f in dx.findings:
+            lines.append(f"  {f.effect:<24s} {_g(f.statistic)} > threshold {_g(f.threshold)}")
+    else:
+        lines.append("findings: none (no statistic beat its threshold)")
+    if dx.findings:
+        lines.append(f"extension ({dx.extension.chosen}, {e.model.n_terms} terms):")
+        lines += [f"  {c}" for c in dx.changes]
+    lines.append(f"gain: free-run RMSE {_g(g.baseline)} (baseline) -> {_g(g.extended)} "
+                 f"(extended), ratio {_g(g.ratio)}; MAPE {_g(b.mape)} % -> {_g(e.mape)} %")
+    return "\n".join(lines)
+
+
+def _plot_models(path, dx):
+    d = dx.measure_data
+    t = np.arange(d.n) + dx.split.measure[0]
+    u = d.U[0]
+    fig, axes = figure(1, 2, figsize=(11, 3.8), gridspec_kw={"width_ratios": [2, 1]})
+    for ax, x in ((axes[0], t), (axes[1], u)):
+        ax.plot(x, d.y, "k", lw=1.2, label="data")
+        ax.plot(x, dx.baseline.y_hat, lw=0.9, label=f"baseline (RMSE {_g(dx.baseline.rmse)})")
+        ax.plot(x, dx.extended.y_hat, lw=0.9, ls="--",
+                label=f"extended (RMSE {_g(dx.extended.rmse)})")
+    axes[0].axvline(dx.split.scored_from, color="grey", lw=0.6, ls=":")
+    axes[0].set_xlabel(f"sample of {dx.split.measure_record}")
+    axes[0].set_ylabel(d.output)
+    axes[0].set_title("Free run on the measuring samples")
+    axes[1].set_xlabel(d.inputs[0])
+    axes[1].set_title("Input-output loop")
+    axes[0].legend(loc="best", fontsize=7)
+    for ax in axes:
+        lo, hi = np.nanmin(d.y), np.nanmax(d.y)
+        pad = 0.25 * (hi - lo or 1.0)
+        ax.set_ylim(lo - pad, hi + pad)
+    return _save(fig, path)
+
+
+def _plot_direction(path, dx):
+    d = dx.fit_data
+    u = d.U[0]
+    s = direction_of_change(u)
+    fig, axes = figure(1, 2, figsize=(11, 4), sharey=True)
+    test = dx.evidence.loop_gap[0] if dx.evidence.loop_gap else None
+    for ax, (name, m) in zip(axes, (("baseline", dx.baseline.model),
+                                    ("extended", dx.extended.model))):
+        e, source = simulation_residual(m, d)
+        for sign, col, lab in ((1, "tab:red", "rising"), (-1, "tab:blue", "falling")):
+            k = (s == sign) & np.isfinite(e)
+            ax.plot(u[k], e[k], ".", ms=1.5, color=col, alpha=0.35, label=f"{lab} {d.inputs[0]}")
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_title(f"{name}: {source.split(' (')[0]} residual", fontsize=9)
+        ax.set_xlabel(d.inputs[0])
+        ax.legend(loc="best", fontsize=7, markerscale=6)
+    if test is not None:
+        axes[0].text(0.02, 0.02, f"loop gap {_g(test.statistic)} "
+                     f"(bound {_g(test.bound)}, p = {test.p_value:.3g})",
+                     transform=axes[0].transAxes, fontsize=8)
+    axes[0].set_ylabel(f"e = {d.output} - ŷ  (fitting samples)")
+    return _save(fig, path)
+
+
+def _plot_correlation(path, dx):
+    tests = list(dx.evidence.correlation)[:4]
+    if not tests:
+        return None
+    fig, axes = figure(1, len(tests), figsize=(3.2 * len(tests), 3.2), sharey=True)
+    axes = np.atleast_1d(axes)
+    for ax, t in zip(axes, tests):
+        ax.bar(t.lags, t.r, width=0.6, color="tab:gray")
+        floor = dx.evidence.floor / dx.evidence.osa_rms if dx.evidence.osa_rms > 0 else 2.0
+        for v, ls, lab in ((t.band95, "-", "±1.96/√N"), (t.band, "--", "Bonferroni"),
+                           (floor, ":", "resolution floor")):
+            if v <= 1.0:
+                ax.axhline(v, color="tab:blue", ls=ls, lw=0.8, label=lab)
+                ax.axhline(-v, color="tab:blue", ls=ls, lw=0.8)
+        ax.set_title(t.label)
+        ax.set_xlabel("τ")
+        ax.set_ylim(-1.05, 1.05)
+    axes[0].legend(loc="upper right", fontsize=7)
+    return _save(fig, path)
+
+
+def _plot_holds(path, dx) -> Optional[str]:
+    hs = [h for h in dx.evidence.holds]
+    if not hs:
+        return None
+    ext = {}
+    min_len = max(20, 2 * dx.baseline.model.max_lag + 12)
+    for data, rec, off in ((dx.fit_data, dx.records[0], dx.split.fit[0]),
+                           (dx.measure_data, dx.records[1], dx.split.measure[0])):
+        for h in hold_responses(dx.extended.model, data, rec, min_len, offset=off):
+            ext[(h.record, h.start)] = h
+    hs = hs[:6]
+    span = float(np.ptp(dx.measure_data.y)) or 1.0
+    fig, axes = figure(1, len(hs), figsize=(4 * len(hs), 3.4), squeeze=False)
+    for ax, h in zip(axes[0], hs):
+        ax.plot(h.t, h.y, "k", lw=1.2, label="data")
+        ax.plot(h.t, h.y_hat, lw=1.0, label="baseline")
+        he = ext.get((h.record, h.start))
+        if he is not None:
+            ax.plot(he.t, he.y_hat, lw=1.0, ls="--", label="extended")
+        ax.axvspan(h.start, h.stop - 1, color="0.9", zorder=0)
+        lo, hi = float(np.min(h.y)), float(np.max(h.y))
+        pad = max(0.5 * (hi - lo), 0.05 * span, 1e-9)
+        ax.set_ylim(lo - pad, hi + pad)
+        ax.set_title(f"{h.record}: hold at {h.level:.3g}", fontsize=9)
+        ax.set_xlabel("sample")
+    axes[0][0].legend(loc="best", fontsize=7)
+    return _save(fig, path)
+
+
+def _table(rows: List[List[str]], header: List[str]) -> List[str]:
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return out
+
+
+def _model_lines(scored, title) -> List[str]:
+    m = scored.model
+    lines = [f"### {title}", "", scored.source, "",
+             f"Free run on the measuring samples: RMSE {_g(scored.rmse)}, "
+             f"MAPE {_g(scored.mape)} %", ""]
+    lines += _table([[f"`{t}`", f"{v:.6g}"] for t, v in zip(m.term_texts, m.theta)],
+                    ["term", "θ"])
+    return lines + [""]
+
+
+def write_report(folder, dx, command: Optional[str] = None, title: str = "data") -> str:
+    """Write ``summary.md`` and the figures into ``folder``; returns the path."""
+    os.makedirs(folder, exist_ok=True)
+    j = os.path.join
+    figs = [("Data against both models", _plot_models(j(folder, "models.png"), dx)),
+            ("Residual in the u-e plane by direction of input change",
+             _plot_direction(j(folder, "residual_direction.png"), dx)),
+            ("Correlation tests with their bands", _plot_correlation(
+                j(folder, "correlation.png"), dx)),
+            ("Held-input responses", _plot_holds(j(folder, "holds.png"), dx))]
+    L = [f"# mggp diagnose: {title}", ""]
+    if command:
+        L += ["Command:", "", f"    {command}", ""]
+    L += ["## Samples", "", dx.split.describe() + ". The evidence comes from the fitting "
+          "samples; held-input segments are also searched in the measuring record (nothing "
+          "is fitted on it). The data files are read, never modified.", ""]
+    if dx.settings.get("user_model") and dx.split.measure_record == dx.split.fit_record:
+        L += ["The baseline's θ come from the model file: whether the data it was fitted "
+              "on overlap the measuring samples is not known to this diagnosis.", ""]
+    L += ["## Findings", ""]
+    if dx.findings:
+        L += _table([[f"`{f.effect}`", _g(f.statistic), _g(f.threshold), f.evidence]
+                     for f in dx.findings], ["effect", "statistic", "threshold", "evidence"])
+    else:
+        L.append("None: no statistic beat its threshold, so nothing was changed.")
+    L += ["", "## Every test", "", f"False-alarm probability α = {dx.evidence.alpha:g} per "
+          f"test; resolution floor {dx.evidence.resolution:g} × output range. A finding is "
+          f"named when a statistic is above its threshold.", ""]
+    L += _table([[c.test, c.effect, _g(c.statistic), _g(c.threshold),
+                  "**yes**" if c.beats else "no"] for c in dx.checks],
+                ["test", "effect", "statistic", "threshold", "beats"])
+    L += ["", "Correlation thresholds above 1 mean the one-step residual is smaller than "
+          "the resolution floor: no correlation of it can matter.", ""]
+    L += ["", "## Models", ""]
+    L += _model_lines(dx.baseline, "Baseline")
+    L += _model_lines(dx.extended, "Extended")
+    if dx.extension.candidates:
+        L += ["Candidates (fitted on the fitting samples, chosen by their free-run RMSE "
+              "there; under CLS a candidate must also keep still, within the resolution "
+              "floor, in holds inserted into the fitting input):", ""]
+        L += _table([[n, str(k), _g(s), "-" if h != h else _g(h)]
+                     for n, k, s, h in dx.extension.candidates],
+                    ["candidate", "terms", "free-run RMSE (fitting samples)",
+                     "movement in probe holds"])
+        L.append("")
+    g = dx.gain
+    L += ["## Gain", "", f"Free-run RMSE on the measuring samples: baseline {_g(g.baseline)}, "
+          f"extended {_g(g.extended)}, ratio baseline/extended {_g(g.ratio)}.", ""]
+    L += ["## Figures", ""]
+    for cap, path in figs:
+        L += [f"**{cap}**", "", f"![{cap}]({os.path.basename(path)})" if path else
+              "(no data for this figure: " + ("no held-input segment in the data)"
+                                               if "Held" in cap else "not computed)"), ""]
+    L += ["## Vocabulary", ""]
+    L += _table([[f"`{k}`", v, EXTENSIONS[k]] for k, v in VOCABULARY.items()],
+                ["effect", "meaning", "extension"])
+    path = j(folder, "summary.md")
+    atomic_write_text(path, "\n".join(L) + "\n")
+    return path

@@ -1,0 +1,311 @@
+"""Run a diagnosis: baseline, evidence, findings, extension, gain.
+
+Typical use::
+
+    from mggp.diagnose import diagnose, Budget
+    dx = diagnose(train, validation=val, model=None, budget=Budget(), seed=0, jobs=2)
+    print(dx.summary())
+    json.dump(dx.to_dict(), fh)          # the --json schema
+
+Sample bookkeeping (never modifies the data): with a validation record,
+the baseline and the extension are fitted on every training sample and the
+gain is measured on the validation record; without one, they are fitted on
+the first ``1 − holdout`` of the training samples and the gain is measured
+on the rest (the *tail*). Either way the measuring record is simulated free
+from its first L measured samples (L = the larger largest lag of the two
+models), and RMSE and MAPE are computed on the samples after them, the same
+samples for both models. The evidence comes from the fitting samples;
+held-input segments are searched in both records (a validation record with
+holds is what exposes drift); nothing is fitted on the measuring record.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from narx import Model
+from narx.data import Data, DataError
+from narx.metrics import mape
+
+from .correlation import correlation_tests
+from .evidence import prediction_bias_test
+from .hysteresis import loop_gap_test, phi_augmentation_test
+from .extend import (Budget, Extension, baseline_search, fit_extension, plan_extension,
+                     user_setting)
+from .findings import Check, Evidence, Finding, name_findings
+from .holds import continuum_violations, find_holds, hold_responses
+
+__all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data"]
+
+
+def slice_data(data: Data, a: int, b: int) -> Data:
+    """Samples a..b-1 as a new record (copies; the original is untouched)."""
+    return Data(data.U[:, a:b].T.copy(), None if data.y is None else data.y[a:b].copy(),
+                inputs=data.inputs, output=data.output)
+
+
+@dataclass(frozen=True)
+class Split:
+    """Which samples fitted the models and which measured the gain
+    (ranges are 0-based, ``stop`` exclusive, in each record's own numbering)."""
+
+    fit_record: str
+    fit: Tuple[int, int]
+    measure_record: str
+    measure: Tuple[int, int]
+    scored_from: int
+
+    def describe(self) -> str:
+        return (f"fitted on samples {self.fit[0]}-{self.fit[1] - 1} of {self.fit_record}; "
+                f"gain measured by free run on samples {self.measure[0]}-"
+                f"{self.measure[1] - 1} of {self.measure_record} (samples {self.measure[0]}-"
+                f"{self.scored_from - 1} are the initial conditions, {self.scored_from}-"
+                f"{self.measure[1] - 1} are scored)")
+
+    def to_dict(self) -> dict:
+        return {"fit": {"record": self.fit_record, "first": self.fit[0],
+                        "last": self.fit[1] - 1},
+                "measure": {"record": self.measure_record, "first": self.measure[0],
+                            "last": self.measure[1] - 1, "scored_from": self.scored_from}}
+
+
+@dataclass(frozen=True)
+class Scored:
+    """A model, where it came from, and its free run on the measuring samples."""
+
+    model: Model
+    source: str
+    rmse: float
+    mape: float
+    y_hat: np.ndarray
+
+    def to_dict(self, changes: Optional[Sequence[str]] = None) -> dict:
+        d = {"terms": self.model.term_texts, "theta": [float(v) for v in self.model.theta],
+             "validation": {"rmse": _num(self.rmse), "mape": _num(self.mape)}}
+        if changes is not None:
+            d["changes"] = list(changes)
+        return d
+
+
+@dataclass(frozen=True)
+class Gain:
+    """RMSE of both models on the measuring samples; ratio = baseline / extended
+    (> 1: the extension is better)."""
+
+    baseline: float
+    extended: float
+    metric: str = "rmse"
+
+    @property
+    def ratio(self) -> float:
+        if self.extended == 0:
+            return 1.0 if self.baseline == 0 else float("inf")
+        return self.baseline / self.extended
+
+    def to_dict(self) -> dict:
+        return {"metric": self.metric, "baseline": _num(self.baseline),
+                "extended": _num(self.extended), "ratio": _num(self.ratio)}
+
+
+def _num(v):
+    v = float(v)
+    return v if np.isfinite(v) else None
+
+
+@dataclass
+class Diagnosis:
+    """Result of :func:`diagnose` (every field named; see ``to_dict`` for JSON)."""
+
+    findings: List[Finding]
+    checks: List[Check]
+    evidence: Evidence
+    baseline: Scored
+    extended: Scored
+    extension: Extension
+    gain: Gain
+    split: Split
+    fit_data: Data
+    measure_data: Data
+    measure_holds: List[Tuple[int, int]]
+    records: Tuple[str, str]
+    settings: Dict[str, object]
+    timings: Dict[str, float] = field(default_factory=dict)
+
+    @property
+    def effects(self) -> List[str]:
+        return [f.effect for f in self.findings]
+
+    @property
+    def changes(self) -> Tuple[str, ...]:
+        return self.extension.plan.changes if self.findings else ()
+
+    def to_dict(self) -> dict:
+        return {"findings": [f.to_dict() for f in self.findings],
+                "baseline": self.baseline.to_dict(),
+                "extended": self.extended.to_dict(self.changes),
+                "gain": self.gain.to_dict(),
+                "samples": self.split.to_dict(),
+                "tests": [c.to_dict() for c in self.checks],
+                "settings": self.settings}
+
+    def summary(self) -> str:
+        from .report import terminal_summary
+        return terminal_summary(self)
+
+
+def _check_records(train: Data, validation: Optional[Data], model: Optional[Model]):
+    train.require_output("diagnose")
+    if validation is not None:
+        validation.require_output("diagnose")
+        if tuple(validation.inputs) != tuple(train.inputs) or validation.output != train.output:
+            raise DataError(f"the validation record has signals {list(validation.inputs)} -> "
+                            f"{validation.output}, the training record "
+                            f"{list(train.inputs)} -> {train.output}")
+    if model is not None:
+        if model.theta is None:
+            raise ValueError("the model has no parameters (theta)")
+        if tuple(model.inputs) != tuple(train.inputs) or model.output != train.output:
+            raise DataError(f"the model's signals {list(model.inputs)} -> {model.output} do "
+                            f"not match the data's {list(train.inputs)} -> {train.output}")
+    for name in train.inputs:
+        if np.ptp(train.input(name)) == 0:
+            raise DataError(f"input {name!r} is constant in the training record: nothing can "
+                            f"be diagnosed")
+
+
+def _split(train: Data, validation: Optional[Data], holdout: float, names):
+    if validation is not None:
+        return train, validation, (names[0], (0, train.n)), (names[1], (0, validation.n))
+    if not 0.0 < holdout < 1.0:
+        raise ValueError(f"holdout must be a fraction in (0, 1), got {holdout!r}")
+    n_fit = int(round(train.n * (1.0 - holdout)))
+    if n_fit < 100 or train.n - n_fit < 50:
+        raise DataError(f"{names[0]}: {train.n} samples are too few to hold out a tail "
+                        f"(need at least 100 to fit and 50 to measure); give --validation")
+    return (slice_data(train, 0, n_fit), slice_data(train, n_fit, train.n),
+            (names[0], (0, n_fit)), (names[0], (n_fit, train.n)))
+
+
+def _range(y) -> float:
+    return float(np.ptp(y)) or 1.0
+
+
+def _evidence(model: Model, fit: Data, measure: Data, names, offset: int, budget: Budget,
+              alpha: float, resolution: float, seed: int) -> Tuple[Evidence, list]:
+    osa = model.simulate(fit, mode="osa")
+    eps = np.where(osa.valid, fit.y - osa.y_hat, np.nan)
+    ok = np.isfinite(eps)
+    corr = correlation_tests(eps[ok], {n: fit.input(n)[ok] for n in fit.inputs},
+                             budget.corr_lags, alpha) if ok.sum() > 20 else []
+    osa_rms = float(np.sqrt(np.mean(eps[ok] ** 2))) if ok.any() else 0.0
+    loops = [g for g in (loop_gap_test(model, fit, signal=n, alpha=alpha) for n in fit.inputs)
+             if g is not None]
+    aug = phi_augmentation_test(model, fit, shifts=budget.shifts, alpha=alpha, seed=seed + 11)
+    bias = prediction_bias_test(model, fit, n_boot=budget.bootstrap, alpha=alpha,
+                                seed=seed + 7)
+    min_len = max(20, 2 * model.max_lag + 12)
+    holds = hold_responses(model, fit, names[0], min_len)
+    meas_segs = find_holds(measure, min_len)
+    holds += hold_responses(model, measure, names[1], min_len, meas_segs, offset)
+    floors = {names[0]: resolution * _range(fit.y), names[1]: resolution * _range(measure.y)}
+    ev = Evidence(corr, osa_rms, loops, aug, bias, holds, floors[names[0]], floors,
+                  continuum_violations(model), alpha, resolution, fit.output)
+    return ev, meas_segs
+
+
+def _score(model: Model, data: Data, start: int) -> Tuple[float, float, np.ndarray]:
+    r = model.simulate(data, mode="freerun")
+    if r.diverged:
+        return float("inf"), float("inf"), r.y_hat
+    y, yh = data.y[start:], r.y_hat[start:]
+    err = y - yh
+    return float(np.sqrt(np.mean(err * err))), mape(y, yh), r.y_hat
+
+
+def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Model] = None,
+             *, budget: Budget = Budget(), seed: int = 0, jobs: int = 1,
+             holdout: float = 0.3, alpha: float = 0.01, resolution: float = 0.005,
+             names: Tuple[str, str] = ("train", "validation"), model_name: str = "model",
+             progress: Optional[Callable[[str], None]] = None) -> Diagnosis:
+    """Diagnose a model (or an MGGP baseline) on ``train``; see the module doc.
+
+    Parameters
+    ----------
+    train, validation : narx.Data
+        Records with the output; ``validation`` optional.
+    model : narx.Model, optional
+        The user's model (θ as given); default: MGGP, MS fitness, no Φ.
+    budget : Budget
+        Search effort and statistics' sample sizes.
+    seed, jobs : int
+        Seed of every random choice; worker processes of the searches.
+    holdout : float
+        Tail fraction measuring the gain when there is no validation record.
+    alpha : float
+        False-alarm probability of each test.
+    resolution : float
+        Smallest effect worth naming, as a fraction of the output's range.
+    """
+    say = progress or (lambda msg: None)
+    if not 0.0 < alpha < 0.5:
+        raise ValueError(f"alpha must be in (0, 0.5), got {alpha!r}")
+    if not 0.0 <= resolution < 1.0:
+        raise ValueError(f"resolution must be in [0, 1), got {resolution!r}")
+    _check_records(train, validation, model)
+    fit, measure, (fit_name, fit_rng), (meas_name, meas_rng) = _split(
+        train, validation, holdout, names)
+    rec_names = (fit_name, meas_name if validation is not None else f"{fit_name} (tail)")
+    timings, t0 = {}, time.perf_counter()
+    if model is None:
+        say(f"baseline: MGGP search, MS fitness, no Φ (population {budget.population}, "
+            f"{budget.generations} generations)")
+        base, base_setting = baseline_search(fit, budget, seed, jobs)
+        base_source = "MGGP baseline (" + base_setting.describe() + ")"
+    else:
+        base, base_setting = model, user_setting(model, budget)
+        base_source = f"user model {model_name}"
+    timings["baseline"] = time.perf_counter() - t0
+    if measure.n <= base.max_lag + 10:
+        raise DataError(f"{rec_names[1]}: {measure.n} samples are too few for the model's "
+                        f"largest lag {base.max_lag}")
+    say("evidence: correlation tests, loop gap, Φ-augmentation, bootstrap, holds")
+    t1 = time.perf_counter()
+    ev, meas_segs = _evidence(base, fit, measure, rec_names, meas_rng[0], budget, alpha,
+                              resolution, seed)
+    findings, checks = name_findings(ev)
+    timings["evidence"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    plan = plan_extension([f.effect for f in findings], base_setting, budget, fit.n)
+    if findings:
+        say("extension: " + "; ".join(plan.changes))
+        ext = fit_extension(plan, base, fit, budget, seed, jobs, ev.floor)
+    else:
+        ext = Extension(base, "baseline (no finding)", (), plan)
+    timings["extension"] = time.perf_counter() - t2
+    start = max(base.max_lag, ext.model.max_lag)
+    if measure.n <= start + 10:
+        raise DataError(f"{rec_names[1]}: {measure.n} samples are too few to measure models "
+                        f"with largest lag {start}")
+    b_rmse, b_mape, b_hat = _score(base, measure, start)
+    e_rmse, e_mape, e_hat = _score(ext.model, measure, start)
+    off = meas_rng[0]
+    split = Split(fit_name, fit_rng, meas_name, meas_rng, off + start)
+    ext_source = ("the baseline (nothing named, nothing changed)" if not findings else
+                  f"{ext.chosen}: " + "; ".join(plan.changes))
+    settings = {"seed": int(seed), "jobs": int(jobs), "alpha": alpha,
+                "user_model": model is not None,
+                "resolution": resolution, "holdout": None if validation is not None
+                else holdout, "budget": dict(budget.__dict__),
+                "baseline": base_source, "extension_search": plan.setting.describe(),
+                "candidates": [{"name": n, "terms": k, "fit_freerun_rmse": _num(s),
+                                "probe_hold_movement": _num(h)}
+                               for n, k, s, h in ext.candidates]}
+    timings["total"] = time.perf_counter() - t0
+    return Diagnosis(findings, checks, ev,
+                     Scored(base, base_source, b_rmse, b_mape, b_hat),
+                     Scored(ext.model, ext_source, e_rmse, e_mape, e_hat), ext,
+                     Gain(b_rmse, e_rmse), split, fit, measure, meas_segs, rec_names, settings,
+                     timings)

@@ -1,0 +1,313 @@
+"""mggp diagnose: hidden effects are named and fixed, controls stay silent, CLI contract.
+
+Each hidden-effect test generates data with one effect the baseline cannot
+express, requires the diagnosis to name it and the extension to beat the
+baseline on the validation record. Controls (polynomial NARX, Hammerstein,
+both with noise) must get no finding. Budgets are small and records short
+so the default run stays fast; more seeds run with ``-m slow``.
+"""
+import hashlib
+import json
+
+import numpy as np
+import pytest
+
+import narx
+from narx.data import Data
+from narx.systems import (held_sine, piezo_bouc_wen, prandtl_ishlinskii, sine_input,
+                          training_input)
+from narx.testsystems import hammerstein, polynomial_narx
+
+from mggp.cli import main
+from mggp.diagnose import EXTENSIONS, VOCABULARY, Budget, diagnose
+from mggp.diagnose.correlation import bonferroni_z, correlation_tests
+from mggp.diagnose.extend import Setting, plan_extension
+from mggp.diagnose.holds import find_holds, steady_rate
+from mggp.diagnose.report import write_report
+
+SMALL = Budget(population=60, generations=10)
+CONTROL = Budget(population=60, generations=10, max_height=3)
+P1, P2 = "Phi1(u[k-1],u[k-2])", "Phi2(u[k-1],u[k-2])"
+PEM32 = ("u[k-1]*u[k-4]*y[k-1]", "u[k-2]*u[k-4]", "u[k-3]*y[k-1]",
+         "u[k-1]*y[k-1]*Phi2(u[k-4],u[k-6])", "u[k-1]*y[k-1]", "y[k-1]", "y[k-3]",
+         "Phi2(u[k-1],u[k-8])", "Phi2(u[k-1],u[k-3])", "Phi2(u[k-1],u[k-2])",
+         "Phi2(u[k-5],u[k-1])", "Phi2(u[k-5],u[k-2])", "y[k-2]", "u[k-1]", "u[k-4]")
+
+
+def hysteretic(system, seed=0):
+    u = training_input(3000, bandwidth=4.0, seed=seed)
+    _, uv = sine_input(duration=1.0, freq=2.0, amplitude=60)
+    return Data(u, system(u)), Data(uv, system(uv))
+
+
+def assert_named_and_fixed(dx, effect):
+    assert effect in dx.effects, [(c.test, c.statistic, c.threshold) for c in dx.checks]
+    f = next(f for f in dx.findings if f.effect == effect)
+    assert f.statistic > f.threshold and f.evidence
+    assert dx.gain.extended < dx.gain.baseline
+    assert dx.gain.ratio > 1
+
+
+# ------------------------------------------------------------ hidden effects
+@pytest.mark.parametrize("system", [piezo_bouc_wen, prandtl_ishlinskii],
+                         ids=["bouc-wen", "prandtl-ishlinskii"])
+def test_hysteresis_is_named_and_phi_extension_beats_baseline(system):
+    train, val = hysteretic(system)
+    before = (train.U.copy(), train.y.copy())
+    dx = diagnose(train, val, budget=SMALL, seed=0)
+    assert_named_and_fixed(dx, "hysteresis")
+    assert dx.extension.plan.setting.use_phi
+    assert any("Phi" in t for t in dx.extended.model.term_texts)
+    assert "Φ-functions" in " ".join(dx.changes)
+    np.testing.assert_array_equal(train.U, before[0])     # data never modified
+    np.testing.assert_array_equal(train.y, before[1])
+
+
+def drifting_case(seed=0):
+    """LS on noisy data leaves Σ_y < 1: the model drifts where the piezo holds."""
+    rng = np.random.default_rng(seed)
+    u = training_input(3000, bandwidth=4.0, seed=seed)
+    y = piezo_bouc_wen(u) + 0.3 * rng.standard_normal(u.size)
+    hs = held_sine(amplitude=60, freq=2.0, hold=0.5)
+    model = narx.Model(["y[k-1]", "u[k-1]", P1, f"y[k-1]*{P1}*{P2}",
+                        f"u[k-1]*{P1}*{P2}"]).fit(u, y)
+    return Data(u, y), Data(hs.u, piezo_bouc_wen(hs.u)), model, hs
+
+
+def test_drift_where_the_system_holds_is_named_and_cls_holds():
+    train, val, model, hs = drifting_case()
+    assert not model.steady_state_constraints().satisfied(model.theta)
+    dx = diagnose(train, val, model, budget=SMALL, seed=0)
+    assert_named_and_fixed(dx, "steady-state-drift")
+    ext = dx.extended.model
+    assert ext.steady_state_constraints().satisfied(ext.theta, tol=1e-8)
+    f = next(f for f in dx.findings if f.effect == "steady-state-drift")
+    assert "Σ_y" in f.evidence and "validation" in f.evidence
+    starts = sorted(h.start for h in dx.evidence.holds)
+    assert starts == [hs.hold_rising.start, hs.hold_falling.start]
+    assert abs(steady_rate(ext, 10.0, [20.0])) < 1e-9
+
+
+def test_pem_structure_failing_in_free_run_is_named_and_ms_extension_beats_it():
+    train, val = hysteretic(piezo_bouc_wen)
+    pem = narx.Model(PEM32, meta={"fitness": "pem"}).fit(train)
+    assert pem.simulate(train, mode="osa").rmse < 1e-3            # one step: excellent
+    dx = diagnose(train, val, pem, budget=SMALL, seed=0)
+    assert_named_and_fixed(dx, "prediction-bias")
+    assert dx.extension.plan.setting.fitness == "ms"
+    assert any("multiple-shooting fitness" in c for c in dx.changes)
+
+
+# ------------------------------------------------------------------ controls
+CONTROLS = [(polynomial_narx, s) for s in (0, 1)] + [(hammerstein, s) for s in (0, 1)]
+
+
+@pytest.mark.parametrize("system, seed", CONTROLS,
+                         ids=[f"{f.__name__}-{s}" for f, s in CONTROLS])
+def test_controls_without_hidden_effect_get_no_finding(system, seed):
+    s = system(n=2000, seed=seed, noise_std=0.02)
+    dx = diagnose(Data(s.u, s.y), budget=CONTROL, seed=seed)
+    assert dx.findings == [], [(c.test, c.statistic, c.threshold) for c in dx.checks if c.beats]
+    assert dx.extended.model is dx.baseline.model and dx.gain.ratio == 1.0
+    assert dx.to_dict()["extended"]["changes"] == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("noise", [0.02, 0.1])
+@pytest.mark.parametrize("seed", range(2, 8))
+@pytest.mark.parametrize("system", [polynomial_narx, hammerstein])
+def test_controls_more_seeds_and_noise(system, seed, noise):
+    s = system(n=3000, seed=seed, noise_std=noise)
+    dx = diagnose(Data(s.u, s.y), budget=Budget(max_height=3), seed=seed)
+    assert dx.findings == [], [(c.test, c.statistic, c.threshold) for c in dx.checks if c.beats]
+
+
+def test_true_model_of_a_control_gets_no_finding():
+    s = polynomial_narx(n=2000, seed=3, noise_std=0.05)
+    true = narx.Model(s.terms, s.theta)
+    dx = diagnose(Data(s.u, s.y), model=true, budget=SMALL, seed=3)
+    assert dx.findings == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("system", [piezo_bouc_wen, prandtl_ishlinskii])
+def test_hysteresis_more_seeds(system, seed):
+    train, val = hysteretic(system, seed)
+    assert_named_and_fixed(diagnose(train, val, budget=SMALL, seed=seed), "hysteresis")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_drift_more_seeds(seed):
+    train, val, model, _ = drifting_case(seed)
+    assert_named_and_fixed(diagnose(train, val, model, budget=SMALL, seed=seed),
+                           "steady-state-drift")
+
+
+# ---------------------------------------------------------------- statistics
+def test_correlation_tests_control_false_alarms_and_detect_a_square():
+    rng = np.random.default_rng(0)
+    alarms = 0
+    for _ in range(40):
+        u, e = rng.uniform(-1, 1, 2000), rng.standard_normal(2000)
+        alarms += any(t.significant for t in correlation_tests(e, {"u": u}, 20, 0.01))
+    assert alarms <= 4                       # 4 tests at α = 0.01 each: ~1.6 expected
+    u = rng.uniform(-1, 1, 2000)
+    e = 0.5 * np.roll(u, 2) ** 2 + 0.1 * rng.standard_normal(2000)
+    t = {x.key: x for x in correlation_tests(e, {"u": u}, 20, 0.01)}
+    assert t["u2e"].significant and t["u2e"].worst_lag == 2
+    assert t["u2e"].band == pytest.approx(bonferroni_z(0.01, 21) / np.sqrt(2000))
+    assert t["u2e"].band95 == pytest.approx(1.96 / np.sqrt(2000))
+
+
+def test_find_holds_in_held_sine():
+    hs = held_sine()
+    d = Data(hs.u, np.zeros(hs.u.size))
+    assert find_holds(d, 20) == [(hs.hold_rising.start, hs.hold_rising.stop - 1),
+                                 (hs.hold_falling.start - 1, hs.hold_falling.stop - 1)] or \
+        [a for a, _ in find_holds(d, 20)] == [hs.hold_rising.start, hs.hold_falling.start]
+
+
+def test_vocabulary_and_extension_plan():
+    assert set(VOCABULARY) == set(EXTENSIONS) >= {
+        "hysteresis", "steady-state-drift", "prediction-bias", "unmodelled-nonlinearity",
+        "unmodelled-dynamics"}
+    base = Setting("ms", 100, False, None, 3, 5, 15)
+    b = Budget()
+    p = plan_extension(["hysteresis"], base, b)
+    assert p.search and p.setting.use_phi and p.direction and p.setting.constraints is None
+    p = plan_extension(["steady-state-drift"], base, b)
+    assert p.refit_cls and not p.search and p.setting.constraints == "steady-state"
+    p = plan_extension(["prediction-bias"], base, b)
+    assert p.setting.window == 400 and p.search
+    p = plan_extension(["prediction-bias"], Setting("pem", 100, True, None, 3, 5, 15), b)
+    assert p.setting.fitness == "ms"
+    p = plan_extension(["unmodelled-nonlinearity", "unmodelled-dynamics"], base, b)
+    assert p.setting.max_degree == 4 and p.setting.max_height == 6 and p.setting.max_terms == 20
+    p = plan_extension(["unmodelled-nonlinearity", "hysteresis"], base, b)
+    assert p.setting.max_degree == 3 and any("attributed to hysteresis" in c for c in p.changes)
+
+
+# ----------------------------------------------------------------------- CLI
+def write_csv(path, cols):
+    names = list(cols)
+    arr = np.column_stack([cols[n] for n in names])
+    np.savetxt(path, arr, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+    return str(path)
+
+
+def digest(path):
+    return hashlib.sha256(open(path, "rb").read()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def drift_files(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("dx")
+    train, val, model, _ = drifting_case()
+    t = write_csv(tmp / "train.csv", {"t": np.arange(train.n), "u": train.U[0], "y": train.y})
+    v = write_csv(tmp / "held.csv", {"u": val.U[0], "y": val.y})
+    m = tmp / "model.json"
+    model.save(m)
+    return tmp, t, v, str(m)
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_cli_json_schema_report_and_untouched_data(capsys, drift_files):
+    tmp, t, v, m = drift_files
+    hashes = [digest(p) for p in (t, v, m)]
+    js, rep = tmp / "dx.json", tmp / "rep"
+    code, out, err = run(capsys, "diagnose", t, "--validation", v, "--model", m, "--json",
+                         js, "--report", rep, "--population", 30, "--generations", 3,
+                         "--quiet")
+    assert code == 0, err
+    assert "steady-state-drift" in out and "gain:" in out and len(out.splitlines()) < 15
+    doc = json.loads(js.read_text())
+    assert {"findings", "baseline", "extended", "gain"} <= set(doc)
+    for f in doc["findings"]:
+        assert set(f) == {"effect", "evidence", "statistic", "threshold"}
+        assert f["effect"] in VOCABULARY and f["statistic"] > f["threshold"]
+    assert set(doc["baseline"]) == {"terms", "theta", "validation"}
+    assert set(doc["extended"]) == {"terms", "theta", "validation", "changes"}
+    for k in ("baseline", "extended"):
+        assert set(doc[k]["validation"]) == {"rmse", "mape"}
+        assert len(doc[k]["terms"]) == len(doc[k]["theta"])
+    g = doc["gain"]
+    assert g["metric"] == "rmse" and g["ratio"] == pytest.approx(g["baseline"] / g["extended"])
+    assert g["ratio"] > 1
+    assert doc["samples"]["fit"] == {"record": "train.csv", "first": 0, "last": 2999}
+    assert doc["samples"]["measure"]["record"] == "held.csv"
+    text = (rep / "summary.md").read_text()
+    assert "fitted on samples 0-2999 of train.csv" in text and "held.csv" in text
+    for png in ("models.png", "residual_direction.png", "correlation.png", "holds.png"):
+        assert (rep / png).stat().st_size > 1000
+    assert [digest(p) for p in (t, v, m)] == hashes
+
+
+def test_cli_tail_holdout_without_validation(capsys, tmp_path):
+    s = polynomial_narx(n=1500, seed=0, noise_std=0.02)
+    t = write_csv(tmp_path / "c.csv", {"u": s.u, "y": s.y})
+    js = tmp_path / "dx.json"
+    code, out, err = run(capsys, "diagnose", t, "--json", js, "--population", 40,
+                         "--generations", 6, "--max-height", 3, "--holdout", 0.25, "--quiet")
+    assert code == 0, err
+    doc = json.loads(js.read_text())
+    assert doc["samples"]["fit"] == {"record": "c.csv", "first": 0, "last": 1124}
+    assert doc["samples"]["measure"]["first"] == 1125
+    assert doc["samples"]["measure"]["last"] == 1499
+    assert "findings: none" in out
+
+
+def one_error_line(err):
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    return lines[0]
+
+
+@pytest.mark.parametrize("extra, needle", [
+    (["--holdout", "1.5"], "--holdout must be a fraction between 0 and 1, got 1.5"),
+    (["--jobs", "0"], "--jobs must be >= 1 or -1, got 0"),
+    (["--population", "0"], "--population must be >= 1, got 0"),
+    (["--alpha", "0.7"], "--alpha must be between 0 and 0.5, got 0.7"),
+    (["--input", "x"], "no column 'x'"),
+    (["--validation", "missing.csv"], "missing.csv: cannot read file"),
+])
+def test_cli_bad_input(capsys, drift_files, extra, needle):
+    tmp, t, v, m = drift_files
+    code, out, err = run(capsys, "diagnose", t, *extra, "--quiet")
+    assert code == 2
+    assert needle in one_error_line(err)
+
+
+def test_cli_bad_files(capsys, tmp_path, drift_files):
+    _, t, v, m = drift_files
+    other = write_csv(tmp_path / "o.csv", {"x": np.arange(50.0), "y": np.zeros(50)})
+    code, _, err = run(capsys, "diagnose", t, "--validation", other)
+    line = one_error_line(err)
+    assert code == 2 and "o.csv" in line and "no column 'u' (columns: x, y)" in line
+    const = write_csv(tmp_path / "k.csv", {"u": np.ones(300), "y": np.arange(300.0)})
+    code, _, err = run(capsys, "diagnose", const)
+    assert code == 2 and "input 'u' is constant" in one_error_line(err)
+    short = write_csv(tmp_path / "s.csv", {"u": np.arange(60.0), "y": np.arange(60.0)})
+    code, _, err = run(capsys, "diagnose", short)
+    assert code == 2 and "too few to hold out a tail" in one_error_line(err)
+    code, _, err = run(capsys, "diagnose", t, "--json", str(tmp_path))
+    assert code == 2 and "is a folder, not a file" in one_error_line(err)
+    two = tmp_path / "two.json"
+    two.write_text(json.dumps({"output": "y", "inputs": ["u", "v"], "terms": ["y[k-1]"],
+                               "theta": [0.5]}))
+    code, _, err = run(capsys, "diagnose", t, "--model", two)
+    assert code == 2 and "no column 'v'" in one_error_line(err)
+
+
+def test_report_without_holds_says_so(tmp_path):
+    s = polynomial_narx(n=1200, seed=1, noise_std=0.02)
+    dx = diagnose(Data(s.u, s.y), budget=CONTROL, seed=1)
+    path = write_report(tmp_path / "r", dx)
+    text = open(path).read()
+    assert "no held-input segment" in text and "## Vocabulary" in text
