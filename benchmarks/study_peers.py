@@ -65,7 +65,7 @@ def _toolbox(cs, args, log):
     row = {**_ready("toolbox", args.peers), "name": "published toolbox (MS)"}
     if not row["available"]:
         return row
-    limit = 900.0 if args.full else 90.0
+    limit = 600.0 if args.full else 90.0
     r = peers.toolbox_fit(cs.u, cs.y, cs.uv, cs.yv, population=min(args.population, 500),
                           generations=args.generations, max_terms=15, max_height=5, seed=1,
                           fitness="ms", k=args.window, time_limit=limit, freerun_train=True)
