@@ -3,7 +3,7 @@
 Typical use::
 
     python -m benchmarks.diagnose_piezo --out dx_piezo --jobs 2          # N = 50,000
-    python -m benchmarks.diagnose_piezo --n 10000 --population 60 --generations 10
+    python -m benchmarks.diagnose_piezo --n 10000 --population 60 --generations 10   # quick
 
 Both published structures are fitted by LS on the training record of the
 case study (:mod:`benchmarks.casestudy`), then ``mggp.diagnose`` is run
@@ -35,7 +35,7 @@ CASES = (("PEM (32), LS", MODEL32_TERMS, "pem", ["prediction-bias", "hysteresis"
          ("MS (33), LS", MODEL33_TERMS, "ms", ["steady-state-drift"]))
 
 
-def run(n=50_000, seed=0, jobs=1, population=200, generations=40, out=None,
+def run(n=50_000, seed=0, jobs=1, population=500, generations=100, out=None,
         progress=None):
     """Diagnose both published models; returns one row per case."""
     from mggp.diagnose import Budget, diagnose
@@ -96,8 +96,8 @@ def main(argv=None) -> int:
     p.add_argument("--n", type=int, default=50_000)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--jobs", type=int, default=1)
-    p.add_argument("--population", type=int, default=200)
-    p.add_argument("--generations", type=int, default=40)
+    p.add_argument("--population", type=int, default=500)
+    p.add_argument("--generations", type=int, default=100)
     p.add_argument("--out", default=None, help="folder for JSON documents and reports")
     p.add_argument("--json", default=None, help="write the rows here")
     a = p.parse_args(argv)

@@ -4,7 +4,7 @@ Typical use::
 
     mggp diagnose train.csv --validation val.csv --json dx.json --report dx/ --seed 0 --jobs 2
     mggp diagnose train.csv --model pem.json --validation held.csv      # diagnose your model
-    mggp diagnose train.csv --population 500 --generations 100          # spend more
+    mggp diagnose train.csv --population 1000 --generations 200 --jobs 4  # spend more
 
 Without ``--model`` the baseline is an MGGP model with multiple-shooting
 fitness and no Φ-functions. Without ``--validation`` the last
@@ -38,9 +38,9 @@ def register(sub):
     p.add_argument("--report", metavar="DIR", default=None)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--jobs", type=int, default=1)
-    g = p.add_argument_group("budget (defaults: a few minutes for 10,000 samples on 2 cores)")
-    g.add_argument("--population", type=int, default=200)
-    g.add_argument("--generations", type=int, default=40)
+    g = p.add_argument_group("budget (defaults: about 40 s for 10,000 samples with --jobs 2)")
+    g.add_argument("--population", type=int, default=500)
+    g.add_argument("--generations", type=int, default=100)
     g.add_argument("--max-terms", type=int, default=15)
     g.add_argument("--max-height", type=int, default=5)
     g.add_argument("--max-degree", type=int, default=3)
@@ -90,7 +90,7 @@ def _check_args(args):
 
 
 _DEFAULTS = {"validation": None, "model": None, "json": None, "report": None, "seed": 0,
-             "jobs": 1, "population": 200, "generations": 40, "max_terms": 15,
+             "jobs": 1, "population": 500, "generations": 100, "max_terms": 15,
              "max_height": 5, "max_degree": 3, "window": 100, "shifts": 99,
              "bootstrap": 199, "holdout": 0.3, "alpha": 0.01, "resolution": 0.005,
              "input": None, "output": None}

@@ -118,7 +118,8 @@ def test_controls_without_hidden_effect_get_no_finding(system, seed):
 @pytest.mark.parametrize("system", [polynomial_narx, hammerstein])
 def test_controls_more_seeds_and_noise(system, seed, noise):
     s = system(n=3000, seed=seed, noise_std=noise)
-    dx = diagnose(Data(s.u, s.y), budget=Budget(max_height=3), seed=seed)
+    dx = diagnose(Data(s.u, s.y), budget=Budget(population=200, generations=40,
+                                                max_height=3), seed=seed)
     assert dx.findings == [], [(c.test, c.statistic, c.threshold) for c in dx.checks if c.beats]
 
 
@@ -311,3 +312,13 @@ def test_report_without_holds_says_so(tmp_path):
     path = write_report(tmp_path / "r", dx)
     text = open(path).read()
     assert "no held-input segment" in text and "## Vocabulary" in text
+
+
+@pytest.mark.slow
+def test_published_piezo_models_small_budget():
+    from benchmarks.diagnose_piezo import run as run_piezo
+    rows = {r["case"]: r for r in run_piezo(population=60, generations=10, jobs=2)}
+    pem, ms = rows["PEM (32), LS"], rows["MS (33), LS"]
+    assert {"prediction-bias", "hysteresis"} <= set(pem["findings"])
+    assert "steady-state-drift" in ms["findings"]
+    assert pem["gain"]["ratio"] > 1 and ms["gain"]["ratio"] > 1

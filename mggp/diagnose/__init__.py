@@ -15,11 +15,12 @@ Typical use::
 Steps (:func:`diagnose`): the baseline (the user's model, or MGGP with
 multiple-shooting fitness and no Φ-functions); evidence from its one-step
 residuals (Billings–Voon correlation tests, :mod:`.correlation`), from its
-simulation residual (direction test, prediction-bias bootstrap,
-:mod:`.evidence`) and from held-input segments of the data (drift,
-:mod:`.holds`); findings named by the rules and vocabulary of
-:mod:`.findings`; the extension the causes call for (:mod:`.extend`);
-the gain measured on samples not used for fitting (:mod:`.run`).
+simulations (loop-gap and Φ-augmentation tests, :mod:`.hysteresis`;
+prediction-bias bootstrap, :mod:`.evidence`) and from held-input segments
+of the data (drift and rest levels, :mod:`.holds`); findings named by the
+rules and vocabulary of :mod:`.findings`; the extension the causes call
+for (:mod:`.extend`); the gain measured on samples not used for fitting
+(:mod:`.run`); report and figures (:mod:`.report`).
 
 JSON document (``Diagnosis.to_dict``)::
 

@@ -17,7 +17,9 @@ effect                       meaning, and the evidence that names it            
                              between falling and rising input (loop-gap         terms as candidates
                              test), or direction terms remove simulation
                              error that placebo terms do not
-                             (Φ-augmentation test)
+                             (Φ-augmentation test), or the data rest at
+                             different levels in two holds at the same
+                             input and the model does not (rest levels)
 ``steady-state-drift``       the model does not hold its output at a constant   CLS with the derived
                              input where the system does: movement in a         continuum constraints
                              held-input segment of the data (hold test),        (``constraints=
@@ -129,7 +131,8 @@ class Evidence:
 
     ``floor`` is the resolution floor (output units) of the fitting record;
     hold responses carry their own record and use that record's floor
-    (``hold_floors[record]``).
+    (``hold_floors[record]``); holds whose inputs differ by at most
+    ``input_tolerance`` count as holds at the same input.
     """
 
     correlation: Sequence[CorrelationTest]
@@ -144,6 +147,7 @@ class Evidence:
     alpha: float
     resolution: float
     output: str = "y"
+    input_tolerance: float = 0.0
 
 
 def _num(v):
@@ -195,18 +199,23 @@ def _bias_check(ev: Evidence) -> List[Check]:
     return [Check("free-run excess", "prediction-bias", b.excess, thr, detail)]
 
 
-def _hold_checks(ev: Evidence) -> List[Check]:
+def _held(ev: Evidence):
+    """Every usable hold with its bound and whether the data keep still."""
     held = [h for h in ev.holds if np.isfinite(h.data_move)]
-    if not held:
-        return []
-    z = bonferroni_z(ev.alpha, len(held))
+    z = bonferroni_z(ev.alpha, max(len(held), 1))
+    out = []
+    for h in held:
+        bound = max(z * h.noise_se, ev.hold_floors.get(h.record, ev.floor))
+        out.append((h, bound, z, abs(h.data_move) <= bound))
+    return out
+
+
+def _hold_checks(ev: Evidence) -> List[Check]:
     out = []
     viol = ", ".join(f"{lab} = {v:.6g} (continuum needs {c:g})"
                      for lab, v, c in ev.cluster_violations) or "none"
-    for h in held:
-        floor = ev.hold_floors.get(h.record, ev.floor)
-        bound = max(z * h.noise_se, floor)
-        if abs(h.data_move) > bound:
+    for h, bound, z, still in _held(ev):
+        if not still:
             detail = (f"{h.record} samples {h.start}-{h.stop - 1}: the data do not hold "
                       f"(move {_g(h.data_move)}), so this segment says nothing about drift")
             out.append(Check(f"hold {h.record}:{h.start}", "steady-state-drift", 0.0,
@@ -215,12 +224,39 @@ def _hold_checks(ev: Evidence) -> List[Check]:
         moves = (f"moves {_g(h.model_move)}" if np.isfinite(h.model_move) else "diverges")
         detail = (f"input held at {h.level:.4g} in {h.record} samples {h.start}-{h.stop - 1}: "
                   f"the data move {_g(h.data_move)}, the model started from the measured "
-                  f"state {moves} (compared from sample {h.compare_from}); "
-                  f"bound max(z·se = {_g(z * h.noise_se)}, resolution floor {_g(floor)}); "
+                  f"state {moves} (compared from sample {h.compare_from}); bound "
+                  f"max(z·se = {_g(z * h.noise_se)}, resolution floor "
+                  f"{_g(ev.hold_floors.get(h.record, ev.floor))}); "
                   f"the model's steady-state equation moves {_g(h.rate)} per sample at this "
                   f"level; cluster sums off the continuum: {viol}")
         out.append(Check(f"hold {h.record}:{h.start}", "steady-state-drift", h.excess,
                          bound, detail))
+    return out
+
+
+def _rest_level_checks(ev: Evidence) -> List[Check]:
+    """Pairs of holds at the same input: the data rest apart; does the model?"""
+    still = [(h, b) for h, b, _, ok in _held(ev) if ok]
+    pairs = [(a, b) for i, a in enumerate(still) for b in still[i + 1:]
+             if abs(a[0].level - b[0].level) <= ev.input_tolerance]
+    z = bonferroni_z(ev.alpha, max(len(pairs), 1))
+    out = []
+    for (h1, _), (h2, _) in pairs:
+        gap = h2.data_end - h1.data_end
+        mgap = h2.model_end - h1.model_end
+        floor = max(ev.hold_floors.get(h1.record, ev.floor),
+                    ev.hold_floors.get(h2.record, ev.floor))
+        thr = max(z * float(np.hypot(h1.noise_se, h2.noise_se)), floor)
+        stat = abs(gap - mgap) if np.isfinite(mgap) else float("inf")
+        rests = f"{_g(mgap)} apart" if np.isfinite(mgap) else "nowhere (it diverges)"
+        detail = (f"with the input held at {h1.level:.4g}, the data rest at "
+                  f"{_g(h1.data_end)} ({h1.record} samples {h1.start}-{h1.stop - 1}) and at "
+                  f"{_g(h2.data_end)} ({h2.record} samples {h2.start}-{h2.stop - 1}), "
+                  f"{_g(gap)} apart: a memory of the way the input came; the model, started "
+                  f"from the measured state at each hold, rests {rests}; bound "
+                  f"max(z·se, resolution floor {_g(floor)})")
+        out.append(Check(f"rest levels {h1.record}:{h1.start}/{h2.start}", "hysteresis",
+                         stat, thr, detail))
     return out
 
 
@@ -249,8 +285,8 @@ def _ratio(c: Check) -> float:
 def name_findings(ev: Evidence) -> Tuple[List[Finding], List[Check]]:
     """Apply the rules: a finding per effect whose strongest check beats its
     threshold (its evidence lists every check of that effect that does)."""
-    checks = (_hysteresis_checks(ev) + _bias_check(ev) + _hold_checks(ev)
-              + _correlation_checks(ev))
+    checks = (_hysteresis_checks(ev) + _rest_level_checks(ev) + _bias_check(ev)
+              + _hold_checks(ev) + _correlation_checks(ev))
     findings = []
     for effect in VOCABULARY:
         hits = [c for c in checks if c.effect == effect and c.beats]

@@ -30,6 +30,11 @@ moves the output by
 
 which is 0 for every (ȳ, ū) exactly when Σ_y = 1 and every other cluster
 sum is 0 (a continuum of steady states, :mod:`narx.steady`).
+
+Two holds at the same input where the data rest at different levels are
+direct evidence of hysteresis (memory at rest); a model restarted at each
+hold that does not rest at levels as far apart cannot express it
+(:mod:`mggp.diagnose.findings`, rest-level check).
 """
 from __future__ import annotations
 
@@ -79,6 +84,9 @@ class HoldResponse:
     data_move, model_move : float
         Movement d of data and of the model started from measured data at
         ``start``.
+    data_end, model_end : float
+        Their mean over the last quarter of the comparison (the level they
+        rest at).
     noise_se : float
         Standard error of ``data_move``.
     rate : float
@@ -96,6 +104,8 @@ class HoldResponse:
     level: float
     data_move: float
     model_move: float
+    data_end: float
+    model_end: float
     noise_se: float
     rate: float
     t: np.ndarray
@@ -162,7 +172,9 @@ def hold_responses(model: Model, data: Data, record: str = "data",
         yh = np.where(np.isfinite(r.y_hat), r.y_hat, np.nan)
         q = max(2, (b - c) // 4)
         seg_y, seg_m = y[c:b], yh[c - a + L:]
-        model_move = _move(seg_m, q) if np.all(np.isfinite(seg_m)) else np.inf
+        finite = bool(np.all(np.isfinite(seg_m)))
+        model_move = _move(seg_m, q) if finite else np.inf
+        model_end = float(np.mean(seg_m[-q:])) if finite else np.inf
         y_bar = float(np.mean(seg_y[:q]))
         try:
             rate = steady_rate(model, y_bar, data.U[:, a])
@@ -174,8 +186,8 @@ def hold_responses(model: Model, data: Data, record: str = "data",
         y_hat[pre:] = yh[L:]
         out.append(HoldResponse(record, a + offset, b + offset, c + offset,
                                 float(data.U[0, a]), _move(seg_y, q), model_move,
-                                _noise_se(seg_y, q), rate, t + offset, y[a - pre:b].copy(),
-                                y_hat))
+                                float(np.mean(seg_y[-q:])), model_end, _noise_se(seg_y, q),
+                                rate, t + offset, y[a - pre:b].copy(), y_hat))
     return out
 
 

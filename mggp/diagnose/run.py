@@ -212,7 +212,8 @@ def _evidence(model: Model, fit: Data, measure: Data, names, offset: int, budget
     holds += hold_responses(model, measure, names[1], min_len, meas_segs, offset)
     floors = {names[0]: resolution * _range(fit.y), names[1]: resolution * _range(measure.y)}
     ev = Evidence(corr, osa_rms, loops, aug, bias, holds, floors[names[0]], floors,
-                  continuum_violations(model), alpha, resolution, fit.output)
+                  continuum_violations(model), alpha, resolution, fit.output,
+                  resolution * float(np.ptp(fit.U[0])))
     return ev, meas_segs
 
 
