@@ -30,6 +30,7 @@ one). Anything else returns ``None`` and the general kernel runs.
 from __future__ import annotations
 
 import os
+from collections import OrderedDict
 from typing import Dict, Optional, Sequence
 
 import numpy as np
@@ -117,23 +118,45 @@ def _ms_errors(y, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound):
 
 
 class WindowStore:
-    """Input-part columns laid out window-major for one (N, start, Δm)."""
+    """Input-part columns laid out window-major for one (N, start, Δm): an
+    LRU of ``budget_bytes`` allocated once (pages are touched as slots fill,
+    and nothing is ever copied to grow it)."""
 
     def __init__(self, n: int, start: int, window: int, budget_bytes: int):
-        from .fitness import ColumnStore        # late: fitness imports us
         self.n, self.start, self.window = int(n), int(start), int(window)
         self.W = len(range(self.start, self.n, self.window))
-        self.cols = ColumnStore(self.W * self.window, budget_bytes)
+        width = self.W * self.window
+        self.capacity = max(16, int(budget_bytes // (8 * width)))   # > 15 terms
+        self.array = np.empty((self.capacity, width))
+        self.slots: "OrderedDict[str, int]" = OrderedDict()
+        self.builds = 0
 
-    def permute(self, col: np.ndarray) -> np.ndarray:
-        """``out[j*W + w] = col[start + w*Δm + j]`` (0 past the end)."""
-        pad = np.zeros(self.W * self.window)
-        pad[:self.n - self.start] = col[self.start:]
-        return np.ascontiguousarray(pad.reshape(self.W, self.window).T).ravel()
+    def permute_into(self, col: np.ndarray, row: np.ndarray) -> None:
+        """``row[j*W + w] = col[start + w*Δm + j]`` (0 past the end)."""
+        L, W, s = self.window, self.W, self.start
+        dst = row.reshape(L, W)
+        m = self.n - s
+        full = m // L
+        dst[:, :full] = col[s:s + full * L].reshape(full, L).T
+        if full < W:                                  # the last, short window
+            rem = m - full * L
+            dst[:rem, full] = col[s + full * L:]
+            dst[rem:, full] = 0.0
 
     def slot(self, key: str, natural) -> int:
         """Slot of ``key``; ``natural()`` gives the length-N column on a miss."""
-        return self.cols.get(key, lambda: self.permute(natural()))
+        slot = self.slots.get(key)
+        if slot is not None:
+            self.slots.move_to_end(key)
+            return slot
+        if len(self.slots) < self.capacity:
+            slot = len(self.slots)
+        else:
+            _, slot = self.slots.popitem(last=False)
+        self.permute_into(natural(), self.array[slot])
+        self.slots[key] = slot
+        self.builds += 1
+        return slot
 
 
 class _State:
@@ -195,7 +218,7 @@ def ms_mse(scorer, terms: Sequence[Term], theta, s: int) -> Optional[float]:
     nlag = np.array([len(r) for r in lag_rows], dtype=np.int64)
     ml = max((max(r) for r in lag_rows), default=0)
     ws = st.store
-    diverged, r = _ms_errors(scorer.y, ws.cols.array, idx,
+    diverged, r = _ms_errors(scorer.y, ws.array, idx,
                             np.ascontiguousarray(theta, dtype=np.float64),
                             np.array(static, dtype=np.int64),
                             np.array(dyn, dtype=np.int64), lags, nlag,
