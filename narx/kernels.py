@@ -48,16 +48,18 @@ KIND_USER = 99
 
 
 @njit(cache=True, nogil=True)
-def _kernel(y_meas, U, P, idx, theta, static, dyn, rel, absol, p_kind, p_sig, p_lag,
+def _kernel(y_meas, U, P, idx, theta, static, dyn, d_ptr, d_code, p_kind, p_sig, p_lag,
             starts, length, write_from, maxlag, bound, out):
     # Input-only terms (``static``) are summed once, outside the recursion.
-    # Each term with output factors (``dyn``) has a fixed-width row of
-    # factor reads from ``buf``: relative ``pos - rel`` for an output lag,
-    # absolute ``absol`` otherwise (slot 0 holds 1.0 for padding, slots
-    # 1..n_phi the Φ-calls with an output argument at the current step).
+    # Each term with output factors (``dyn``) gets θ times its input part
+    # laid out step-major in C[k, i], and a short list of factor reads from
+    # ``buf``: code c > 0 is the output lag c (``buf[pos - c]``), c <= 0 the
+    # slot -c holding a Φ-call with an output argument at the current step
+    # (slots 1..n_phi). Same products in the same order as the reference
+    # path, so results are bit-identical to it.
     n = y_meas.shape[0]
     n_phi = p_kind.shape[0]
-    n_dyn, width = rel.shape
+    n_dyn = dyn.shape[0]
     first = n
     for w in range(starts.shape[0]):
         first = min(first, starts[w])
@@ -69,6 +71,13 @@ def _kernel(y_meas, U, P, idx, theta, static, dyn, rel, absol, p_kind, p_sig, p_
         if th != 0.0:
             for k in range(first, n):
                 base[k] += th * P[row, k]
+    C = np.empty((n, n_dyn))
+    for i in range(n_dyn):
+        t = dyn[i]
+        row = idx[t]
+        th = theta[t]
+        for k in range(first, n):
+            C[k, i] = th * P[row, k]
     off = 1 + n_phi
     buf = np.empty(off + maxlag + length)
     buf[0] = 1.0
@@ -97,13 +106,19 @@ def _kernel(y_meas, U, P, idx, theta, static, dyn, rel, absol, p_kind, p_sig, p_
                 else:
                     buf[1 + f] = 1.0 if d > 0 else (-1.0 if d < 0 else 0.0)
             acc = base[k]
-            for i in range(n_dyn):
-                t = dyn[i]
-                v = theta[t] * P[idx[t], k]
-                for q in range(width):
-                    c = rel[i, q]
-                    v *= buf[pos - c if c > 0 else absol[i, q]]
-                acc += v
+            if n_phi == 0:                       # output lags only
+                for i in range(n_dyn):
+                    v = C[k, i]
+                    for q in range(d_ptr[i], d_ptr[i + 1]):
+                        v *= buf[pos - d_code[q]]
+                    acc += v
+            else:
+                for i in range(n_dyn):
+                    v = C[k, i]
+                    for q in range(d_ptr[i], d_ptr[i + 1]):
+                        c = d_code[q]
+                        v *= buf[pos - c] if c > 0 else buf[-c]
+                    acc += v
             bad += not (abs(acc) <= bound)       # NaN and inf count too
             buf[pos] = acc
             if j >= write_from:
@@ -126,8 +141,8 @@ class Plan:
     t_fac: np.ndarray           # index into out_factors (reference path)
     static: np.ndarray          # terms without output factors
     dyn: np.ndarray             # terms with output factors
-    rel: np.ndarray             # (n_dyn, width) output lag, 0 if absolute
-    absol: np.ndarray           # (n_dyn, width) absolute buffer slot
+    d_ptr: np.ndarray           # (n_dyn + 1,) factor list bounds per dyn term
+    d_code: np.ndarray          # output lag (> 0) or -(Φ slot) (<= 0)
     p_kind: np.ndarray          # per Φ-call with an output argument
     p_sig: np.ndarray
     p_lag: np.ndarray
@@ -163,21 +178,18 @@ class Plan:
                 lag[j, a] = arg.lag
         dyn = [i for i in range(len(terms)) if t_ptr[i + 1] > t_ptr[i]]
         static = [i for i in range(len(terms)) if t_ptr[i + 1] == t_ptr[i]]
-        width = max([1] + [t_ptr[i + 1] - t_ptr[i] for i in dyn])
-        rel = np.zeros((len(dyn), width), dtype=np.int64)
-        absol = np.zeros((len(dyn), width), dtype=np.int64)
-        for r, i in enumerate(dyn):
-            for q, fi in enumerate(t_fac[t_ptr[i]:t_ptr[i + 1]]):
+        d_ptr, d_code = [0], []
+        for i in dyn:
+            for fi in t_fac[t_ptr[i]:t_ptr[i + 1]]:
                 f = facs[fi]
-                if isinstance(f, Lag):
-                    rel[r, q] = f.lag
-                else:
-                    absol[r, q] = 1 + phis.index(f)
+                d_code.append(f.lag if isinstance(f, Lag) else -(1 + phis.index(f)))
+            d_ptr.append(len(d_code))
         ml = max((t.max_lag for t in terms), default=0)
         return cls(terms, ml, tuple(facs), np.asarray(t_ptr, dtype=np.int64),
                    np.asarray(t_fac, dtype=np.int64),
                    np.asarray(static, dtype=np.int64), np.asarray(dyn, dtype=np.int64),
-                   rel, absol, kind, sig, lag, noise, inputs)
+                   np.asarray(d_ptr, dtype=np.int64), np.asarray(d_code, dtype=np.int64),
+                   kind, sig, lag, noise, inputs)
 
     @property
     def compiled(self) -> bool:
@@ -266,7 +278,7 @@ def run_windows(plan: Plan, P, U, y_meas, theta, starts, length: int,
     P = np.ascontiguousarray(P)
     if plan.compiled and not force_python:
         diverged = _kernel(y_meas, np.ascontiguousarray(U), P, idx, theta, plan.static,
-                           plan.dyn, plan.rel, plan.absol, plan.p_kind, plan.p_sig,
+                           plan.dyn, plan.d_ptr, plan.d_code, plan.p_kind, plan.p_sig,
                            plan.p_lag, starts,
                            int(length), int(write_from), int(plan.maxlag),
                            float(bound), out)
