@@ -158,7 +158,7 @@ class StructureScorer:
     def __init__(self, data: Data, fitness: str = "ms", *, window: Optional[int] = None,
                  k: Optional[int] = None, constraints: Optional[str] = None,
                  start: Optional[int] = None, registry: Optional[PhiRegistry] = None,
-                 budget_bytes: int = 96 * 2**20):
+                 budget_bytes: int = 64 * 2**20):
         if fitness == "osa":
             fitness = "pem"
         if fitness not in FITNESS:
@@ -179,7 +179,7 @@ class StructureScorer:
         # keep a worker's caches (record columns, store, Gram entries, the
         # shooting store) well under the 300 MB growth after which joblib's
         # loky restarts a worker and its warm caches are lost
-        data.cache_limit = min(data.cache_limit, 64 * 2**20)
+        data.cache_limit = min(data.cache_limit, 48 * 2**20)
         self._gram: Dict[Tuple[str, str, int], float] = {}
         scale = float(np.max(np.abs(self.y))) if self.y.size else 1.0
         self.bound = 1e4 * (scale if scale > 0 else 1.0)
@@ -211,7 +211,7 @@ class StructureScorer:
             arr = self.store.array
             x = arr[sa, s:]
             v = float(fixed_dot(x, self.y[s:] if sb < 0 else arr[sb, s:]))
-            if len(self._gram) > 300_000:
+            if len(self._gram) > 200_000:
                 self._gram.clear()
             self._gram[key] = v
         return v
