@@ -26,6 +26,10 @@ def atomic_writer(path, newline=None, encoding="utf-8"):
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=folder)
     try:
+        # mkstemp creates 0600; give the file the permissions open() would
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         with os.fdopen(fd, "w", newline=newline, encoding=encoding) as fh:
             yield fh
             fh.flush()
