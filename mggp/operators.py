@@ -268,12 +268,7 @@ def remove_duplicate_genes(ind: Individual, decoder) -> Individual:
     The set of distinct terms (hence the fitness) is unchanged, so the
     fitness is kept. Returns ``ind``.
     """
-    seen, keep = set(), []
-    for g in ind:
-        t = decoder.decode(g)
-        if t not in seen:
-            seen.add(t)
-            keep.append(g)
+    keep = [g for _, g in decoder.first_genes(ind)]
     if len(keep) != len(ind):
         values = ind.fitness.values if ind.fitness.valid else None
         ind[:] = keep

@@ -344,6 +344,16 @@ class Decoder:
             self._cache[key] = term
         return term
 
+    def first_genes(self, genes):
+        """(term, gene) for the first gene of each distinct term, in order."""
+        seen, out = set(), []
+        for gene in genes:
+            t = self.decode(gene)
+            if t not in seen:
+                seen.add(t)
+                out.append((t, gene))
+        return out
+
     def decode_individual(self, ind) -> Tuple[Term, ...]:
         """Distinct terms of an individual's genes, first occurrence first.
 
@@ -353,13 +363,7 @@ class Decoder:
         cached = getattr(ind, "_terms", None)
         if cached is not None:
             return cached
-        seen, terms = set(), []
-        for gene in ind:
-            t = self.decode(gene)
-            if t not in seen:
-                seen.add(t)
-                terms.append(t)
-        terms = tuple(terms)
+        terms = tuple(t for t, _ in self.first_genes(ind))
         if hasattr(ind, "_terms"):
             ind._terms = terms
         return terms
