@@ -87,6 +87,14 @@ class MGGPRegressor:
     max_lag, max_degree : int, optional
         Genes decoding to a term with a larger lag or more factors
         contribute no term (e.g. lags up to 4, degree up to 3).
+    select : {'fitness', 'freerun'}
+        How the final structure is chosen: the best search fitness, or,
+        among the ``select_candidates`` best distinct structures of the run
+        (archive and final population), the one with the lowest free-run
+        MSE over the whole training record — multiple shooting never sees
+        an instability longer than its window.
+    select_candidates : int
+        Candidates for ``select='freerun'`` (20).
     prune : False, 'bic' or 't'
         Backward elimination of the best structure: by the BIC of the
         search fitness, or by LS t-statistics (drop the least significant
@@ -116,7 +124,8 @@ class MGGPRegressor:
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi=True, phi_names=None,
-                 max_lag=None, max_degree=None, prune=False, noise_lags=0,
+                 max_lag=None, max_degree=None, select="fitness", select_candidates=20,
+                 prune=False, noise_lags=0,
                  t_threshold=None,
                  random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
@@ -141,6 +150,8 @@ class MGGPRegressor:
         self.phi_names = phi_names
         self.max_lag = max_lag
         self.max_degree = max_degree
+        self.select = select
+        self.select_candidates = select_candidates
         self.prune = prune
         self.noise_lags = noise_lags
         self.t_threshold = t_threshold
@@ -237,6 +248,10 @@ class MGGPRegressor:
             raise ValueError("no structure with a finite fitness was found: every "
                              "candidate diverged; try fitness='pem' or a shorter window")
         terms = tuple(t for t in res.best.terms if allowed(t))
+        if self.select == "freerun":
+            terms = self._select_freerun(res, data, start, registry, allowed) or terms
+        elif self.select != "fitness":
+            raise ValueError(f"select must be 'fitness' or 'freerun', got {self.select!r}")
         self.search_terms_ = terms
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
@@ -277,6 +292,31 @@ class MGGPRegressor:
         self.result_ = res
         self.fit_time_ = time.perf_counter() - t0
         return self
+
+    def _select_freerun(self, res, data, start, registry, allowed):
+        """Structure with the lowest whole-record free-run MSE among the
+        best distinct structures of the run (ties: fewer terms)."""
+        from .individual import fitness_of
+        rows = [(r.fitness, tuple(r.terms)) for r in res.pareto]
+        from .primitives import Decoder
+        dec = Decoder(data.signals)
+        rows += [(fitness_of(ind), dec.decode_individual(ind)) for ind in res.population
+                 if ind.fitness.valid]
+        seen, cands = set(), []
+        for fit, terms in sorted((r for r in rows if r[1] and np.isfinite(r[0])),
+                                 key=lambda r: (r[0], len(r[1]))):
+            terms = tuple(t for t in terms if allowed(t))
+            key = frozenset(terms)
+            if terms and key not in seen:
+                seen.add(key)
+                cands.append(terms)
+            if len(cands) >= int(self.select_candidates):
+                break
+        fr = StructureScorer(data, "freerun", start=start, registry=registry)
+        scored = [(fr.score(c), len(c), i) for i, c in enumerate(cands)]
+        scored = [r for r in scored if np.isfinite(r[0])]
+        self.selection_ = [(float(m), [str(t) for t in cands[i]]) for m, _, i in sorted(scored)]
+        return cands[min(scored)[2]] if scored else None
 
     def _allowed(self, term) -> bool:
         if _identically_zero(term, self.registry or default_registry()):

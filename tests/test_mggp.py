@@ -127,3 +127,21 @@ def test_fit_cli_bad_arguments(tmp_path, capsys):
     const.write_text("u,y\n" + "\n".join(f"1.0,{i}" for i in range(300)))
     assert main(["fit", str(const), "--generations", "1", "--population", "4"]) == 2
     assert "input 'u' is constant" in capsys.readouterr().err
+
+
+def test_select_freerun_picks_the_best_whole_record_simulation():
+    u, y = _piezo()
+    kw = dict(fitness="ms", window=50, population=40, generations=4, random_state=2,
+              max_terms=8)
+    a = MGGPRegressor(select="freerun", select_candidates=10, **kw).fit(u, y)
+    ranked = a.selection_
+    assert ranked and all(m1 <= m2 for (m1, _), (m2, _) in zip(ranked, ranked[1:]))
+    assert sorted(a.model_.term_texts) == sorted(ranked[0][1])
+    fr = a.model_.simulate(u, y, mode="freerun")
+    assert not fr.diverged
+    b = MGGPRegressor(select="fitness", **kw).fit(u, y)
+    # the chosen structure is never worse in free run than the best-fitness one
+    fb = b.model_.simulate(u, y, mode="freerun")
+    assert fr.mse <= fb.mse * (1 + 1e-9) or fb.diverged
+    with pytest.raises(ValueError, match="select must be"):
+        MGGPRegressor(select="best", **kw).fit(u, y)
