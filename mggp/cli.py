@@ -153,10 +153,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Optional[List[str]] = None) -> int:
     try:
         args = build_parser().parse_args(argv)
-        if getattr(args, "k", 1) is not None and getattr(args, "k", 1) < 1:
-            raise CLIError(f"--k must be >= 1, got {args.k}")
-        if getattr(args, "window", 1) is not None and getattr(args, "window", 1) < 1:
-            raise CLIError(f"--window must be >= 1, got {args.window}")
+        for name in ("k", "window"):           # shared by every subcommand
+            v = getattr(args, name, None)
+            if v is not None and v < 1:
+                raise CLIError(f"--{name} must be >= 1, got {v}")
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)

@@ -82,7 +82,7 @@ class _Progress:
 def _cmd_fit(args) -> int:
     from narx.csvdata import read_csv
     from .estimator import MGGPRegressor
-    for name in ("population", "generations", "max_terms", "max_height", "window", "k"):
+    for name in ("population", "generations", "max_terms", "max_height"):
         v = getattr(args, name)
         if v < (0 if name == "generations" else 1):
             raise CLIError(f"--{name.replace('_', '-')} must be >= "

@@ -43,7 +43,7 @@ from .kernels import Plan, run_windows
 from .ms_kernel import ms_mse
 from .phi import PhiRegistry, default_registry
 from .regressors import factor_column, input_part
-from .simulate import window_starts
+from .simulate import recursion_windows
 from .steady import steady_state_constraints
 from .terms import Term
 
@@ -285,13 +285,8 @@ class StructureScorer:
                 return mse
         plan = Plan.from_terms(terms, self.data.inputs, self.registry)
         idx = np.array([self._in_slot(t) for t in terms], dtype=np.int64)
-        if self.fitness == "freerun":
-            starts, length, wf, first = np.array([s]), n - s, 0, s
-        elif self.fitness == "ms":
-            starts, length, wf, first = window_starts(n, s, self.window), self.window, 0, s
-        else:
-            starts = np.arange(s, n - self.k + 1, dtype=np.int64)
-            length, wf, first = self.k, self.k - 1, s + self.k - 1
+        horizon = self.window if self.fitness == "ms" else self.k
+        starts, length, wf, first = recursion_windows(self.fitness, n, s, horizon)
         if starts.size == 0:
             return float("inf")
         out, diverged = run_windows(plan, self.store.array, self.data.U, y, theta,

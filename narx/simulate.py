@@ -34,7 +34,7 @@ from .kernels import Plan, run_windows
 from .phi import PhiRegistry
 from .terms import Term
 
-__all__ = ["SimulationResult", "simulate", "MODES", "window_starts"]
+__all__ = ["SimulationResult", "simulate", "MODES", "window_starts", "recursion_windows"]
 
 MODES = ("osa", "freerun", "ksa", "ms")
 _ALIASES = {"pem": "osa", "one-step": "osa", "free-run": "freerun",
@@ -107,6 +107,20 @@ def window_starts(n: int, maxlag: int, window: int) -> np.ndarray:
     return np.arange(maxlag, n, window, dtype=np.int64)
 
 
+def recursion_windows(mode: str, n: int, start: int, horizon: Optional[int] = None):
+    """Windows of a recursive mode: ``(starts, length, write_from, first)``.
+
+    ``first`` is the first sample that receives a prediction. ``horizon`` is
+    Δm for ``'ms'`` and k for ``'ksa'`` (ignored for ``'freerun'``).
+    """
+    if mode == "freerun":
+        return np.array([start], dtype=np.int64), n - start, 0, start
+    if mode == "ms":
+        return window_starts(n, start, horizon), horizon, 0, start
+    return (np.arange(start, n - horizon + 1, dtype=np.int64), horizon, horizon - 1,
+            start + horizon - 1)
+
+
 def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
              k: Optional[int] = None, window: Optional[int] = None,
              y0=None, plan: Optional[Plan] = None, P=None,
@@ -174,26 +188,19 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
         diverged = not np.all(np.isfinite(y_hat[ml:]))
         valid[ml:] = True
     else:
-        if mode == "freerun":
-            starts, length, write_from = np.array([ml]), n - ml, 0
-            valid[ml:] = True
-        elif mode == "ms":
+        if mode == "ms":
             if window is None or int(window) < 1:
                 raise ValueError(f"window (Δm) must be an integer >= 1 for mode 'ms', got {window!r}")
             horizon = int(window)
-            starts, length, write_from = window_starts(n, ml, horizon), horizon, 0
-            valid[ml:] = True
-        else:
+        elif mode == "ksa":
             if k is None or int(k) < 1:
                 raise ValueError(f"k must be an integer >= 1 for mode 'ksa', got {k!r}")
             horizon = int(k)
-            last = n - horizon
-            starts = np.arange(ml, last + 1, dtype=np.int64)
-            length, write_from = horizon, horizon - 1
-            valid[ml + horizon - 1:] = True
-            if starts.size == 0:
-                raise DataError(f"record of {n} samples is too short for k={horizon} "
-                                f"with largest lag {ml}")
+        starts, length, write_from, first = recursion_windows(mode, n, ml, horizon)
+        if starts.size == 0:
+            raise DataError(f"record of {n} samples is too short for k={horizon} "
+                            f"with largest lag {ml}")
+        valid[first:] = True
         y_hat, diverged = run_windows(plan, P, data.U, y_meas, theta, starts, length,
                                       write_from, bound=bound, registry=registry,
                                       force_python=force_python)
