@@ -67,7 +67,12 @@ BACKENDS = ("loky", "threading", "sequential", "dask")
 #: per process: key -> idle scorers (one is checked out per busy thread)
 _IDLE: "OrderedDict[str, list]" = OrderedDict()
 _LOCK = threading.Lock()
-_MAX_KEYS = 8
+#: runs whose idle scorers a process keeps. A scorer holds ~300 MB of
+#: column stores written at creation; keeping only the latest run's means a
+#: worker that moves on to a new run frees the old stores, its resident size
+#: does not grow, and loky does not restart it (it restarts a worker that
+#: grew by 300 MB since its first task)
+_MAX_KEYS = 1
 
 
 class WorkerLostError(RuntimeError):

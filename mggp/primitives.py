@@ -312,7 +312,12 @@ def decode(tree, signals: Optional[Signals] = None) -> Term:
 
 
 class Decoder:
-    """Tree -> term decoder with a cache keyed by ``str(tree)``.
+    """Tree -> term decoder with a cache keyed by the tree's node names.
+
+    A prefix sequence of node names identifies a tree, since every
+    primitive has a fixed arity and a unique name (the primitive set has
+    no ephemeral constants); building that tuple is several times faster
+    than ``str(tree)``.
 
     Parameters
     ----------
@@ -325,7 +330,7 @@ class Decoder:
     def __init__(self, signals: Optional[Signals] = None, maxsize: int = 200_000):
         self.signals = signals
         self.maxsize = int(maxsize)
-        self._cache: Dict[str, Term] = {}
+        self._cache: Dict[tuple, Term] = {}
 
     def __len__(self):
         return len(self._cache)
@@ -335,7 +340,7 @@ class Decoder:
 
     def decode(self, tree) -> Term:
         """The term of one tree (cached)."""
-        key = str(tree)
+        key = tuple([node.name for node in tree])
         term = self._cache.get(key)
         if term is None:
             term = decode(tree, self.signals)

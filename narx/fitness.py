@@ -78,6 +78,22 @@ def fixed_dot(a, b):
 
 
 @njit(cache=True, nogil=True)
+def _finite_inplace(x):
+    """``x`` with NaN -> 0 and ±inf -> ±max float, in one pass, in place
+    (``numpy.nan_to_num(x, nan=0.0)`` without its three temporaries)."""
+    big = np.finfo(np.float64).max
+    for i in range(x.shape[0]):
+        v = x[i]
+        if v != v:
+            x[i] = 0.0
+        elif v > big:
+            x[i] = big
+        elif v < -big:
+            x[i] = -big
+    return x
+
+
+@njit(cache=True, nogil=True)
 def _osa_sse(P, idx, theta, y, s):
     """Σ (y_k − Σ_i θ_i P[idx_i, k])² over k >= s, in a fixed order."""
     acc = 0.0
@@ -96,23 +112,29 @@ _GRAM_COND = 1e-12
 
 
 class ColumnStore:
-    """Fixed-size (C, N) array of cached columns with LRU slot reuse."""
+    """Fixed-size (C, N) array of cached columns with LRU slot reuse.
 
-    def __init__(self, n: int, budget_bytes: int = 256 * 2**20, min_slots: int = 64):
-        self.capacity = max(min_slots, int(budget_bytes // (8 * max(n, 1))))
+    ``budget_bytes`` sets the capacity C (at least ``min_slots``, at most
+    ``max_slots``); the first ``budget_bytes`` of the array are written once
+    at construction (``prefault``), so the process's resident size does not
+    grow later as the cache fills (joblib's loky restarts a worker whose
+    resident size grows by 300 MB after its first task).
+    """
+
+    def __init__(self, n: int, budget_bytes: int = 256 * 2**20, min_slots: int = 64,
+                 max_slots: int = 1024, prefault: bool = True):
+        self.capacity = min(max_slots, max(min_slots, int(budget_bytes // (8 * max(n, 1)))))
         self.n = n
-        self.array = np.empty((0, n))
+        # allocated once; nothing is ever copied to grow it
+        self.array = np.empty((self.capacity, n))
+        if prefault:
+            rows = min(self.capacity, max(1, int(budget_bytes // (8 * max(n, 1)))))
+            self.array[:rows] = 0.0
         self.slots: "OrderedDict[str, int]" = OrderedDict()
-        self.free = []
+        self.free = list(range(self.capacity - 1, -1, -1))
         self.builds = 0
-
-    def _grow(self):
-        old = self.array.shape[0]
-        new = min(self.capacity, max(16, 2 * old))
-        arr = np.empty((new, self.n))
-        arr[:old] = self.array
-        self.array = arr
-        self.free.extend(range(new - 1, old - 1, -1))
+        #: slots whose content was replaced since the owner last looked
+        self.evicted = []
 
     def get(self, key: str, build) -> int:
         """Slot of ``key``, calling ``build()`` (a length-N array) if absent."""
@@ -121,11 +143,9 @@ class ColumnStore:
             self.slots.move_to_end(key)
             return slot
         if not self.free:
-            if self.array.shape[0] < self.capacity:
-                self._grow()
-            else:
-                _, slot = self.slots.popitem(last=False)
-                self.free.append(slot)
+            _, slot = self.slots.popitem(last=False)
+            self.evicted.append(slot)
+            self.free.append(slot)
         slot = self.free.pop()
         self.array[slot] = build()
         self.slots[key] = slot
@@ -134,6 +154,12 @@ class ColumnStore:
 
     def __contains__(self, key):
         return key in self.slots
+
+    def clear(self):
+        """Forget every column (the array and its pages are kept)."""
+        self.evicted.extend(self.slots.values())
+        self.slots.clear()
+        self.free = list(range(self.capacity - 1, -1, -1))
 
 
 class StructureScorer:
@@ -153,12 +179,17 @@ class StructureScorer:
     start : int, optional
         First row used for estimation and scoring; must be at least the
         largest lag of every scored set (default: the set's own).
+    budget_bytes : int
+        Size of the column cache (default 160 MB; the ``ms`` fitness keeps
+        a second, window-major cache of ``narx.ms_kernel.BUDGET``, 128 MB).
+        Both are written once when they are created, so a worker's resident
+        size is reached at its first task and does not grow afterwards.
     """
 
     def __init__(self, data: Data, fitness: str = "ms", *, window: Optional[int] = None,
                  k: Optional[int] = None, constraints: Optional[str] = None,
                  start: Optional[int] = None, registry: Optional[PhiRegistry] = None,
-                 budget_bytes: int = 64 * 2**20):
+                 budget_bytes: int = 160 * 2**20):
         if fitness == "osa":
             fitness = "pem"
         if fitness not in FITNESS:
@@ -176,14 +207,32 @@ class StructureScorer:
         self.start = None if start is None else int(start)
         self.registry = registry or default_registry()
         self.store = ColumnStore(data.n, budget_bytes)
-        # keep a worker's caches (record columns, store, Gram entries, the
-        # shooting store) well under the 300 MB growth after which joblib's
-        # loky restarts a worker and its warm caches are lost
+        # the stores are written at creation (the first task of a worker);
+        # what may still grow is bounded: the record's column cache, the
+        # decoder and term caches. joblib's loky restarts a worker whose
+        # resident size grows by 300 MB after its first task.
         data.cache_limit = min(data.cache_limit, 48 * 2**20)
-        self._gram: Dict[Tuple[str, str, int], float] = {}
+        # Gram entries psi_i^T psi_j and psi_i^T y of cached columns, indexed
+        # by store slot, for rows >= self._gram_start (NaN: not computed)
+        cap = self.store.capacity
+        self._G = np.full((cap, cap), np.nan)
+        self._b = np.full(cap, np.nan)
+        self._gram_start = -1
         scale = float(np.max(np.abs(self.y))) if self.y.size else 1.0
         self.bound = 1e4 * (scale if scale > 0 else 1.0)
         self.evaluations = 0
+
+    def clear_cache(self):
+        """Forget every cached column and Gram entry, and the record's column
+        cache, so the next evaluation builds everything (the allocated
+        stores are kept)."""
+        self.store.clear()
+        self._gram_start = -1
+        st = getattr(self, "_ms_state", None)
+        if st is not None:
+            st.store.clear()
+            st.info.clear()
+        self.data.clear_cache()
 
     # ------------------------------------------------------------ columns
     def _reg_slot(self, t: Term) -> int:
@@ -194,27 +243,44 @@ class StructureScorer:
             for f in t.factors:
                 if not f.input_only:
                     col *= factor_column(f, self.data, self.y, None, self.registry)
-            return np.nan_to_num(col, nan=0.0)
+            return _finite_inplace(col)
         return self.store.get(key, build)
 
     def _in_slot(self, t: Term) -> int:
         if not t.output_factors and not t.has_noise:
             return self._reg_slot(t)
         key = "i:" + "*".join(str(f) for f in t.input_factors)
-        return self.store.get(key, lambda: np.nan_to_num(
-            input_part(t, self.data, self.registry), nan=0.0))
+        return self.store.get(key, lambda: _finite_inplace(
+            input_part(t, self.data, self.registry).copy()))
 
-    def _dot(self, a: str, sa: int, b: str, sb: int, s: int) -> float:
-        key = (a, b, s) if a <= b else (b, a, s)
-        v = self._gram.get(key)
-        if v is None:
-            arr = self.store.array
-            x = arr[sa, s:]
-            v = float(fixed_dot(x, self.y[s:] if sb < 0 else arr[sb, s:]))
-            if len(self._gram) > 200_000:
-                self._gram.clear()
-            self._gram[key] = v
-        return v
+    def _gram(self, slots: np.ndarray, s: int) -> Tuple[np.ndarray, np.ndarray]:
+        """(G, b) of the columns in ``slots`` for rows ``s..N-1``; every entry
+        is computed once (``fixed_dot``) and kept until its slot is reused."""
+        G, bv, arr = self._G, self._b, self.store.array
+        if s != self._gram_start:
+            G.fill(np.nan)
+            bv.fill(np.nan)
+            self._gram_start = s
+        if self.store.evicted:
+            ev = np.array(self.store.evicted, dtype=np.int64)
+            self.store.evicted.clear()
+            G[ev, :] = np.nan
+            G[:, ev] = np.nan
+            bv[ev] = np.nan
+        sub = G[np.ix_(slots, slots)]
+        b = bv[slots]
+        miss_b = np.flatnonzero(np.isnan(b))
+        for i in miss_b:
+            b[i] = bv[slots[i]] = fixed_dot(arr[slots[i], s:], self.y[s:])
+        ii, jj = np.nonzero(np.isnan(sub))
+        for i, j in zip(ii.tolist(), jj.tolist()):
+            if i > j:
+                continue
+            v = fixed_dot(arr[slots[i], s:], arr[slots[j], s:])
+            a, c = slots[i], slots[j]
+            G[a, c] = G[c, a] = v
+            sub[i, j] = sub[j, i] = v
+        return sub, b
 
     # ------------------------------------------------------------ estimation
     def fit(self, terms: Sequence[Term]) -> Tuple[np.ndarray, int]:
@@ -224,15 +290,8 @@ class StructureScorer:
         s = ml if self.start is None else self.start
         if s < ml:
             raise ValueError(f"start={s} is below the terms' largest lag {ml}")
-        slots = [self._reg_slot(t) for t in terms]
-        keys = [t.text for t in terms]
-        T = len(terms)
-        G = np.empty((T, T))
-        b = np.empty(T)
-        for i in range(T):
-            b[i] = self._dot(keys[i], slots[i], "\x00y", -1, s)
-            for j in range(i, T):
-                G[i, j] = G[j, i] = self._dot(keys[i], slots[i], keys[j], slots[j], s)
+        slots = np.array([self._reg_slot(t) for t in terms], dtype=np.int64)
+        G, b = self._gram(slots, s)
         d = np.sqrt(np.diag(G))
         d[d == 0] = 1.0
         Gs = G / np.outer(d, d)

@@ -15,7 +15,7 @@ vectorises. The input parts are kept in a second column store laid out
 window-major (``PT[c, j*W + w] = P[c, s + w*Δm + j]``, zero past the end),
 built once per column for the scorer's fixed ``start`` and window, so the
 inner loop reads contiguous memory. That store is an LRU of at most
-``BUDGET`` bytes per scorer (48 MB, env ``NARX_MS_BUDGET_MB``): a GP run's
+``BUDGET`` bytes per scorer (128 MB, env ``NARX_MS_BUDGET_MB``): a GP run's
 working set fits, and worker processes stay small.
 
 Results are bit-for-bit those of the general kernel followed by
@@ -49,7 +49,7 @@ __all__ = ["ms_mse", "WindowStore", "ENABLED"]
 #: the environment variable NARX_MS_KERNEL=0 sets it in worker processes too
 ENABLED = os.environ.get("NARX_MS_KERNEL", "1") != "0"
 #: bytes of window-major columns kept per scorer (LRU beyond that)
-BUDGET = int(os.environ.get("NARX_MS_BUDGET_MB", "48")) * 2**20
+BUDGET = int(os.environ.get("NARX_MS_BUDGET_MB", "128")) * 2**20
 
 
 @njit(cache=True, nogil=True)
@@ -128,6 +128,9 @@ class WindowStore:
         width = self.W * self.window
         self.capacity = max(16, int(budget_bytes // (8 * width)))   # > 15 terms
         self.array = np.empty((self.capacity, width))
+        # written once now, so the resident size does not grow as it fills
+        # (see narx.fitness.ColumnStore)
+        self.array[:max(1, min(self.capacity, int(budget_bytes // (8 * width))))] = 0.0
         self.slots: "OrderedDict[str, int]" = OrderedDict()
         self.builds = 0
 
@@ -142,6 +145,10 @@ class WindowStore:
             rem = m - full * L
             dst[:rem, full] = col[s + full * L:]
             dst[rem:, full] = 0.0
+
+    def clear(self):
+        """Forget every column (the array and its pages are kept)."""
+        self.slots.clear()
 
     def slot(self, key: str, natural) -> int:
         """Slot of ``key``; ``natural()`` gives the length-N column on a miss."""
