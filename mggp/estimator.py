@@ -38,6 +38,7 @@ from narx.phi import default_registry
 from .evaluate import Evaluator, criterion_value
 from .evolve import evolve
 from .primitives import make_pset, max_lag_for_height
+from .screen import StabilityScreen
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
 
@@ -95,6 +96,16 @@ class MGGPRegressor:
         an instability longer than its window.
     select_candidates : int
         Candidates for ``select='freerun'`` (20).
+    screen : None or 'freerun'
+        Stability screen during the search (:mod:`mggp.screen`): in each
+        generation the ``screen_top`` best new structures are simulated in
+        free run over the whole training record, and those whose output
+        leaves ``max|y| + screen_band * range(y)`` get the fitness ``inf``;
+        so the elites, and the result, never diverge over the record.
+    screen_top : int, optional
+        Leaders screened per generation (default: the elite size).
+    screen_band : float
+        Width of the allowed band beyond ``max|y|``, in output ranges (1).
     prune : False, 'bic' or 't'
         Backward elimination of the best structure: by the BIC of the
         search fitness, or by LS t-statistics (drop the least significant
@@ -125,7 +136,7 @@ class MGGPRegressor:
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi=True, phi_names=None,
                  max_lag=None, max_degree=None, select="fitness", select_candidates=20,
-                 prune=False, noise_lags=0,
+                 screen=None, screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None,
                  random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
@@ -152,6 +163,9 @@ class MGGPRegressor:
         self.max_degree = max_degree
         self.select = select
         self.select_candidates = select_candidates
+        self.screen = screen
+        self.screen_top = screen_top
+        self.screen_band = screen_band
         self.prune = prune
         self.noise_lags = noise_lags
         self.t_threshold = t_threshold
@@ -225,9 +239,12 @@ class MGGPRegressor:
                               registry=registry)
         callbacks = list(self.callbacks or [])
         allowed = self._allowed
+        screen = self._make_screen(data, start, registry)
 
         def evaluate_batch(term_sets):
-            return evaluator([tuple(t for t in ts if allowed(t)) for ts in term_sets])
+            sets = [tuple(t for t in ts if allowed(t)) for ts in term_sets]
+            values = evaluator(sets)
+            return values if screen is None else screen(sets, values)
 
         def on_generation(state):
             for cb in callbacks:
@@ -287,11 +304,23 @@ class MGGPRegressor:
             {"complexity": int(r.complexity), "loss": float(r.fitness),
              "terms": [str(t) for t in r.terms]} for r in res.pareto)
         self.logbook_ = res.logbook
+        self.screen_rejected_ = None if screen is None else screen.rejected
         self.n_evaluations_ = res.evaluations
         self.seed_ = seed
         self.result_ = res
         self.fit_time_ = time.perf_counter() - t0
         return self
+
+    def _make_screen(self, data, start, registry):
+        if self.screen is None:
+            return None
+        if self.screen != "freerun":
+            raise ValueError(f"screen must be None or 'freerun', got {self.screen!r}")
+        top = self.screen_top
+        if top is None:
+            top = max(1, int(round(self.elite_fraction * self.population)))
+        return StabilityScreen(data, start, top, band=self.screen_band,
+                               constraints=self.search_constraints, registry=registry)
 
     def _select_freerun(self, res, data, start, registry, allowed):
         """Structure with the lowest whole-record free-run MSE among the

@@ -1,0 +1,121 @@
+"""Free-run stability screen (mggp.screen) and MGGPRegressor(screen='freerun')."""
+import math
+
+import numpy as np
+import pytest
+
+from mggp import MGGPRegressor
+from mggp.screen import StabilityScreen
+from narx.data import as_data
+from narx.systems import piezo_bouc_wen, training_input
+from narx.terms import parse_term
+
+
+def _piezo():
+    u = training_input(6000, seed=4, bandwidth=2.0)
+    return u, piezo_bouc_wen(u)
+
+
+def _band(y, start=0):
+    y = y[start:]
+    return np.max(np.abs(y)) + np.ptp(y)
+
+
+class _Stub(StabilityScreen):
+    """Screen whose verdicts come from a set of unstable term sets."""
+
+    def __init__(self, top, unstable):
+        self.top, self.unstable = top, unstable
+        self.checked = self.rejected = 0
+        self.seen = []
+
+    def stable(self, terms):
+        self.checked += 1
+        self.seen.append(terms)
+        ok = terms not in self.unstable
+        self.rejected += not ok
+        return ok
+
+
+def test_screen_keeps_screening_until_the_leaders_pass():
+    sets = [("a",), ("b",), ("c",), ("d",), ("e",)]
+    values = [1.0, 2.0, 3.0, math.inf, 4.0]
+    sc = _Stub(top=2, unstable={("a",), ("c",)})
+    out = sc(sets, values)
+    # a fails, b passes, then c (new second) fails, then e passes
+    assert out == [math.inf, 2.0, math.inf, math.inf, 4.0]
+    assert sc.seen == [("a",), ("b",), ("c",), ("e",)]
+    assert sc.rejected == 2
+
+
+def test_screen_of_a_real_record_rejects_a_diverging_structure():
+    from benchmarks.casestudy import MODEL19
+    u, y = _piezo()
+    sc = StabilityScreen(as_data(u, y), start=16, top=1)
+    for texts in (MODEL19["terms"], ["y[k-1]", "u[k-1]"]):
+        assert sc.stable(tuple(parse_term(t) for t in texts)), texts
+    # LS on this record gives y_k ~ 2.002 y_{k-1} - 1.002 y_{k-2}: a root
+    # outside the unit circle, so the free run leaves the band
+    bad = tuple(parse_term(t) for t in ("y[k-1]", "y[k-2]", "u[k-1]"))
+    theta, _ = sc.scorer.fit(bad)
+    assert np.max(np.abs(np.roots([1.0, -theta[0], -theta[1]]))) > 1.0
+    assert not sc.stable(bad)
+    assert (sc.checked, sc.rejected) == (3, 1)
+
+
+@pytest.mark.parametrize("kw, text", [
+    (dict(top=0), "top must be an integer >= 1, got 0"),
+    (dict(top=2, band=-1.0), "band must be a finite number >= 0, got -1.0"),
+])
+def test_screen_bad_parameters(kw, text):
+    u, y = _piezo()
+    with pytest.raises(ValueError, match=text):
+        StabilityScreen(as_data(u, y), start=16, **kw)
+
+
+def test_estimator_rejects_unknown_screen():
+    u, y = _piezo()
+    with pytest.raises(ValueError, match="screen must be None or 'freerun', got 'x'"):
+        MGGPRegressor(screen="x", population=4, generations=0).fit(u, y)
+
+
+_KW = dict(fitness="ms", window=50, population=60, generations=10, max_terms=8, n_jobs=1)
+
+
+def test_screened_search_result_stays_in_band_where_the_plain_one_diverges():
+    # seed 6: the plain MS search ends on a structure whose free run over the
+    # training record diverges (windows of 50 samples never see it)
+    u, y = _piezo()
+    plain = MGGPRegressor(random_state=6, **_KW).fit(u, y)
+    r = plain.model_.simulate(u, y, "freerun")
+    assert r.diverged or np.max(np.abs(r.y_hat[16:])) > _band(y, 16)
+    screened = MGGPRegressor(random_state=6, screen="freerun", **_KW).fit(u, y)
+    rs = screened.model_.simulate(u, y, "freerun")
+    assert not rs.diverged
+    assert np.max(np.abs(rs.y_hat[16:])) <= _band(y, 16)
+    assert screened.screen_rejected_ > 0
+    assert plain.screen_rejected_ is None
+
+
+def test_screen_control_nothing_to_reject_leaves_the_search_alone():
+    # a stable polynomial system: no leader leaves the band, nothing is
+    # rejected, and the screened search is the plain one
+    from narx.testsystems import system_by_name
+    d = system_by_name("S2", n=500, seed=0)
+    kw = dict(fitness="ms", window=20, population=60, generations=10, max_terms=6,
+              max_height=3, use_phi=False, n_jobs=1, random_state=1)
+    plain = MGGPRegressor(**kw).fit(d.u, d.y)
+    screened = MGGPRegressor(screen="freerun", **kw).fit(d.u, d.y)
+    assert screened.screen_rejected_ == 0
+    assert screened.model_.term_texts == plain.model_.term_texts
+    assert np.array_equal(screened.model_.theta, plain.model_.theta)
+
+
+def test_screened_search_same_for_one_and_two_workers():
+    u, y = _piezo()
+    kw = dict(_KW, generations=4, population=40)
+    a = MGGPRegressor(random_state=6, screen="freerun", **kw).fit(u, y)
+    b = MGGPRegressor(random_state=6, screen="freerun", **dict(kw, n_jobs=2)).fit(u, y)
+    assert a.model_.term_texts == b.model_.term_texts
+    assert np.array_equal(a.model_.theta, b.model_.theta)
+    assert a.screen_rejected_ == b.screen_rejected_
