@@ -77,9 +77,34 @@ class CaseData:
     seed: int
 
 
-def case_data(n: int = 50_000, seed: int = 0) -> CaseData:
-    """Training, validation and held-sine records of the piezo case study."""
-    u = training_input(n, seed=seed)
+#: order of the Butterworth low-pass of the training input (see ``case_data``)
+TRAINING_FILTER_ORDER = 4
+
+
+def case_data(n: int = 50_000, seed: int = 0, order: int = TRAINING_FILTER_ORDER) -> CaseData:
+    """Training, validation and held-sine records of the piezo case study.
+
+    The publication gives the training input only as "filtered
+    pseudo-random, ±80 V, about 1 Hz bandwidth"; ``order`` is that of the
+    1 Hz Butterworth low-pass. The reference model (19), refitted by CLS on
+    our record, is sensitive to it (published: train / val MAPE 0.440 /
+    0.241 %, steady-state error 0.276 / 0.287 µm). Over seeds 0-4 (median):
+
+    ======================  =====  =====  ==============
+    1 Hz Butterworth        train  val    ss load/unload
+    ======================  =====  =====  ==============
+    4th order (default)     0.402  0.463  0.122 / 0.344
+    2nd order               0.377  0.378  0.081 / 0.347
+    1st order               0.357  0.252  0.067 / 0.303
+    ======================  =====  =====  ==============
+
+    A 1st-order filter leaves more fast input rates (rms 161 V/s against
+    90 V/s; the 40 V, 1 Hz validation sine peaks at 251 V/s) and reproduces
+    (19) more closely; the MS searches of the study are not better on it
+    (quick setting, seeds 1-4, median validation MAPE 0.36 % with either
+    filter; see benchmarks/RESULTS.md), so the default stays.
+    """
+    u = training_input(n, seed=seed, order=order)
     t, uv = sine_input()
     hs = held_sine()
     return CaseData(u, piezo_bouc_wen(u), uv, piezo_bouc_wen(uv), t, hs,
