@@ -44,6 +44,9 @@ def register(sub):
     p.add_argument("--prune", choices=["bic", "t"], default=None)
     p.add_argument("--constraints", choices=["steady-state"], default=None)
     p.add_argument("--no-phi", action="store_true", help="plain polynomial terms only")
+    p.add_argument("--screen", choices=["freerun"], default=None,
+                   help="reject each generation's leaders whose free run over the "
+                        "record leaves the output band")
     p.add_argument("--out", metavar="MODEL.json")
     p.add_argument("--report", metavar="DIR")
     p.add_argument("--checkpoint", metavar="FILE")
@@ -105,6 +108,7 @@ def _cmd_fit(args) -> int:
                         max_terms=args.max_terms, max_height=args.max_height,
                         max_lag=args.max_lag, max_degree=args.max_degree,
                         prune=args.prune or False, use_phi=not args.no_phi,
+                        screen=args.screen,
                         random_state=args.seed, n_jobs=args.jobs, backend=args.backend,
                         scheduler=args.scheduler, inputs=inputs, output=output,
                         checkpoint=args.checkpoint, resume=args.resume,

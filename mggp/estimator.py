@@ -288,7 +288,8 @@ class MGGPRegressor:
                 "criterion": self.criterion, "seed": seed,
                 "population": self.population, "generations": self.generations,
                 "max_terms": self.max_terms, "max_height": self.max_height,
-                "use_phi": self.use_phi, "search_fitness_value": self.fitness_}
+                "use_phi": self.use_phi, "screen": self.screen,
+                "search_fitness_value": self.fitness_}
         meta["versions"] = _versions()
         self.model_ = Model(terms, inputs=data.inputs, output=data.output,
                             meta=dict(meta, estimation="ls"), registry=registry).fit(data)

@@ -119,3 +119,17 @@ def test_screened_search_same_for_one_and_two_workers():
     assert a.model_.term_texts == b.model_.term_texts
     assert np.array_equal(a.model_.theta, b.model_.theta)
     assert a.screen_rejected_ == b.screen_rejected_
+
+
+def test_fit_cli_screen(tmp_path, capsys):
+    import json
+    from mggp.cli import main
+    u, y = _piezo()
+    csv = tmp_path / "d.csv"
+    csv.write_text("u,y\n" + "\n".join(f"{float(a)!r},{float(b)!r}" for a, b in zip(u[:2000], y[:2000])))
+    out = tmp_path / "m.json"
+    assert main(["fit", str(csv), "--screen", "freerun", "--population", "20",
+                 "--generations", "2", "--seed", "1", "--quiet", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["meta"]["screen"] == "freerun"
+    assert main(["fit", str(csv), "--screen", "bogus"]) == 2
+    assert "--screen" in capsys.readouterr().err
