@@ -44,9 +44,10 @@ def register(sub):
     p.add_argument("--prune", choices=["bic", "t"], default=None)
     p.add_argument("--constraints", choices=["steady-state"], default=None)
     p.add_argument("--no-phi", action="store_true", help="plain polynomial terms only")
-    p.add_argument("--screen", choices=["freerun"], default=None,
+    p.add_argument("--screen", choices=["freerun", "hold"], default=None,
                    help="reject each generation's leaders whose free run over the "
-                        "record leaves the output band")
+                        "record leaves the output band ('hold': or whose CLS refit "
+                        "does not hold its output on a held input)")
     p.add_argument("--out", metavar="MODEL.json")
     p.add_argument("--report", metavar="DIR")
     p.add_argument("--checkpoint", metavar="FILE")

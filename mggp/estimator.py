@@ -39,6 +39,7 @@ from .evaluate import Evaluator, criterion_value
 from .evolve import evolve
 from .primitives import make_pset, max_lag_for_height
 from .screen import StabilityScreen
+from .selection import select_freerun, select_hold
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
 
@@ -88,20 +89,28 @@ class MGGPRegressor:
     max_lag, max_degree : int, optional
         Genes decoding to a term with a larger lag or more factors
         contribute no term (e.g. lags up to 4, degree up to 3).
-    select : {'fitness', 'freerun'}
+    select : {'fitness', 'freerun', 'hold'}
         How the final structure is chosen: the best search fitness, or,
         among the ``select_candidates`` best distinct structures of the run
         (archive and final population), the one with the lowest free-run
         MSE over the whole training record — multiple shooting never sees
         an instability longer than its window.
+        ``'hold'``: the best search fitness among those candidates whose
+        free run stays in the screen's band and whose CLS refit holds its
+        output on held inputs (see ``screen``); the best structure if none
+        does (``selection_`` lists the verdicts).
     select_candidates : int
-        Candidates for ``select='freerun'`` (20).
-    screen : None or 'freerun'
+        Candidates for ``select='freerun'`` and ``'hold'`` (20).
+    screen : None, 'freerun' or 'hold'
         Stability screen during the search (:mod:`mggp.screen`): in each
         generation the ``screen_top`` best new structures are simulated in
         free run over the whole training record, and those whose output
         leaves ``max|y| + screen_band * range(y)`` get the fitness ``inf``;
         so the elites, and the result, never diverge over the record.
+        ``'hold'`` also requires the structure's CLS refit to hold its
+        output when the input is frozen (stretches of the training record
+        followed by held inputs; no movement above 1e-6 of the output range
+        after 100 samples).
     screen_top : int, optional
         Leaders screened per generation (default: the elite size).
     screen_band : float
@@ -266,9 +275,16 @@ class MGGPRegressor:
                              "candidate diverged; try fitness='pem' or a shorter window")
         terms = tuple(t for t in res.best.terms if allowed(t))
         if self.select == "freerun":
-            terms = self._select_freerun(res, data, start, registry, allowed) or terms
+            terms, self.selection_ = select_freerun(self._candidates(res, data, allowed),
+                                                    data, start, registry)
+            terms = terms or tuple(t for t in res.best.terms if allowed(t))
+        elif self.select == "hold":
+            terms, self.selection_ = select_hold(self._candidates(res, data, allowed),
+                                                 data, start, registry, self.screen_band)
+            terms = terms or tuple(t for t in res.best.terms if allowed(t))
         elif self.select != "fitness":
-            raise ValueError(f"select must be 'fitness' or 'freerun', got {self.select!r}")
+            raise ValueError(f"select must be 'fitness', 'freerun' or 'hold', "
+                             f"got {self.select!r}")
         self.search_terms_ = terms
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
@@ -306,6 +322,7 @@ class MGGPRegressor:
              "terms": [str(t) for t in r.terms]} for r in res.pareto)
         self.logbook_ = res.logbook
         self.screen_rejected_ = None if screen is None else screen.rejected
+        self.screen_rejected_hold_ = None if screen is None else screen.rejected_hold
         self.n_evaluations_ = res.evaluations
         self.seed_ = seed
         self.result_ = res
@@ -315,20 +332,21 @@ class MGGPRegressor:
     def _make_screen(self, data, start, registry):
         if self.screen is None:
             return None
-        if self.screen != "freerun":
-            raise ValueError(f"screen must be None or 'freerun', got {self.screen!r}")
+        if self.screen not in ("freerun", "hold"):
+            raise ValueError(f"screen must be None, 'freerun' or 'hold', got {self.screen!r}")
         top = self.screen_top
         if top is None:
             top = max(1, int(round(self.elite_fraction * self.population)))
         return StabilityScreen(data, start, top, band=self.screen_band,
-                               constraints=self.search_constraints, registry=registry)
+                               constraints=self.search_constraints, registry=registry,
+                               hold=self.screen == "hold")
 
-    def _select_freerun(self, res, data, start, registry, allowed):
-        """Structure with the lowest whole-record free-run MSE among the
-        best distinct structures of the run (ties: fewer terms)."""
+    def _candidates(self, res, data, allowed):
+        """The ``select_candidates`` best distinct structures of the run
+        (archive and final population), best search fitness first."""
         from .individual import fitness_of
-        rows = [(r.fitness, tuple(r.terms)) for r in res.pareto]
         from .primitives import Decoder
+        rows = [(r.fitness, tuple(r.terms)) for r in res.pareto]
         dec = Decoder(data.signals)
         rows += [(fitness_of(ind), dec.decode_individual(ind)) for ind in res.population
                  if ind.fitness.valid]
@@ -342,11 +360,7 @@ class MGGPRegressor:
                 cands.append(terms)
             if len(cands) >= int(self.select_candidates):
                 break
-        fr = StructureScorer(data, "freerun", start=start, registry=registry)
-        scored = [(fr.score(c), len(c), i) for i, c in enumerate(cands)]
-        scored = [r for r in scored if np.isfinite(r[0])]
-        self.selection_ = [(float(m), [str(t) for t in cands[i]]) for m, _, i in sorted(scored)]
-        return cands[min(scored)[2]] if scored else None
+        return cands
 
     def _allowed(self, term) -> bool:
         if _identically_zero(term, self.registry or default_registry()):

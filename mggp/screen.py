@@ -22,6 +22,17 @@ become an elite escapes it. Only those leaders are simulated (about
 ``top`` free runs per generation, in this process), and the result depends
 only on the batch, hence not on the number of workers.
 
+With ``hold=True`` a leader must also *hold*: its structure refitted by
+CLS under the derived continuum-of-steady-states constraints is simulated
+on a held record built from the training record (four 1 s stretches of
+the measured input, two rising and two falling at their end, each followed
+by the input frozen for 0.4 s), from measured initial conditions; after
+``settle`` samples of each hold its output must not move by more than
+``hold_tol`` times the output range. A continuum of steady states does not
+ensure that: a model whose only linear output term is ``y[k-2]`` with
+θ = 1 has every constant as an equilibrium, yet keeps a period-2
+oscillation forever when the input stops.
+
 References
 ----------
 S. A. Billings, *Nonlinear System Identification*, Wiley, 2013, sec. 5.
@@ -35,7 +46,9 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from narx.data import Data
+from narx.estimate import EstimationError
 from narx.fitness import StructureScorer
+from narx.kernels import Plan, run_windows
 from narx.phi import PhiRegistry
 from narx.terms import Term
 
@@ -58,34 +71,64 @@ class StabilityScreen:
     constraints : None or 'steady-state'
         The search's estimation (LS or CLS).
     registry : PhiRegistry, optional
+    hold : bool
+        Also require the CLS refit to hold its output on held inputs.
+    hold_tol : float
+        Largest movement of a held output after ``settle`` samples, in
+        output ranges (1e-6).
+    settle : int
+        Samples allowed for the Φ-terms to see the frozen input and the
+        transient to die out (100).
 
     Attributes
     ----------
-    checked, rejected : int
-        Structures simulated, and those given ``inf``.
+    checked, rejected, rejected_hold : int
+        Structures simulated; those given ``inf`` for leaving the band, and
+        for not holding.
     """
 
     def __init__(self, data: Data, start: int, top: int, band: float = 1.0,
                  constraints: Optional[str] = None,
-                 registry: Optional[PhiRegistry] = None):
+                 registry: Optional[PhiRegistry] = None, hold: bool = False,
+                 hold_tol: float = 1e-6, settle: int = 100):
         if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 1:
             raise ValueError(f"top must be an integer >= 1, got {top!r}")
         if not (isinstance(band, (int, float)) and math.isfinite(band) and band >= 0):
             raise ValueError(f"band must be a finite number >= 0, got {band!r}")
         self.top = int(top)
         self.scorer = StructureScorer(data, "freerun", start=start, constraints=constraints,
-                                      registry=registry, budget_bytes=32 * 2**20)
+                                      registry=registry, budget_bytes=96 * 2**20)
         y = self.scorer.y[start:]
         self.scorer.bound = float(np.max(np.abs(y)) + band * np.ptp(y))
         self.checked = 0
         self.rejected = 0
+        self.rejected_hold = 0
+        self.hold = None
+        if hold:
+            if not (isinstance(hold_tol, (int, float)) and math.isfinite(hold_tol)
+                    and hold_tol >= 0):
+                raise ValueError(f"hold_tol must be a finite number >= 0, got {hold_tol!r}")
+            self.hold = _HeldRecord(data, start, int(settle), float(hold_tol) * float(np.ptp(y)),
+                                    registry)
 
     def stable(self, terms: Tuple[Term, ...]) -> bool:
         """Whether the free run of ``terms`` stays inside the band."""
         self.checked += 1
         ok = math.isfinite(self.scorer.score(terms))
         self.rejected += not ok
+        if ok and self.hold is not None:
+            ok = self.holds(terms)
+            self.rejected_hold += not ok
         return ok
+
+    def holds(self, terms: Tuple[Term, ...]) -> bool:
+        """Whether the CLS refit of ``terms`` holds on the held record."""
+        try:
+            theta, _ = self.scorer.fit(terms, constraints="steady-state")
+        except (EstimationError, np.linalg.LinAlgError, ValueError):
+            return False
+        return bool(np.all(np.isfinite(theta))) and self.hold.holds(terms, theta,
+                                                                    self.scorer.bound)
 
     def __call__(self, term_sets: Sequence[Tuple[Term, ...]],
                  values: Sequence[float]) -> List[float]:
@@ -102,3 +145,53 @@ class StabilityScreen:
                 done.add(i)
                 if not self.stable(tuple(term_sets[i])):
                     vals[i] = math.inf
+
+
+class _HeldRecord:
+    """Stretches of the training record, each followed by a held input."""
+
+    PRE, HOLD, COUNT = 1000, 400, 4
+
+    def __init__(self, data: Data, start: int, settle: int, tol: float, registry):
+        if settle < 0 or settle >= self.HOLD:
+            raise ValueError(f"settle must be in 0..{self.HOLD - 1}, got {settle!r}")
+        U, y, n = data.U.T, data.y, data.n               # U: (N, m)
+        block = start + self.PRE + self.HOLD
+        ends = []
+        du = np.diff(U[:, 0])                            # the first input decides
+        for i in range(self.COUNT):
+            want = 1.0 if i % 2 == 0 else -1.0          # rising, then falling
+            p = max(start + self.PRE, int((i + 1) * n / (self.COUNT + 1)))
+            while p < n - 1 and np.sign(du[p - 2]) != want:   # U[p-1] - U[p-2]
+                p += 1
+            if p >= n - 1:
+                p = max(start + self.PRE, int((i + 1) * n / (self.COUNT + 1)))
+            ends.append(p)
+        Uh, yh, self.holds_at = [], [], []
+        for b, p in enumerate(ends):
+            a = p - start - self.PRE                     # measured pad + stretch
+            Uh.append(U[a:p])
+            Uh.append(np.repeat(U[p - 1:p], self.HOLD, axis=0))
+            yh.append(y[a:p])
+            yh.append(np.repeat(y[p - 1:p], self.HOLD))  # placeholder, never read
+            h0 = b * block + start + self.PRE
+            self.holds_at.append(slice(h0 + settle, h0 + self.HOLD))
+        self.data = Data(np.concatenate(Uh), np.concatenate(yh), inputs=data.inputs,
+                         output=data.output)
+        self.starts = np.arange(self.COUNT, dtype=np.int64) * block + start
+        self.length = self.PRE + self.HOLD
+        self.tol = tol
+        self.registry = registry
+        self.scorer = StructureScorer(self.data, "freerun", start=start, registry=registry,
+                                      budget_bytes=16 * 2**20)
+
+    def holds(self, terms, theta, bound) -> bool:
+        sc = self.scorer
+        plan = Plan.from_terms(terms, self.data.inputs, sc.registry)
+        idx = np.array([sc.input_slot(t) for t in terms], dtype=np.int64)
+        out, diverged = run_windows(plan, sc.store.array, self.data.U, self.data.y, theta,
+                                    self.starts, self.length, 0, bound=bound,
+                                    registry=sc.registry, idx=idx)
+        if diverged:
+            return False
+        return all(np.ptp(out[sl]) <= self.tol for sl in self.holds_at)

@@ -138,6 +138,11 @@ class ColumnStore:
 
     def get(self, key: str, build) -> int:
         """Slot of ``key``, calling ``build()`` (a length-N array) if absent."""
+        return self.get_into(key, lambda row: row.__setitem__(slice(None), build()))
+
+    def get_into(self, key: str, fill) -> int:
+        """Slot of ``key``; if absent, ``fill(row)`` writes the column into
+        its (reused) row of the store."""
         slot = self.slots.get(key)
         if slot is not None:
             self.slots.move_to_end(key)
@@ -147,7 +152,7 @@ class ColumnStore:
             self.evicted.append(slot)
             self.free.append(slot)
         slot = self.free.pop()
-        self.array[slot] = build()
+        fill(self.array[slot])
         self.slots[key] = slot
         self.builds += 1
         return slot
@@ -218,6 +223,7 @@ class StructureScorer:
         self._G = np.full((cap, cap), np.nan)
         self._b = np.full(cap, np.nan)
         self._gram_start = -1
+        self._out_cols: Dict[str, np.ndarray] = {}
         scale = float(np.max(np.abs(self.y))) if self.y.size else 1.0
         self.bound = 1e4 * (scale if scale > 0 else 1.0)
         self.evaluations = 0
@@ -228,6 +234,7 @@ class StructureScorer:
         stores are kept)."""
         self.store.clear()
         self._gram_start = -1
+        self._out_cols.clear()
         st = getattr(self, "_ms_state", None)
         if st is not None:
             st.store.clear()
@@ -235,23 +242,43 @@ class StructureScorer:
         self.data.clear_cache()
 
     # ------------------------------------------------------------ columns
-    def _reg_slot(self, t: Term) -> int:
-        key = "r:" + t.text
+    def _out_column(self, f) -> np.ndarray:
+        """Column of an output (or noise) factor on measured data, cached."""
+        key = str(f)
+        col = self._out_cols.get(key)
+        if col is None:
+            if len(self._out_cols) >= 64:
+                self._out_cols.clear()
+            col = self._out_cols[key] = factor_column(f, self.data, self.y, None,
+                                                      self.registry)
+        return col
 
-        def build():
-            col = input_part(t, self.data, self.registry).copy()
-            for f in t.factors:
-                if not f.input_only:
-                    col *= factor_column(f, self.data, self.y, None, self.registry)
-            return _finite_inplace(col)
-        return self.store.get(key, build)
+    def _reg_slot(self, t: Term) -> int:
+        def fill(row):
+            # (input part) * out_1 * out_2 ..., in this order, into the store
+            ip = input_part(t, self.data, self.registry)
+            outs = [f for f in t.factors if not f.input_only]
+            if outs:
+                np.multiply(ip, self._out_column(outs[0]), out=row)
+                for f in outs[1:]:
+                    row *= self._out_column(f)
+            else:
+                row[:] = ip
+            _finite_inplace(row)
+        return self.store.get_into("r:" + t.text, fill)
 
     def _in_slot(self, t: Term) -> int:
         if not t.output_factors and not t.has_noise:
             return self._reg_slot(t)
-        key = "i:" + "*".join(str(f) for f in t.input_factors)
-        return self.store.get(key, lambda: _finite_inplace(
-            input_part(t, self.data, self.registry).copy()))
+
+        def fill(row):
+            row[:] = input_part(t, self.data, self.registry)
+            _finite_inplace(row)
+        return self.store.get_into("i:" + "*".join(str(f) for f in t.input_factors), fill)
+
+    def input_slot(self, t: Term) -> int:
+        """Row of ``self.store.array`` holding the input part of ``t``."""
+        return self._in_slot(t)
 
     def _gram(self, slots: np.ndarray, s: int) -> Tuple[np.ndarray, np.ndarray]:
         """(G, b) of the columns in ``slots`` for rows ``s..N-1``; every entry
@@ -283,9 +310,13 @@ class StructureScorer:
         return sub, b
 
     # ------------------------------------------------------------ estimation
-    def fit(self, terms: Sequence[Term]) -> Tuple[np.ndarray, int]:
-        """θ of a term set (LS, or CLS when constrained); returns (θ, start)."""
+    def fit(self, terms: Sequence[Term], constraints="default") -> Tuple[np.ndarray, int]:
+        """θ of a term set (LS, or CLS when constrained); returns (θ, start).
+
+        ``constraints`` (None or 'steady-state') overrides the scorer's."""
         terms = tuple(terms)
+        if constraints == "default":
+            constraints = self.constraints
         ml = max((t.max_lag for t in terms), default=0)
         s = ml if self.start is None else self.start
         if s < ml:
@@ -296,7 +327,7 @@ class StructureScorer:
         d[d == 0] = 1.0
         Gs = G / np.outer(d, d)
         bs = b / d
-        if self.constraints is None:
+        if constraints is None:
             z = scipy.linalg.lstsq(Gs, bs, lapack_driver="gelsy", cond=_GRAM_COND,
                                    check_finite=False)[0]
             return z / d, s

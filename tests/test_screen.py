@@ -75,7 +75,7 @@ def test_screen_bad_parameters(kw, text):
 
 def test_estimator_rejects_unknown_screen():
     u, y = _piezo()
-    with pytest.raises(ValueError, match="screen must be None or 'freerun', got 'x'"):
+    with pytest.raises(ValueError, match="screen must be None, 'freerun' or 'hold', got 'x'"):
         MGGPRegressor(screen="x", population=4, generations=0).fit(u, y)
 
 
@@ -133,3 +133,24 @@ def test_fit_cli_screen(tmp_path, capsys):
     assert json.loads(out.read_text())["meta"]["screen"] == "freerun"
     assert main(["fit", str(csv), "--screen", "bogus"]) == 2
     assert "--screen" in capsys.readouterr().err
+
+
+def test_select_hold_picks_a_structure_whose_cls_refit_holds():
+    from mggp.selection import select_hold
+    from benchmarks.casestudy import MODEL19
+    u, y = _piezo()
+    d = as_data(u, y)
+    # y[k-2] alone carries the output: its CLS refit (theta = 1) keeps a
+    # period-2 oscillation when the input stops; model (19) holds
+    period2 = tuple(parse_term(t) for t in ("y[k-2]", "Phi1(u[k-1],u[k-2])",
+                                             "Phi1(u[k-2],u[k-3])"))
+    m19 = tuple(parse_term(t) for t in MODEL19["terms"])
+    sc = StabilityScreen(d, 16, 1, hold=True)
+    assert not sc.holds(period2)
+    assert sc.holds(m19)
+    terms, table = select_hold([period2, m19], d, 16)
+    assert terms == m19
+    assert [ok for ok, _ in table] == [False, True]
+    # control: nothing holds -> None, every verdict listed
+    terms, table = select_hold([period2], d, 16)
+    assert terms is None and table[0][0] is False
