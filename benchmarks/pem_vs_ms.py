@@ -47,8 +47,9 @@ def _search(fitness, cs, args, seed, constraints=None):
     if fitness == "ms":
         kw["window"] = args.window
         if not args.no_screen:
-            # the refit must hold: the best structure whose CLS refit holds
-            kw["select"] = "hold"
+            # the refit must hold: the best structure whose CLS refit holds,
+            # among every distinct structure of the archive and last population
+            kw.update(select="hold", select_candidates=1000)
     t0 = time.perf_counter()
     est = MGGPRegressor(**kw).fit(cs.u, cs.y)
     return est, time.perf_counter() - t0
