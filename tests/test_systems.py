@@ -87,6 +87,18 @@ def test_training_input_validates():
         training_input(n=100, seed="a")
     with pytest.raises(ValueError, match="n must"):
         training_input(n=1)
+    with pytest.raises(ValueError, match="order must be an integer >= 1, got 0"):
+        training_input(n=100, order=0)
+
+
+def test_training_input_filter_order_sets_the_rate_content():
+    # a lower-order filter leaves more power above the cut-off: faster rates
+    rates = [np.std(np.diff(training_input(n=50_000, seed=0, order=o))) for o in (1, 2, 4)]
+    assert rates[0] > rates[1] > rates[2]
+    u1 = training_input(n=50_000, seed=0, order=1)
+    assert u1.min() == -80.0 and u1.max() == 80.0
+    np.testing.assert_array_equal(training_input(n=5000, seed=3),
+                                  training_input(n=5000, seed=3, order=4))
 
 
 def test_held_sine_holds_on_both_branches():
