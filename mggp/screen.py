@@ -24,9 +24,10 @@ only on the batch, hence not on the number of workers.
 
 With ``hold=True`` a leader must also *hold*: its structure refitted by
 CLS under the derived continuum-of-steady-states constraints is simulated
-on a held record built from the training record (four 1 s stretches of
-the measured input, two rising and two falling at their end, each followed
-by the input frozen for 0.4 s), from measured initial conditions; after
+on a held record built from the training record (four stretches of 1000
+samples of the measured input, or a quarter of a shorter record, two
+rising and two falling at their end, each followed by the input frozen
+for 400 samples), from measured initial conditions; after
 ``settle`` samples of each hold its output must not move by more than
 ``hold_tol`` times the output range. A continuum of steady states does not
 ensure that: a model whose only linear output term is ``y[k-2]`` with
@@ -156,30 +157,34 @@ class _HeldRecord:
         if settle < 0 or settle >= self.HOLD:
             raise ValueError(f"settle must be in 0..{self.HOLD - 1}, got {settle!r}")
         U, y, n = data.U.T, data.y, data.n               # U: (N, m)
-        block = start + self.PRE + self.HOLD
+        # stretches of 1000 samples, or a quarter of a shorter record
+        pre = min(self.PRE, (n - start) // 4)
+        if pre < 20:
+            raise ValueError(f"the hold test needs a record of at least {start + 80} "
+                             f"samples, got {n}")
+        block = start + pre + self.HOLD
         ends = []
         du = np.diff(U[:, 0])                            # the first input decides
         for i in range(self.COUNT):
             want = 1.0 if i % 2 == 0 else -1.0          # rising, then falling
-            p = max(start + self.PRE, int((i + 1) * n / (self.COUNT + 1)))
-            while p < n - 1 and np.sign(du[p - 2]) != want:   # U[p-1] - U[p-2]
+            p0 = min(n, max(start + pre, int((i + 1) * n / (self.COUNT + 1))))
+            p = p0
+            while p < n and np.sign(du[p - 2]) != want:    # U[p-1] - U[p-2]
                 p += 1
-            if p >= n - 1:
-                p = max(start + self.PRE, int((i + 1) * n / (self.COUNT + 1)))
-            ends.append(p)
+            ends.append(p if p < n else p0)
         Uh, yh, self.holds_at = [], [], []
         for b, p in enumerate(ends):
-            a = p - start - self.PRE                     # measured pad + stretch
+            a = p - start - pre                          # measured pad + stretch
             Uh.append(U[a:p])
             Uh.append(np.repeat(U[p - 1:p], self.HOLD, axis=0))
             yh.append(y[a:p])
             yh.append(np.repeat(y[p - 1:p], self.HOLD))  # placeholder, never read
-            h0 = b * block + start + self.PRE
+            h0 = b * block + start + pre
             self.holds_at.append(slice(h0 + settle, h0 + self.HOLD))
         self.data = Data(np.concatenate(Uh), np.concatenate(yh), inputs=data.inputs,
                          output=data.output)
         self.starts = np.arange(self.COUNT, dtype=np.int64) * block + start
-        self.length = self.PRE + self.HOLD
+        self.length = pre + self.HOLD
         self.tol = tol
         self.registry = registry
         self.scorer = StructureScorer(self.data, "freerun", start=start, registry=registry,

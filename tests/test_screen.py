@@ -154,3 +154,20 @@ def test_select_hold_picks_a_structure_whose_cls_refit_holds():
     # control: nothing holds -> None, every verdict listed
     terms, table = select_hold([period2], d, 16)
     assert terms is None and table[0][0] is False
+
+
+def test_hold_test_on_short_records():
+    # stretches shrink with the record; a record too short says so
+    from narx.testsystems import system_by_name
+    d = system_by_name("S2", n=500, seed=0)
+    data = as_data(d.u, d.y)
+    sc = StabilityScreen(data, start=4, top=1, hold=True)
+    assert sc.hold.length == (500 - 4) // 4 + 400
+    assert isinstance(sc.stable(tuple(parse_term(t) for t in ("y[k-1]", "u[k-1]"))), bool)
+    with pytest.raises(ValueError, match="the hold test needs a record of at least 84 "
+                                         "samples, got 60"):
+        StabilityScreen(as_data(d.u[:60], d.y[:60]), start=4, top=1, hold=True)
+    kw = dict(fitness="ms", window=20, population=30, generations=3, max_terms=6,
+              max_height=3, use_phi=False, random_state=0)
+    est = MGGPRegressor(select="hold", **kw).fit(d.u, d.y)
+    assert est.selection_ and isinstance(est.selection_[0][0], bool)
