@@ -275,13 +275,13 @@ class MGGPRegressor:
                              "candidate diverged; try fitness='pem' or a shorter window")
         terms = tuple(t for t in res.best.terms if allowed(t))
         if self.select == "freerun":
-            terms, self.selection_ = select_freerun(self._candidates(res, data, allowed),
-                                                    data, start, registry)
-            terms = terms or tuple(t for t in res.best.terms if allowed(t))
+            chosen, self.selection_ = select_freerun(self._candidates(res, data, allowed),
+                                                     data, start, registry)
+            terms = chosen or terms
         elif self.select == "hold":
-            terms, self.selection_ = select_hold(self._candidates(res, data, allowed),
-                                                 data, start, registry, self.screen_band)
-            terms = terms or tuple(t for t in res.best.terms if allowed(t))
+            chosen, self.selection_ = select_hold(self._candidates(res, data, allowed),
+                                                  data, start, registry, self.screen_band)
+            terms = chosen or terms
         elif self.select != "fitness":
             raise ValueError(f"select must be 'fitness', 'freerun' or 'hold', "
                              f"got {self.select!r}")

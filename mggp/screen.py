@@ -49,7 +49,6 @@ import numpy as np
 from narx.data import Data
 from narx.estimate import EstimationError
 from narx.fitness import StructureScorer
-from narx.kernels import Plan, run_windows
 from narx.phi import PhiRegistry
 from narx.terms import Term
 
@@ -186,17 +185,12 @@ class _HeldRecord:
         self.starts = np.arange(self.COUNT, dtype=np.int64) * block + start
         self.length = pre + self.HOLD
         self.tol = tol
-        self.registry = registry
         self.scorer = StructureScorer(self.data, "freerun", start=start, registry=registry,
                                       budget_bytes=16 * 2**20)
 
     def holds(self, terms, theta, bound) -> bool:
-        sc = self.scorer
-        plan = Plan.from_terms(terms, self.data.inputs, sc.registry)
-        idx = np.array([sc.input_slot(t) for t in terms], dtype=np.int64)
-        out, diverged = run_windows(plan, sc.store.array, self.data.U, self.data.y, theta,
-                                    self.starts, self.length, 0, bound=bound,
-                                    registry=sc.registry, idx=idx)
+        out, diverged = self.scorer.run_windows(terms, theta, self.starts, self.length,
+                                                bound=bound)
         if diverged:
             return False
         return all(np.ptp(out[sl]) <= self.tol for sl in self.holds_at)

@@ -136,11 +136,7 @@ class ColumnStore:
         #: slots whose content was replaced since the owner last looked
         self.evicted = []
 
-    def get(self, key: str, build) -> int:
-        """Slot of ``key``, calling ``build()`` (a length-N array) if absent."""
-        return self.get_into(key, lambda row: row.__setitem__(slice(None), build()))
-
-    def get_into(self, key: str, fill) -> int:
+    def get(self, key: str, fill) -> int:
         """Slot of ``key``; if absent, ``fill(row)`` writes the column into
         its (reused) row of the store."""
         slot = self.slots.get(key)
@@ -265,7 +261,7 @@ class StructureScorer:
             else:
                 row[:] = ip
             _finite_inplace(row)
-        return self.store.get_into("r:" + t.text, fill)
+        return self.store.get("r:" + t.text, fill)
 
     def _in_slot(self, t: Term) -> int:
         if not t.output_factors and not t.has_noise:
@@ -274,11 +270,7 @@ class StructureScorer:
         def fill(row):
             row[:] = input_part(t, self.data, self.registry)
             _finite_inplace(row)
-        return self.store.get_into("i:" + "*".join(str(f) for f in t.input_factors), fill)
-
-    def input_slot(self, t: Term) -> int:
-        """Row of ``self.store.array`` holding the input part of ``t``."""
-        return self._in_slot(t)
+        return self.store.get("i:" + "*".join(str(f) for f in t.input_factors), fill)
 
     def _gram(self, slots: np.ndarray, s: int) -> Tuple[np.ndarray, np.ndarray]:
         """(G, b) of the columns in ``slots`` for rows ``s..N-1``; every entry
@@ -363,6 +355,17 @@ class StructureScorer:
     def score(self, terms: Sequence[Term]) -> float:
         return self.evaluate(terms)[0]
 
+    def run_windows(self, terms, theta, starts, length: int, write_from: int = 0,
+                    bound: Optional[float] = None):
+        """:func:`narx.kernels.run_windows` of ``terms`` on this record, with
+        the input parts from the column store; returns ``(out, diverged)``.
+        ``bound`` defaults to the scorer's."""
+        plan = Plan.from_terms(terms, self.data.inputs, self.registry)
+        idx = np.array([self._in_slot(t) for t in terms], dtype=np.int64)
+        return run_windows(plan, self.store.array, self.data.U, self.y, theta, starts,
+                           length, write_from, bound=self.bound if bound is None else bound,
+                           registry=self.registry, idx=idx)
+
     def _simulate_mse(self, terms, theta, s) -> float:
         n, y = self.data.n, self.y
         if self.fitness == "pem":
@@ -373,15 +376,11 @@ class StructureScorer:
             mse = ms_mse(self, terms, theta, s)
             if mse is not None:
                 return mse
-        plan = Plan.from_terms(terms, self.data.inputs, self.registry)
-        idx = np.array([self._in_slot(t) for t in terms], dtype=np.int64)
         horizon = self.window if self.fitness == "ms" else self.k
         starts, length, wf, first = recursion_windows(self.fitness, n, s, horizon)
         if starts.size == 0:
             return float("inf")
-        out, diverged = run_windows(plan, self.store.array, self.data.U, y, theta,
-                                    starts, length, wf, bound=self.bound,
-                                    registry=self.registry, idx=idx)
+        out, diverged = self.run_windows(terms, theta, starts, length, wf)
         if diverged:
             return float("inf")
         r = y[first:] - out[first:]
