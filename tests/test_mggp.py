@@ -143,5 +143,6 @@ def test_select_freerun_picks_the_best_whole_record_simulation():
     # the chosen structure is never worse in free run than the best-fitness one
     fb = b.model_.simulate(u, y, mode="freerun")
     assert fr.mse <= fb.mse * (1 + 1e-9) or fb.diverged
-    with pytest.raises(ValueError, match="select must be"):
+    with pytest.raises(ValueError,
+                       match="select must be 'fitness', 'freerun' or 'hold', got 'best'"):
         MGGPRegressor(select="best", **kw).fit(u, y)
