@@ -40,7 +40,7 @@ import scipy.linalg
 from .data import Data
 from .estimate import EstimationError
 from .kernels import Plan, run_windows
-from .ms_kernel import ms_mse
+from .ms_kernel import ms_mse, window_sse
 from .phi import PhiRegistry, default_registry
 from .regressors import factor_column, input_part
 from .simulate import recursion_windows
@@ -384,4 +384,6 @@ class StructureScorer:
         if diverged:
             return float("inf")
         r = y[first:] - out[first:]
+        if self.fitness == "ms":                 # the fast path's summation order
+            return float(window_sse(r, self.window) / r.size)
         return float(fixed_dot(r, r) / r.size)

@@ -14,14 +14,16 @@ together: the innermost loop runs over windows, which are independent, so it
 vectorises. The input parts are kept in a second column store laid out
 window-major (``PT[c, j*W + w] = P[c, s + w*Δm + j]``, zero past the end),
 built once per column for the scorer's fixed ``start`` and window, so the
-inner loop reads contiguous memory. That store is an LRU of at most
+inner loop reads contiguous memory (the measured output is kept
+window-major too). That store is an LRU of at most
 ``BUDGET`` bytes per scorer (128 MB, env ``NARX_MS_BUDGET_MB``): a GP run's
 working set fits, and worker processes stay small.
 
 Results are bit-for-bit those of the general kernel followed by
-``fixed_dot`` (the same operations in the same order for every window; the
-squared errors are summed afterwards in natural sample order with the same
-four interleaved partial sums), hence identical for any number of workers.
+:func:`window_sse`: the same operations in the same order for every window,
+and the squared errors summed per window (one running sum per window,
+updated as the steps advance), then over windows in window order. Hence
+identical for any number of workers.
 
 Handled: the scorer has a fixed ``start``; no term has noise lags or a
 Φ-call with an output argument (the search's primitive set never builds
@@ -43,7 +45,7 @@ except ImportError:                       # pragma: no cover
     def njit(*a, **k):
         return (lambda f: f) if not a or not callable(a[0]) else a[0]
 
-__all__ = ["ms_mse", "WindowStore", "ENABLED"]
+__all__ = ["ms_mse", "window_sse", "WindowStore", "ENABLED"]
 
 #: False runs the general kernel instead (benchmarks compare the two);
 #: the environment variable NARX_MS_KERNEL=0 sets it in worker processes too
@@ -53,17 +55,43 @@ BUDGET = int(os.environ.get("NARX_MS_BUDGET_MB", "128")) * 2**20
 
 
 @njit(cache=True, nogil=True)
-def _ms_errors(y, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound):
-    """(diverged, r) of multiple shooting, window-major; ``r[i]`` is the
-    error ``y_k - ŷ_k`` at sample ``k = s + i`` (natural order).
+def window_sse(r, L):
+    r"""Sum of squared multiple-shooting errors in the canonical order.
+
+    ``r[i]`` is the error at the ``i``-th sample of the scored range, whose
+    windows hold ``L`` samples each (the last may be shorter). Each window's
+    squared errors are summed over its steps in order, then the window sums
+    are added in window order:
+
+    .. math:: J = \sum_{w} \Big( \sum_{j} r_{wL+j}^2 \Big)
+
+    Both MS kernels use this order (``_ms_sse`` accumulates one sum per
+    window while it steps all windows together), so their results are equal
+    bit for bit and independent of the number of workers.
+    """
+    n = r.shape[0]
+    total = 0.0
+    for a in range(0, n, L):
+        acc = 0.0
+        for i in range(a, min(a + L, n)):
+            acc += r[i] * r[i]
+        total += acc
+    return total
+
+
+@njit(cache=True, nogil=True)
+def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound):
+    """(diverged, Σ r²) of multiple shooting, window-major, summed as
+    :func:`window_sse` does.
 
     Window ``w`` starts at ``s + w*L``; ``B[ml + j, w]`` is its step ``j``
-    and ``B[:ml, w]`` the measured samples before it.
+    and ``B[:ml, w]`` the measured samples before it; ``YT[j*W + w]`` is the
+    measured output at that step.
     """
     n = y.shape[0]
     B = np.empty((ml + L, W))
     acc = np.empty(W)
-    r = np.empty(W * L)
+    S = np.zeros(W)
     for j in range(ml):
         for w in range(W):
             B[j, w] = y[s + w * L - ml + j]
@@ -108,13 +136,17 @@ def _ms_errors(y, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound):
         for w in range(Wj):
             bad += not (abs(acc[w]) <= bound)       # NaN and inf count too
         if bad:
-            return True, r
+            return True, 0.0
         out = B[pos]
+        yt = YT[off:off + Wj]
         for w in range(Wj):
             out[w] = acc[w]
-        for w in range(Wj):                         # natural order for Σ r²
-            r[w * L + j] = y[s + w * L + j] - acc[w]
-    return False, r
+            e = yt[w] - acc[w]
+            S[w] += e * e
+    total = 0.0
+    for w in range(W):
+        total += S[w]
+    return False, total
 
 
 class WindowStore:
@@ -174,6 +206,9 @@ class _State:
         self.store = WindowStore(scorer.data.n, s, scorer.window,
                                  min(BUDGET, scorer.store.capacity * 8 * scorer.data.n))
         self.info: Dict[Term, Optional[tuple]] = {}
+        #: the measured output, window-major like the input parts
+        self.YT = np.empty(self.store.W * self.window)
+        self.store.permute_into(scorer.y, self.YT)
 
 
 def _term_info(t: Term):
@@ -225,16 +260,14 @@ def ms_mse(scorer, terms: Sequence[Term], theta, s: int) -> Optional[float]:
     nlag = np.array([len(r) for r in lag_rows], dtype=np.int64)
     ml = max((max(r) for r in lag_rows), default=0)
     ws = st.store
-    diverged, r = _ms_errors(scorer.y, ws.array, idx,
+    diverged, sse = _ms_sse(scorer.y, st.YT, ws.array, idx,
                             np.ascontiguousarray(theta, dtype=np.float64),
                             np.array(static, dtype=np.int64),
                             np.array(dyn, dtype=np.int64), lags, nlag,
                             s, ws.window, ws.W, ml, float(scorer.bound))
     if diverged:
         return float("inf")
-    from .fitness import fixed_dot              # the general path's summation
-    r = r[:scorer.data.n - s]
-    return float(fixed_dot(r, r) / r.size)
+    return float(sse / (scorer.data.n - s))
 
 
 def _natural(scorer, t: Term) -> np.ndarray:

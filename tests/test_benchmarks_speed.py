@@ -108,3 +108,16 @@ def test_full_setup_smoke():
     r = full_setup.run(n=1500, population=6, generations=1, jobs=1, seed=0)
     assert r["evaluations"] >= 1 and np.isfinite(r["best_fitness"])
     assert "wall time" in full_setup.markdown(r)
+
+
+@pytest.mark.parametrize("n, L", [(1, 1), (10, 3), (1000, 100), (1001, 100), (57, 1000)])
+def test_window_sse_sums_each_window_then_the_windows(n, L):
+    r = np.random.default_rng(n).standard_normal(n) * 1e3
+    total = 0.0
+    for a in range(0, n, L):                  # the documented order, in Python
+        acc = 0.0
+        for v in r[a:a + L].tolist():
+            acc += v * v
+        total += acc
+    assert msk.window_sse(r, L) == total
+    assert msk.window_sse(r, L) == pytest.approx(float(r @ r), rel=1e-12)
