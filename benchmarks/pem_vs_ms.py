@@ -32,7 +32,8 @@ import numpy as np
 from mggp import MGGPRegressor
 from narx import Model
 
-from .casestudy import MODEL19, PUBLISHED, case_data, model19, score_model
+from .casestudy import (MODEL19, PUBLISHED, TRAINING_FILTER_ORDER, case_data, model19,
+                        score_model)
 
 QUICK = dict(n=50_000, population=300, generations=60, seeds=[1], window=1000)
 FULL = dict(n=50_000, population=500, generations=200, seeds=[1, 2, 3, 4, 5], window=1000)
@@ -182,6 +183,9 @@ def main(argv=None):
     p.add_argument("--no-damper", action="store_true", help="skip the MR damper study")
     p.add_argument("--no-screen", action="store_true",
                    help="search without the free-run stability screen (mggp.screen)")
+    p.add_argument("--filter-order", type=int, default=TRAINING_FILTER_ORDER,
+                   help="order of the training input's 1 Hz Butterworth low-pass "
+                        "(default %(default)s; see benchmarks.casestudy.case_data)")
     p.add_argument("--out", default="report")
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
@@ -195,8 +199,9 @@ def main(argv=None):
         print(msg, flush=True)
     t_all = time.perf_counter()
     log(f"piezo case study: N={args.n}, population {args.population}, generations "
-        f"{args.generations}, seeds {args.seeds}, MS window {args.window}, jobs {args.jobs}")
-    cs = case_data(args.n, seed=0)
+        f"{args.generations}, seeds {args.seeds}, MS window {args.window}, jobs {args.jobs}, "
+        f"training input filter order {args.filter_order}")
+    cs = case_data(args.n, seed=0, order=args.filter_order)
     rows, extras = run_mggp(cs, args, log)
     from .study_peers import run_peers
     peers = run_peers(cs, args, log)

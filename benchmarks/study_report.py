@@ -77,7 +77,9 @@ def write_report(args, summary, peers, checks, figs, damper, table_md, seconds):
     lines = ["# PEM versus multiple shooting on the piezo actuator", "",
              f"Mode: **{mode}**; N = {args.n}, population {args.population}, "
              f"{args.generations} generations, seeds {args.seeds}, MS window Δm = "
-             f"{args.window} samples, {args.jobs} jobs; {seconds:.0f} s on "
+             f"{args.window} samples, training input through a 1 Hz Butterworth low-pass "
+             f"of order {getattr(args, 'filter_order', '?')}, {args.jobs} jobs; "
+             f"{seconds:.0f} s on "
              f"{os.cpu_count()} cores ({platform.processor() or platform.machine()}).",
              "", "Free-run figures; MAPE is range-normalised (DESIGN.md). Drift is the "
              "range of the simulated output over each 1 s hold after 100 settling samples; "
