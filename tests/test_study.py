@@ -2,7 +2,9 @@
 import json
 import os
 
-from benchmarks import pem_vs_ms
+import numpy as np
+
+from benchmarks import pem_vs_ms, published_structures
 from benchmarks.casestudy import case_data, model19, score_model
 
 
@@ -20,6 +22,7 @@ def test_study_runs_end_to_end_and_writes_report(tmp_path):
         assert os.path.getsize(out / fig) > 1000
     doc = json.loads(js.read_text())
     assert {r["name"] for r in doc["summary"]} >= {"PEM-LS", "MS-LS", "model (19) CLS"}
+    assert doc["settings"]["filter_order"] == 4 and "low-pass of order 4" in text
 
 
 def test_goal_logic_flags_shortfalls():
@@ -37,3 +40,22 @@ def test_published_model19_scores_as_published():
     cs = case_data(n=2000)
     r = score_model(model19(), cs)
     assert abs(r["val_mape"] - 0.241) < 0.03
+
+
+def test_filter_order_changes_the_training_record_only():
+    a, b = case_data(n=3000, order=4), case_data(n=3000, order=1)
+    assert not np.array_equal(a.u, b.u)
+    assert np.array_equal(a.uv, b.uv) and np.array_equal(a.yh, b.yh)
+    assert np.ptp(a.u) == np.ptp(b.u)                       # both span +/-80 V
+    rate = [np.sqrt(np.mean(np.diff(c.u) ** 2)) for c in (a, b)]
+    assert rate[1] > 1.3 * rate[0]                          # 1st order: faster rates
+
+
+def test_published_structures_table(capsys):
+    assert published_structures.main(["--orders", "1", "4", "--n", "4000"]) == 0
+    text = capsys.readouterr().out
+    rows = published_structures.run(orders=[4], seeds=[0], n=4000)
+    assert [(r["structure"], r["estimator"]) for r in rows] == [
+        ("model (19)", "LS"), ("model (19)", "CLS"), ("model (33)", "LS"), ("model (33)", "CLS")]
+    assert all(np.isfinite(r["val_mape"]) for r in rows if r["structure"] == "model (19)")
+    assert "| 1 | model (19) | CLS |" in text and "0.44 / 0.241" in text
