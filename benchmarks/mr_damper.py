@@ -5,7 +5,8 @@ Typical use::
     python -m benchmarks.mr_damper                 # quick search, prints RRSE
     run_damper(args, print)                        # from benchmarks.pem_vs_ms
 
-Data (``mr_damper.csv``, see shared/data/SOURCES.md): inputs voltage ``E`` and
+Data (``mr_damper.csv``, shipped in ``benchmarks/data`` with its origin and
+licence in ``benchmarks/data/SOURCES.md``): inputs voltage ``E`` and
 velocity ``v``, output force ``f``; training rows 400–1999, test rows
 2001–3599, each signal scaled by its maximum absolute value on the training
 part (the published protocol). The published yardstick is SysIdentPy's
@@ -36,9 +37,12 @@ PUBLISHED = {"FROLS (sysidentpy tutorial)": 0.0451, "MetaMSS": 0.0557}
 
 
 def damper_path():
+    """``mr_damper.csv`` from ``$MGGP_SHARED_DATA`` if set, else the copy
+    shipped in ``benchmarks/data``, else the project's ``shared/data``."""
     env = os.environ.get("MGGP_SHARED_DATA")
     here = os.path.dirname(os.path.abspath(__file__))
-    for folder in ([env] if env else []) + [os.path.join(here, "..", "..", "shared", "data")]:
+    for folder in ([env] if env else []) + [os.path.join(here, "data"),
+                                            os.path.join(here, "..", "..", "shared", "data")]:
         p = os.path.join(folder, "mr_damper.csv")
         if os.path.exists(p):
             return os.path.normpath(p)

@@ -59,3 +59,13 @@ def test_published_structures_table(capsys):
         ("model (19)", "LS"), ("model (19)", "CLS"), ("model (33)", "LS"), ("model (33)", "CLS")]
     assert all(np.isfinite(r["val_mape"]) for r in rows if r["structure"] == "model (19)")
     assert "| 1 | model (19) | CLS |" in text and "0.44 / 0.241" in text
+
+
+def test_mr_damper_data_ships_with_the_benchmarks(tmp_path, monkeypatch):
+    from benchmarks import mr_damper
+    monkeypatch.setenv("MGGP_SHARED_DATA", str(tmp_path))        # no file there
+    path = mr_damper.damper_path()
+    assert path is not None and os.path.basename(os.path.dirname(path)) == "data"
+    tr, te = mr_damper.load_damper(path)
+    assert tr.shape == (1600, 3) and te.shape == (1599, 3)
+    assert np.max(np.abs(tr), axis=0).tolist() == [1.0, 1.0, 1.0]   # scaled on training
