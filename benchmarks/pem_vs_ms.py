@@ -186,6 +186,8 @@ def main(argv=None):
     p.add_argument("--filter-order", type=int, default=TRAINING_FILTER_ORDER,
                    help="order of the training input's 1 Hz Butterworth low-pass "
                         "(default %(default)s; see benchmarks.casestudy.case_data)")
+    p.add_argument("--data-seed", type=int, default=0,
+                   help="seed of the training input realisation (default %(default)s)")
     p.add_argument("--out", default="report")
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
@@ -200,8 +202,8 @@ def main(argv=None):
     t_all = time.perf_counter()
     log(f"piezo case study: N={args.n}, population {args.population}, generations "
         f"{args.generations}, seeds {args.seeds}, MS window {args.window}, jobs {args.jobs}, "
-        f"training input filter order {args.filter_order}")
-    cs = case_data(args.n, seed=0, order=args.filter_order)
+        f"training input filter order {args.filter_order}, data seed {args.data_seed}")
+    cs = case_data(args.n, seed=args.data_seed, order=args.filter_order)
     rows, extras = run_mggp(cs, args, log)
     from .study_peers import run_peers
     peers = run_peers(cs, args, log)

@@ -78,7 +78,8 @@ def write_report(args, summary, peers, checks, figs, damper, table_md, seconds):
              f"Mode: **{mode}**; N = {args.n}, population {args.population}, "
              f"{args.generations} generations, seeds {args.seeds}, MS window Δm = "
              f"{args.window} samples, training input through a 1 Hz Butterworth low-pass "
-             f"of order {getattr(args, 'filter_order', '?')}, {args.jobs} jobs; "
+             f"of order {getattr(args, 'filter_order', '?')} (data seed "
+             f"{getattr(args, 'data_seed', 0)}), {args.jobs} jobs; "
              f"{seconds:.0f} s on "
              f"{os.cpu_count()} cores ({platform.processor() or platform.machine()}).",
              "", "Free-run figures; MAPE is range-normalised (DESIGN.md). Drift is the "

@@ -22,7 +22,7 @@ def test_study_runs_end_to_end_and_writes_report(tmp_path):
         assert os.path.getsize(out / fig) > 1000
     doc = json.loads(js.read_text())
     assert {r["name"] for r in doc["summary"]} >= {"PEM-LS", "MS-LS", "model (19) CLS"}
-    assert doc["settings"]["filter_order"] == 4 and "low-pass of order 4" in text
+    assert doc["settings"]["filter_order"] == 4 and "low-pass of order 4 (data seed 0)" in text
 
 
 def test_goal_logic_flags_shortfalls():
