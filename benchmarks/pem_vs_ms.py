@@ -191,6 +191,12 @@ def main(argv=None):
     p.add_argument("--out", default="report")
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
+    for name in ("filter_order", "n", "population", "generations", "window", "jobs"):
+        v = getattr(args, name)
+        if v is not None and v < 1:
+            p.error(f"--{name.replace('_', '-')} must be >= 1, got {v}")
+    if args.data_seed < 0 or any(s < 0 for s in (args.seeds or [])):
+        p.error(f"seeds must be >= 0, got --data-seed {args.data_seed}, --seeds {args.seeds}")
     base = FULL if args.full else QUICK
     for k, v in base.items():
         if getattr(args, k, None) is None:

@@ -69,3 +69,13 @@ def test_mr_damper_data_ships_with_the_benchmarks(tmp_path, monkeypatch):
     tr, te = mr_damper.load_damper(path)
     assert tr.shape == (1600, 3) and te.shape == (1599, 3)
     assert np.max(np.abs(tr), axis=0).tolist() == [1.0, 1.0, 1.0]   # scaled on training
+
+
+def test_study_rejects_bad_settings_in_one_line(capsys):
+    import pytest
+    for argv, text in ((["--filter-order", "0"], "--filter-order must be >= 1, got 0"),
+                       (["--data-seed", "-1"], "seeds must be >= 0"),
+                       (["--window", "0"], "--window must be >= 1, got 0")):
+        with pytest.raises(SystemExit) as e:
+            pem_vs_ms.main(argv + ["--peers", "no", "--no-damper"])
+        assert e.value.code == 2 and text in capsys.readouterr().err
