@@ -5,6 +5,7 @@ Typical use::
     python -m benchmarks.pem_vs_ms                     # quick, a few minutes
     python -m benchmarks.pem_vs_ms --full --jobs 2     # published setup, 5 seeds
     python -m benchmarks.pem_vs_ms --out report --json report/study.json
+    python -m benchmarks.pem_vs_ms --data-seed 3 --filter-order 1   # another record
 
 Identifies the Bouc-Wen piezo actuator of DESIGN.md by MGGP with
 one-step-ahead (PEM) fitness and with multiple-shooting (MS) fitness, both
@@ -16,7 +17,10 @@ continuum-of-steady-states constraints; fits the published model (19) by
 CLS; and sets free-run MAPE (training, validation u = 40 sin 2πt), RMSE,
 terms, fit time and the held-input behaviour beside the published figures
 and beside peer tools run on the same data in the same run. A second study
-identifies the MR damper data set (``mr_damper.csv`` in the shared data).
+identifies the MR damper data set (``benchmarks/data/mr_damper.csv``).
+The training record is ``case_data(N, seed=--data-seed, order=--filter-order)``
+(:mod:`benchmarks.casestudy`); the study's figures are for data seed 0 and
+the 4th-order filter.
 Writes ``report.md``, PNG figures and (``--json``) every figure.
 """
 from __future__ import annotations
