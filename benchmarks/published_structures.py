@@ -30,6 +30,7 @@ import numpy as np
 from narx import Model
 
 from .casestudy import MODEL19, MODEL33_TERMS, PUBLISHED, case_data, score_model
+from .pem_vs_ms import _fmt
 
 STRUCTURES = (("model (19)", MODEL19["terms"]), ("model (33)", MODEL33_TERMS))
 #: the published row of each (structure, estimator)
@@ -57,10 +58,11 @@ def run(orders: Sequence[int] = (1, 2, 4), seeds: Sequence[int] = (0,), n: int =
 
 
 def _med(vals) -> str:
+    """Median (min–max) in the study's number format (``pem_vs_ms._fmt``)."""
     v = np.array(vals, dtype=float)
     if v.size == 1:
-        return f"{v[0]:.3f}"
-    return f"{np.median(v):.3f} ({v.min():.3f}–{v.max():.3f})"
+        return _fmt(float(v[0]))
+    return f"{_fmt(float(np.median(v)))} ({_fmt(float(v.min()))}–{_fmt(float(v.max()))})"
 
 
 def markdown(rows) -> str:
@@ -81,8 +83,8 @@ def markdown(rows) -> str:
                    + " | ".join(_med([r[k] for r in g]) for k in
                                 ("train_mape", "val_mape", "ss_loading", "ss_unloading"))
                    + f" | {pub} | {pss} |")
-    out += ["", "A training MAPE of inf: the model diverges in free run on the training "
-            "record (its validation run may still be finite)."]
+    out += ["", "A training MAPE shown as diverged: the model diverges in free run on the "
+            "training record (its validation run may still be finite)."]
     return "\n".join(out)
 
 

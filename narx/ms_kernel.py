@@ -261,10 +261,10 @@ def ms_mse(scorer, terms: Sequence[Term], theta, s: int) -> Optional[float]:
     ml = max((max(r) for r in lag_rows), default=0)
     ws = st.store
     diverged, sse = _ms_sse(scorer.y, st.YT, ws.array, idx,
-                            np.ascontiguousarray(theta, dtype=np.float64),
-                            np.array(static, dtype=np.int64),
-                            np.array(dyn, dtype=np.int64), lags, nlag,
-                            s, ws.window, ws.W, ml, float(scorer.bound))
+                           np.ascontiguousarray(theta, dtype=np.float64),
+                           np.array(static, dtype=np.int64),
+                           np.array(dyn, dtype=np.int64), lags, nlag,
+                           s, ws.window, ws.W, ml, float(scorer.bound))
     if diverged:
         return float("inf")
     return float(sse / (scorer.data.n - s))
