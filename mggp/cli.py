@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from typing import List, Optional
 
 import numpy as np
@@ -150,7 +151,17 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None):
+    print("warning: " + " ".join(str(message).split()), file=sys.stderr)
+
+
 def main(argv: Optional[List[str]] = None) -> int:
+    with warnings.catch_warnings():             # restores showwarning on return
+        warnings.showwarning = _one_line_warning
+        return _main(argv)
+
+
+def _main(argv: Optional[List[str]]) -> int:
     try:
         args = build_parser().parse_args(argv)
         for name in ("k", "window"):           # shared by every subcommand

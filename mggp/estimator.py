@@ -7,7 +7,7 @@ Typical use::
                         generations=50, random_state=0, n_jobs=2).fit(u, y)
     est.model_                      # narx.Model, θ by LS (QR) on all data
     est.model_cls_                  # CLS refit (constraints='steady-state')
-    print(est.pareto_front_)        # complexity, loss, equation
+    print(est.pareto_front_)        # complexity, loss, score, equation (mggp.pareto)
     est.simulate(u_val, y_val, mode="freerun").mape
 
 The search (``mggp.evolve``) proposes term sets; each is scored by LS and
@@ -24,41 +24,29 @@ References
 """
 from __future__ import annotations
 
+import contextlib
 import random
 import time
+import warnings
 from typing import List, Optional
 
 import numpy as np
 
 from narx import Model
+from narx.model import RankWarning
 from narx.data import Data, DataError, as_data
 from narx.fitness import StructureScorer
 from narx.phi import default_registry
 
 from .evaluate import Evaluator, criterion_value
 from .evolve import evolve
+from .params import check_params
+from .pareto import ParetoFront, front_rows
 from .primitives import make_pset, max_lag_for_height
 from .screen import StabilityScreen
 from .selection import select_freerun, select_hold
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
-
-
-class ParetoFront(list):
-    """Rows (complexity, loss, terms) of the non-dominated models, as a table."""
-
-    def __repr__(self):
-        lines = [f"{'complexity':>10}  {'loss':>12}  equation"]
-        for r in self:
-            lines.append(f"{r['complexity']:>10d}  {r['loss']:>12.6g}  {' + '.join(r['terms'])}")
-        return "\n".join(lines)
-
-    def to_markdown(self) -> str:
-        out = ["| complexity | loss | terms |", "|---:|---:|---|"]
-        for r in self:
-            out.append(f"| {r['complexity']} | {r['loss']:.6g} | "
-                       f"{', '.join('`%s`' % t for t in r['terms'])} |")
-        return "\n".join(out)
 
 
 class MGGPRegressor:
@@ -205,13 +193,7 @@ class MGGPRegressor:
 
     # -------------------------------------------------------------- fit
     def _validate(self, data: Data):
-        if self.constraints not in (None, "steady-state"):
-            raise ValueError(f"constraints must be None or 'steady-state', got {self.constraints!r}")
-        for name in ("population", "generations", "max_terms", "max_height", "window", "k"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < (
-                    0 if name == "generations" else 1):
-                raise ValueError(f"{name} must be a positive integer, got {v!r}")
+        check_params(self)
         start = max_lag_for_height(self.max_height)
         if data.n < start + max(4 * self.max_terms, 20):
             raise DataError(f"{data.n} samples are too few: the search needs at least "
@@ -220,6 +202,9 @@ class MGGPRegressor:
         for name in data.inputs:
             if np.ptp(data.input(name)) == 0:
                 raise DataError(f"input {name!r} is constant: nothing can be identified")
+        if np.ptp(data.y) == 0:
+            raise DataError(f"output {data.output!r} is constant (every sample "
+                            f"{float(data.y[0])!r}): nothing can be identified")
         return start
 
     def _seed(self) -> int:
@@ -235,6 +220,8 @@ class MGGPRegressor:
     def fit(self, u, y=None):
         """Search a structure on ``(u, y)`` (arrays or a narx.Data); returns self."""
         t0 = time.perf_counter()
+        for name in [a for a in vars(self) if a.endswith("_") and not a.startswith("_")]:
+            delattr(self, name)                 # nothing from an earlier fit survives
         inputs = self.inputs
         data = as_data(u, y, inputs=inputs, output=self.output)
         data.require_output("fit")
@@ -307,19 +294,24 @@ class MGGPRegressor:
                 "use_phi": self.use_phi, "screen": self.screen,
                 "search_fitness_value": self.fitness_}
         meta["versions"] = _versions()
-        self.model_ = Model(terms, inputs=data.inputs, output=data.output,
-                            meta=dict(meta, estimation="ls"), registry=registry).fit(data)
-        self.model_cls_ = None
-        if self.constraints == "steady-state":
-            try:
-                self.model_cls_ = Model(terms, inputs=data.inputs, output=data.output,
-                                        meta=dict(meta, estimation="cls"),
-                                        registry=registry).fit(data, constraints="steady-state")
-            except ValueError as exc:
-                self.cls_error_ = str(exc)
-        self.pareto_front_ = ParetoFront(
-            {"complexity": int(r.complexity), "loss": float(r.fitness),
-             "terms": [str(t) for t in r.terms]} for r in res.pareto)
+        # a searched structure may hold terms the record cannot tell apart
+        # (``rank_`` < number of terms): θ is then the minimum-norm solution
+        with _quiet_rank():
+            self.model_ = Model(terms, inputs=data.inputs, output=data.output,
+                                meta=dict(meta, estimation="ls"), registry=registry).fit(data)
+            self.rank_ = int(self.model_.fit_info_["rank"])
+            self.model_cls_ = None
+            if self.constraints == "steady-state":
+                try:
+                    self.model_cls_ = Model(terms, inputs=data.inputs, output=data.output,
+                                            meta=dict(meta, estimation="cls"),
+                                            registry=registry).fit(data,
+                                                                   constraints="steady-state")
+                except ValueError as exc:
+                    self.cls_error_ = str(exc)
+        self.pareto_front_ = ParetoFront(front_rows(res.pareto, scorer, allowed),
+                                         inputs=data.inputs, output=data.output,
+                                         registry=registry)
         self.logbook_ = res.logbook
         self.screen_rejected_ = None if screen is None else screen.rejected
         self.screen_rejected_hold_ = None if screen is None else screen.rejected_hold
@@ -417,8 +409,9 @@ class MGGPRegressor:
                 if c in chosen:
                     continue
                 trial = terms + chosen + (c,)
-                m = Model(trial, inputs=data.inputs, output=data.output,
-                          registry=registry).fit(data)
+                with _quiet_rank():                 # a trial, not a result
+                    m = Model(trial, inputs=data.inputs, output=data.output,
+                              registry=registry).fit(data)
                 noise = np.zeros(data.n)
                 noise[m.fit_info_["start"]:] = m.fit_info_["residuals"]
                 Psi, target, _ = regressor_matrix(trial, data, noise=noise, start=start,
@@ -464,6 +457,14 @@ class MGGPRegressor:
 
     def predict(self, u, y=None, mode="freerun", constrained=None, **kw):
         return self.simulate(u, y, mode, constrained, **kw).y_hat
+
+
+@contextlib.contextmanager
+def _quiet_rank():
+    """No :class:`narx.model.RankWarning` inside (the caller reports rank)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RankWarning)
+        yield
 
 
 def _identically_zero(term, registry) -> bool:

@@ -31,7 +31,11 @@ def factor_latex(f) -> str:
 
 
 def to_sympy(model):
-    import sympy
+    try:
+        import sympy
+    except ImportError:
+        raise ImportError("to_sympy needs sympy, which is not installed: "
+                          "pip install sympy (or the 'export' extra)") from None
     expr = 0
     syms = {}
     for t, v in zip(model.terms, model._need_theta()):

@@ -20,6 +20,7 @@ References
 """
 from __future__ import annotations
 
+import warnings
 from typing import Optional, Sequence
 
 import numpy as np
@@ -33,7 +34,11 @@ from .simulate import SimulationResult, simulate
 from .steady import cluster_sums, steady_state_constraints
 from .terms import HasSignals, Signals, Term, parse_terms
 
-__all__ = ["Model"]
+__all__ = ["Model", "RankWarning"]
+
+
+class RankWarning(UserWarning):
+    """The regressor matrix of a fit is rank-deficient (dependent terms)."""
 
 
 class Model(HasSignals):
@@ -141,6 +146,10 @@ class Model(HasSignals):
                 break
             prev = est.theta
         self.theta = est.theta
+        if est.rank < len(self.terms):
+            warnings.warn(f"the regressors of the {len(self.terms)} terms have rank "
+                          f"{est.rank} on this record: some terms cannot be told apart "
+                          f"and θ is the minimum-norm solution", RankWarning, stacklevel=2)
         self.fit_info_ = {"method": est.method, "rank": est.rank,
                           "residuals": target - Psi @ est.theta,
                           "n_samples": int(Psi.shape[0]), "start": int(start),

@@ -165,3 +165,25 @@ def test_usage_error_is_one_line(capsys):
     code, _, err = run(capsys, "simulate")
     assert code == 2
     assert "required" in one_error_line(err)
+
+
+def test_dependent_terms_warn_in_one_line_and_the_model_is_written(capsys, tmp_path):
+    # u in {-1, 1}: u[k-1]*u[k-1] equals the constant term, so the record
+    # cannot tell them apart; the fit still succeeds (minimum-norm θ)
+    rng = np.random.default_rng(0)
+    u = rng.choice([-1.0, 1.0], 200)
+    y = np.r_[0.0, 0.7 * u[:-1]] + 0.3
+    data = write_csv(tmp_path / "pm.csv", ["u", "y"], zip(u, y))
+    out = tmp_path / "m.json"
+    code, _, err = run(capsys, "estimate", data, "--terms", "1", "u[k-1]*u[k-1]", "u[k-1]",
+                       "--out", out)
+    assert code == 0 and out.exists()
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("warning: "), err
+    assert "have rank 2" in lines[0]
+    # control: a record that separates them gives no warning
+    u2 = rng.uniform(-1, 1, 200)
+    data2 = write_csv(tmp_path / "pm2.csv", ["u", "y"], zip(u2, np.r_[0.0, u2[:-1]]))
+    code, _, err = run(capsys, "estimate", data2, "--terms", "1", "u[k-1]*u[k-1]", "u[k-1]",
+                       "--out", tmp_path / "m2.json")
+    assert code == 0 and err.strip() == ""

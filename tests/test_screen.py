@@ -75,7 +75,7 @@ def test_screen_bad_parameters(kw, text):
 
 def test_estimator_rejects_unknown_screen():
     u, y = _piezo()
-    with pytest.raises(ValueError, match="screen must be None, 'freerun' or 'hold', got 'x'"):
+    with pytest.raises(ValueError, match="screen must be one of None, 'freerun', 'hold', got 'x'"):
         MGGPRegressor(screen="x", population=4, generations=0).fit(u, y)
 
 

@@ -42,6 +42,7 @@ by how far they move.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
 from typing import List, Optional, Sequence, Tuple
 
@@ -50,6 +51,7 @@ import numpy as np
 from narx import Model
 from narx.data import Data
 from narx.estimate import EstimationError
+from narx.model import RankWarning
 from narx.terms import Signals, parse_term
 
 from .holds import probe_holds
@@ -226,8 +228,10 @@ def _unique(terms, data: Data, registry) -> List[str]:
 
 def _candidate(terms, data: Data, constraints, registry) -> Optional[Model]:
     try:
-        return Model(terms, inputs=data.inputs, output=data.output,
-                     registry=registry).fit(data, constraints=constraints)
+        with warnings.catch_warnings():         # a candidate, not a result
+            warnings.simplefilter("ignore", RankWarning)
+            return Model(terms, inputs=data.inputs, output=data.output,
+                         registry=registry).fit(data, constraints=constraints)
     except (EstimationError, ValueError):
         return None
 

@@ -1,0 +1,65 @@
+"""MGGPRegressor parameters are checked before the search starts."""
+import numpy as np
+import pytest
+
+from mggp import MGGPRegressor
+from narx.data import DataError
+
+
+@pytest.fixture(scope="module")
+def record():
+    rng = np.random.default_rng(0)
+    u = rng.uniform(-1, 1, 300)
+    y = np.zeros(300)
+    for k in range(1, 300):
+        y[k] = 0.5 * y[k - 1] + u[k - 1]
+    return u, y
+
+
+@pytest.mark.parametrize("param, value, text", [
+    ("select", "foo", "select must be one of 'fitness', 'freerun', 'hold', got 'foo'"),
+    ("prune", "foo", "prune must be one of False, None, 'bic', 't', got 'foo'"),
+    ("noise_lags", "x", "noise_lags must be an integer >= 0, got 'x'"),
+    ("noise_lags", -1, "noise_lags must be an integer >= 0, got -1"),
+    ("noise_lags", 1.5, "noise_lags must be an integer >= 0, got 1.5"),
+    ("max_lag", -1, "max_lag must be an integer >= 1 or None, got -1"),
+    ("max_degree", 0, "max_degree must be an integer >= 1 or None, got 0"),
+    ("t_threshold", -1, "t_threshold must be a finite number > 0 or None, got -1"),
+    ("select_candidates", 0, "select_candidates must be an integer >= 1, got 0"),
+    ("search_constraints", "foo", "search_constraints must be one of None, 'steady-state'"),
+    ("generations", -1, "generations must be an integer >= 0, got -1"),
+    ("population", 0, "population must be an integer >= 1, got 0"),
+    ("screen", "fast", "screen must be one of None, 'freerun', 'hold', got 'fast'"),
+])
+def test_bad_parameter_fails_before_any_generation(record, param, value, text):
+    seen = []
+    kw = dict(population=10, generations=2, max_height=2, use_phi=False, fitness="pem",
+              random_state=0, callbacks=[seen.append])
+    kw[param] = value
+    est = MGGPRegressor(**kw)
+    with pytest.raises(ValueError) as exc:
+        est.fit(*record)
+    assert text in str(exc.value)
+    assert seen == []                       # no generation ran
+
+
+def test_valid_edge_values_are_accepted(record):
+    est = MGGPRegressor(population=10, generations=0, max_height=2, use_phi=False,
+                        fitness="pem", random_state=0, prune=None, max_lag=1,
+                        max_degree=1).fit(*record)
+    assert est.model_.n_terms >= 1
+
+
+def test_constant_output_is_rejected(record):
+    u, _ = record
+    with pytest.raises(DataError, match="output 'y' is constant"):
+        MGGPRegressor(population=10, generations=1, fitness="pem").fit(u, np.full(300, 3.0))
+
+
+def test_refit_leaves_nothing_from_the_earlier_fit(record):
+    est = MGGPRegressor(population=10, generations=1, max_height=2, use_phi=False,
+                        fitness="pem", random_state=0, select="freerun",
+                        select_candidates=3).fit(*record)
+    assert hasattr(est, "selection_")
+    est.set_params(select="fitness").fit(*record)
+    assert not hasattr(est, "selection_")
