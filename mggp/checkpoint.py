@@ -32,7 +32,7 @@ from .primitives import (Decoder, pset_signature, tree_from_tokens,
                          tree_to_tokens)
 
 __all__ = ["EvolutionState", "save_checkpoint", "load_checkpoint",
-           "settings_fingerprint", "FORMAT", "VERSION"]
+           "settings_fingerprint", "data_digest", "checkpoint_seed", "FORMAT", "VERSION"]
 
 FORMAT = "mggp-checkpoint"
 VERSION = 1
@@ -79,6 +79,28 @@ def settings_fingerprint(settings: Dict[str, Any], pset) -> str:
     blob = json.dumps({"settings": s, "pset": pset_signature(pset)},
                       sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def data_digest(data) -> str:
+    """SHA-256 of a record's samples and signal names (a checkpoint belongs
+    to the data it was scored on)."""
+    h = hashlib.sha256()
+    h.update(json.dumps([data.output, list(data.inputs)]).encode())
+    h.update(data.U.tobytes())
+    if data.y is not None:
+        h.update(data.y.tobytes())
+    return h.hexdigest()
+
+
+def checkpoint_seed(path) -> Optional[int]:
+    """The seed stored in the checkpoint at ``path`` (None if there is no
+    file or no integer seed), so a run started without a seed can resume."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            seed = json.load(fh).get("settings", {}).get("seed")
+    except (OSError, ValueError, AttributeError, RecursionError):
+        return None
+    return seed if isinstance(seed, int) and not isinstance(seed, bool) else None
 
 
 def _num(x) -> Any:
@@ -173,6 +195,28 @@ def _rebuild_individual(genes, fitness, pset, where):
     return ind
 
 
+def _consistent(gen, population, logbook, settings, fingerprint, pset) -> None:
+    """The content agrees with the settings it was written under (an edited
+    or truncated file is refused rather than resumed)."""
+    if settings_fingerprint(settings, pset) != fingerprint:
+        raise ValueError("'fingerprint' does not match the stored settings and "
+                         "primitive set (edited, or written for another primitive set)")
+    size = settings.get("population_size")
+    if size is not None and len(population) != size:
+        raise ValueError(f"'population' holds {len(population)} individuals, the "
+                         f"settings say population_size={size}")
+    if len(logbook) != gen + 1:
+        raise ValueError(f"'generation' is {gen} but the logbook holds {len(logbook)} "
+                         f"generation(s)")
+    mt, mh = settings.get("max_terms"), settings.get("max_height")
+    for i, ind in enumerate(population):
+        if mt is not None and len(ind) > mt:
+            raise ValueError(f"population[{i}] has {len(ind)} genes, more than "
+                             f"max_terms={mt}")
+        if mh is not None and any(t.height > mh for t in ind):
+            raise ValueError(f"population[{i}] has a gene higher than max_height={mh}")
+
+
 def load_checkpoint(path, pset, decoder: Optional[Decoder] = None) -> EvolutionState:
     """Read and validate a checkpoint written by :func:`save_checkpoint`.
 
@@ -221,7 +265,7 @@ def load_checkpoint(path, pset, decoder: Optional[Decoder] = None) -> EvolutionS
         raise fail(f"missing field(s) {', '.join(missing)}")
     try:
         gen = doc["generation"]
-        if not isinstance(gen, int) or gen < 0:
+        if not isinstance(gen, int) or isinstance(gen, bool) or gen < 0:
             raise ValueError(f"'generation' must be an integer >= 0, got {gen!r}")
         rs = doc["rng_state"]
         if not (isinstance(rs, list) and len(rs) == 3 and isinstance(rs[1], list)
@@ -271,6 +315,7 @@ def load_checkpoint(path, pset, decoder: Optional[Decoder] = None) -> EvolutionS
         settings = doc["settings"]
         if not isinstance(settings, dict):
             raise ValueError("'settings' must be an object")
+        _consistent(gen, population, logbook, settings, str(doc["fingerprint"]), pset)
     except (KeyError, TypeError, AttributeError) as exc:
         raise fail(f"malformed content ({type(exc).__name__}: {exc})") from None
     except ValueError as exc:

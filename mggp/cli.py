@@ -57,6 +57,9 @@ def _cmd_estimate(args) -> int:
         raise CLIError(f"{args.data}: {data.n} samples are too few for {model.n_terms} "
                        f"terms with largest lag {model.max_lag} (need more than {need})")
     cons = "steady-state" if args.constraints == "steady-state" else None
+    if args.out:
+        from narx.atomic import check_writable
+        check_writable(args.out, "--out")
     model.fit(data, constraints=cons)
     osa = model.simulate(data, mode="osa")
     fr = model.simulate(data, mode="freerun")
@@ -64,6 +67,11 @@ def _cmd_estimate(args) -> int:
                        "constraints": args.constraints,
                        "train": {"osa_rmse": osa.rmse, "freerun_rmse": fr.rmse,
                                  "freerun_mape": fr.mape}})
+    if fr.diverged:
+        warnings.warn(f"the estimated model's free run diverges on {args.data} (it may "
+                      f"still serve one step ahead)")
+    if args.out:                              # saved first: a closed pipe loses nothing
+        model.save(args.out)
     print(model.equation())
     width = max(len(t) for t in model.term_texts)
     for i, (t, v) in enumerate(zip(model.term_texts, model.theta)):
@@ -74,7 +82,6 @@ def _cmd_estimate(args) -> int:
     print(f"one-step-ahead RMSE {fmt(osa.rmse)}; free-run RMSE {fmt(fr.rmse)}, "
           f"MAPE {fmt(fr.mape)} %" + ("  (free run diverged)" if fr.diverged else ""))
     if args.out:
-        model.save(args.out)
         print(f"model written to {args.out}")
     return 0
 
@@ -89,6 +96,9 @@ def _cmd_simulate(args) -> int:
     if len(inputs) != len(model.inputs):
         raise CLIError(f"--input: the model has {len(model.inputs)} input(s) "
                        f"{list(model.inputs)}, got {len(inputs)} column name(s)")
+    if args.out:
+        from narx.atomic import check_writable
+        check_writable(args.out, "--out")
     data = read_csv(args.data, inputs=inputs, output=output)
     if data.n <= model.max_lag + 1:
         raise CLIError(f"{args.data}: {data.n} samples are too few for the model's "
@@ -172,6 +182,13 @@ def _main(argv: Optional[List[str]]) -> int:
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:                   # e.g. `mggp ... | head -1`
+        import os
+        try:                                  # no second error at interpreter exit
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 0
     except (CLIError, ValueError, KeyError, OSError) as exc:
         msg = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
         if isinstance(exc, OSError) and exc.filename:

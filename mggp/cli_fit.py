@@ -86,23 +86,36 @@ class _Progress:
 def _cmd_fit(args) -> int:
     from narx.csvdata import read_csv
     from .estimator import MGGPRegressor
-    for name in ("population", "generations", "max_terms", "max_height"):
+    from narx.atomic import check_writable
+    lows = {"population": 2, "generations": 0, "max_terms": 1, "max_height": 1,
+            "max_lag": 1, "max_degree": 1, "seed": 0}
+    for name, lo in lows.items():
         v = getattr(args, name)
-        if v < (0 if name == "generations" else 1):
-            raise CLIError(f"--{name.replace('_', '-')} must be >= "
-                           f"{0 if name == 'generations' else 1}, got {v}")
+        if v is not None and v < lo:
+            raise CLIError(f"--{name.replace('_', '-')} must be >= {lo}, got {v}")
     if args.jobs == 0 or args.jobs < -1:
         raise CLIError(f"--jobs must be >= 1 or -1, got {args.jobs}")
     if args.resume and not args.checkpoint:
         raise CLIError("--resume needs --checkpoint FILE")
     if args.backend == "dask" and not args.scheduler:
         raise CLIError("--backend dask needs --scheduler ADDRESS")
+    if args.scheduler and args.backend != "dask":
+        raise CLIError(f"--scheduler {args.scheduler} needs --backend dask "
+                       f"(got --backend {args.backend})")
+    # every destination is checked before the search, so no run is lost to it
+    for opt, path in (("--out", args.out), ("--checkpoint", args.checkpoint)):
+        if path:
+            try:
+                check_writable(path, opt)
+            except ValueError as exc:
+                raise CLIError(str(exc)) from None
+    if args.report and os.path.exists(args.report) and not os.path.isdir(args.report):
+        raise CLIError(f"--report {args.report}: exists and is not a folder")
+    if args.report and args.out and os.path.abspath(args.report) == os.path.abspath(args.out):
+        raise CLIError(f"--report and --out name the same path {args.out}")
     inputs = args.input or ["u"]
     output = args.output or "y"
     data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True)
-    for path in (args.out,):
-        if path and os.path.isdir(path):
-            raise CLIError(f"--out {path} is a folder, not a file")
     est = MGGPRegressor(fitness=args.fitness, window=args.window, k=args.k,
                         criterion=args.criterion, constraints=args.constraints,
                         population=args.population, generations=args.generations,
@@ -123,29 +136,32 @@ def _cmd_fit(args) -> int:
     except WorkerLostError as exc:
         raise CLIError(str(exc)) from None
     m = est.model_
-    fr = m.simulate(data, mode="freerun")
-    print(f"seed {est.seed_}; {est.n_evaluations_} structures evaluated in "
-          f"{est.fit_time_:.1f} s; best {args.fitness} fitness {fmt(est.fitness_)}")
-    print("LS:  " + m.equation())
-    print(f"     free-run RMSE {fmt(fr.rmse)}, MAPE {fmt(fr.mape)} %")
     final = m
+    lines = [f"seed {est.seed_}; {est.n_evaluations_} structures evaluated in "
+             f"{est.fit_time_:.1f} s; best {args.fitness} fitness {fmt(est.fitness_)}",
+             "LS:  " + m.equation(), _freerun_line(m, data)]
     if args.constraints:
         if est.model_cls_ is None:
-            print(f"CLS: not possible: {getattr(est, 'cls_error_', 'unknown reason')}")
+            lines.append(f"CLS: not possible: {getattr(est, 'cls_error_', 'unknown reason')}")
         else:
             c = est.model_cls_
-            frc = c.simulate(data, mode="freerun")
-            print("CLS: " + c.equation())
-            print(f"     free-run RMSE {fmt(frc.rmse)}, MAPE {fmt(frc.mape)} %")
+            lines += ["CLS: " + c.equation(), _freerun_line(c, data)]
             c.meta["ls_theta"] = [float(v) for v in m.theta]
             final = c
     final.meta.update({"command": "fit", "data": str(args.data), "n_samples": data.n})
-    if args.out:
+    if args.out:                              # saved first: a closed pipe loses nothing
         final.save(args.out)
-        print(f"model written to {args.out}" + (" (CLS fit)" if final is not m else ""))
+        lines.append(f"model written to {args.out}" + (" (CLS fit)" if final is not m else ""))
+    print("\n".join(lines))
     if args.report:
         from .report import write_fit_report
         cmd = "mggp " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv else None
         path = write_fit_report(args.report, est, data, os.path.basename(args.data), cmd)
         print(f"report written to {path}")
     return 0
+
+
+def _freerun_line(model, data) -> str:
+    fr = model.simulate(data, mode="freerun")
+    return (f"     free-run RMSE {fmt(fr.rmse)}, MAPE {fmt(fr.mape)} %"
+            + ("  (free run diverged)" if fr.diverged else ""))

@@ -25,6 +25,7 @@ References
 from __future__ import annotations
 
 import contextlib
+import json
 import random
 import time
 import warnings
@@ -39,6 +40,7 @@ from narx.fitness import StructureScorer
 from narx.phi import default_registry
 
 from .evaluate import Evaluator, criterion_value
+from .checkpoint import checkpoint_seed, data_digest
 from .evolve import evolve
 from .params import check_params
 from .pareto import ParetoFront, front_rows
@@ -202,6 +204,9 @@ class MGGPRegressor:
         for name in data.inputs:
             if np.ptp(data.input(name)) == 0:
                 raise DataError(f"input {name!r} is constant: nothing can be identified")
+        if self.fitness == "ksa" and self.k >= data.n - start:
+            raise DataError(f"k={self.k} steps ahead do not fit in the {data.n - start} "
+                            f"scored samples (k must be below that)")
         if np.ptp(data.y) == 0:
             raise DataError(f"output {data.output!r} is constant (every sample "
                             f"{float(data.y[0])!r}): nothing can be identified")
@@ -246,6 +251,9 @@ class MGGPRegressor:
             for cb in callbacks:
                 cb(state)
         seed = self._seed()
+        if self.resume and self.checkpoint is not None and self.random_state is None:
+            seed = checkpoint_seed(self.checkpoint) or seed   # continue its run
+        context = {"data": data_digest(data), **{k: getattr(self, k) for k in _CONTEXT}}
         try:
             res = evolve(pset, evaluate_batch, seed=seed, population_size=self.population,
                          generations=self.generations, cxpb=self.cxpb, mutpb=self.mutpb,
@@ -254,10 +262,11 @@ class MGGPRegressor:
                          tournament_size=self.tournament_size,
                          elite_fraction=self.elite_fraction, max_terms=self.max_terms,
                          max_height=self.max_height, on_generation=on_generation,
-                         checkpoint=self.checkpoint, resume=self.resume)
+                         checkpoint=self.checkpoint, resume=self.resume,
+                         context=json.loads(json.dumps(context, default=str)))
         finally:
             evaluator.close()
-        if res.best is None:
+        if res.best is None or not np.isfinite(res.best.fitness):
             raise ValueError("no structure with a finite fitness was found: every "
                              "candidate diverged; try fitness='pem' or a shorter window")
         terms = tuple(t for t in res.best.terms if allowed(t))
@@ -457,6 +466,11 @@ class MGGPRegressor:
 
     def predict(self, u, y=None, mode="freerun", constrained=None, **kw):
         return self.simulate(u, y, mode, constrained, **kw).y_hat
+
+
+#: parameters besides the evolution settings that fitness values depend on
+_CONTEXT = ("fitness", "window", "k", "criterion", "search_constraints", "use_phi",
+            "phi_names", "max_lag", "max_degree", "screen", "screen_top", "screen_band")
 
 
 @contextlib.contextmanager

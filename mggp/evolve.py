@@ -276,13 +276,27 @@ def _step(state: EvolutionState, toolbox, s: EvolutionSettings):
     return elites + offspring
 
 
+def _differences(old: dict, new: dict, prefix: str = "") -> str:
+    """``key (checkpoint A, this run B)`` for every differing setting."""
+    out = []
+    for k in sorted(set(old) | set(new)):
+        a, b = old.get(k), new.get(k)
+        if k == "generations" or a == b:
+            continue
+        if isinstance(a, dict) and isinstance(b, dict):
+            out.append(_differences(a, b, f"{prefix}{k}."))
+        else:
+            out.append(f"{prefix}{k} (checkpoint {a!r}, this run {b!r})")
+    return ", ".join(o for o in out if o)
+
+
 def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[float]],
            settings: Optional[EvolutionSettings] = None, *,
            decoder: Optional[Decoder] = None,
            toolbox: Optional[base.Toolbox] = None,
            on_generation: Optional[Callable[[EvolutionState], None]] = None,
            checkpoint=None, resume: bool = False, checkpoint_every: int = 1,
-           **params) -> EvolutionResult:
+           context: Optional[dict] = None, **params) -> EvolutionResult:
     """Run MGGP structure search.
 
     Parameters
@@ -309,6 +323,11 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
     resume : bool
         Continue from ``checkpoint`` if the file exists (its settings, the
         number of generations aside, must match); otherwise start anew.
+    context : dict, optional
+        What else the fitness values depend on (JSON-able: a digest of the
+        data, the fitness mode and its settings...); stored with the
+        settings, so a checkpoint is resumed only by a run that scores
+        structures the same way.
 
     Returns
     -------
@@ -328,6 +347,8 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
     decoder = decoder if decoder is not None else Decoder(getattr(pset, "signals", None))
     toolbox = toolbox if toolbox is not None else make_toolbox(pset, s)
     sdict = dataclasses.asdict(s)
+    if context:
+        sdict["context"] = dict(context)
     fingerprint = settings_fingerprint(sdict, pset)
 
     def save(state):
@@ -337,11 +358,9 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
     if resume and checkpoint is not None and os.path.exists(checkpoint):
         state = load_checkpoint(checkpoint, pset, decoder)
         if state.fingerprint != fingerprint:
-            diff = sorted(k for k in set(sdict) | set(state.settings)
-                          if k != "generations" and sdict.get(k) != state.settings.get(k))
             raise ValueError(f"checkpoint {os.fspath(checkpoint)}: written by a run "
                              f"with other settings or primitives (differs in: "
-                             f"{', '.join(diff) or 'primitive set'}); "
+                             f"{_differences(state.settings, sdict) or 'primitive set'}); "
                              "remove it or run without resume")
         state.settings = sdict
     else:

@@ -36,7 +36,8 @@ def _one_of(name, v, allowed):
 
 def check_params(est) -> None:
     """Raise ``ValueError`` for the first parameter of ``est`` out of its rule."""
-    for name in ("population", "max_terms", "max_height", "window", "k"):
+    _int_at_least("population", est.population, 2)
+    for name in ("max_terms", "max_height", "window", "k"):
         _int_at_least(name, getattr(est, name), 1)
     _int_at_least("generations", est.generations, 0)
     _int_at_least("noise_lags", est.noise_lags, 0)

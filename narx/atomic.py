@@ -17,12 +17,27 @@ import contextlib
 import os
 import tempfile
 
-__all__ = ["atomic_writer", "atomic_write_text"]
+__all__ = ["atomic_writer", "atomic_write_text", "check_writable"]
+
+
+def check_writable(path, what: str = "output") -> None:
+    """Raise ``ValueError`` naming ``path`` when a file
+    cannot be written there: a directory in the way, a missing or
+    unwritable folder. Call it before long work, so the work is not lost."""
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        raise ValueError(f"{what} {path}: is a directory, not a file name")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ValueError(f"{what} {path}: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"{what} {path}: folder {folder} is not writable")
 
 
 @contextlib.contextmanager
 def atomic_writer(path, newline=None, encoding="utf-8"):
     path = os.fspath(path)
+    check_writable(path)
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=folder)
     try:

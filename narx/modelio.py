@@ -34,6 +34,11 @@ __all__ = ["ModelFileError", "model_to_dict", "model_from_dict", "save_model",
            "load_model", "atomic_write_text", "FORMAT"]
 
 FORMAT = "mggp-narx-model"
+#: newest model-file version this code reads and the one it writes
+VERSION = 1
+#: the keys of a model file (``format``, ``version``, ``noise``, ``meta``
+#: optional, so a hand-written file needs only the other four)
+KEYS = ("format", "version", "output", "inputs", "noise", "terms", "theta", "meta")
 MAX_BYTES = 20 * 2**20
 MAX_TERMS = 256
 MAX_TERM_CHARS = 1000
@@ -53,11 +58,25 @@ def model_to_dict(model) -> dict:
     meta = dict(model.meta)
     meta.setdefault("versions", {"narx": __version__, "numpy": numpy.__version__,
                                  "scipy": scipy.__version__})
-    return {"format": FORMAT, "version": 1, "output": model.output,
+    return {"format": FORMAT, "version": VERSION, "output": model.output,
             "inputs": list(model.inputs), "noise": model.signals.noise,
             "terms": model.term_texts,
             "theta": None if model.theta is None else [float(v) for v in model.theta],
-            "meta": meta}
+            "meta": _plain(meta)}
+
+
+def _plain(v):
+    """``v`` with non-finite floats as the strings 'inf', '-inf', 'nan' (a
+    file must be standard JSON) and numpy scalars and tuples as plain ones."""
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    if hasattr(v, "item") and callable(v.item) and getattr(v, "ndim", 1) == 0:
+        v = v.item()                                   # numpy scalar
+    if isinstance(v, float) and not math.isfinite(v):
+        return "nan" if v != v else ("inf" if v > 0 else "-inf")
+    return v
 
 
 def _fail(source, msg):
@@ -120,6 +139,15 @@ def model_from_dict(d, source: str = "model", registry=None):
     for key in ("output", "inputs", "terms", "theta"):
         if key not in d:
             _fail(source, f"missing key {key!r}")
+    unknown = [k for k in d if k not in KEYS]
+    if unknown:
+        _fail(source, f"unknown key {_show(unknown[0], 40)} (a model file has "
+                      f"{', '.join(KEYS)})")
+    if "format" in d and d["format"] != FORMAT:
+        _fail(source, f"'format' must be {FORMAT!r}, got {_show(d['format'], 40)}")
+    if "version" in d and not (_is_number(d["version"]) and d["version"] in range(1, VERSION + 1)):
+        _fail(source, f"unsupported 'version' {_show(d['version'], 20)} (this mggp reads "
+                      f"versions 1 to {VERSION}; a newer mggp wrote it?)")
     out, inputs, terms, theta = d["output"], d["inputs"], d["terms"], d["theta"]
     if not isinstance(out, str):
         _fail(source, f"'output' must be a string, got {_show(out)}")
@@ -167,7 +195,14 @@ def model_from_dict(d, source: str = "model", registry=None):
 
 
 def save_model(model, path) -> None:
-    atomic_write_text(path, json.dumps(model_to_dict(model), indent=2) + "\n")
+    """Write ``model`` as JSON (atomically), after checking that
+    :func:`load_model` will read it back: a model the loader would refuse
+    (too many terms or factors) raises :class:`ModelFileError`, nothing is
+    written."""
+    d = model_to_dict(model)
+    text = json.dumps(d, indent=2, allow_nan=False) + "\n"
+    model_from_dict(json.loads(text), os.fspath(path), model.registry)
+    atomic_write_text(path, text)
 
 
 def load_model(path, registry=None):

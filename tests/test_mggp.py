@@ -120,7 +120,7 @@ def test_fit_cli_bad_arguments(tmp_path, capsys):
     csv = tmp_path / "d.csv"
     csv.write_text("u,y\n" + "\n".join(f"{i % 7},{i % 5}" for i in range(300)))
     assert main(["fit", str(csv), "--population", "0"]) == 2
-    assert "--population must be >= 1" in capsys.readouterr().err
+    assert "--population must be >= 2, got 0" in capsys.readouterr().err
     assert main(["fit", str(csv), "--resume"]) == 2
     assert "--resume needs --checkpoint" in capsys.readouterr().err
     const = tmp_path / "c.csv"

@@ -28,7 +28,7 @@ def record():
     ("select_candidates", 0, "select_candidates must be an integer >= 1, got 0"),
     ("search_constraints", "foo", "search_constraints must be one of None, 'steady-state'"),
     ("generations", -1, "generations must be an integer >= 0, got -1"),
-    ("population", 0, "population must be an integer >= 1, got 0"),
+    ("population", 1, "population must be an integer >= 2, got 1"),
     ("screen", "fast", "screen must be one of None, 'freerun', 'hold', got 'fast'"),
 ])
 def test_bad_parameter_fails_before_any_generation(record, param, value, text):

@@ -1,0 +1,97 @@
+"""CLI guards found by an audit: files the loader refuses are never written,
+destinations are checked before work, option rules are consistent."""
+import json
+
+import numpy as np
+import pytest
+
+from narx import Model
+from narx.modelio import ModelFileError, load_model
+
+
+def csv(tmp_path, name="d.csv", n=300, seed=0):
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1, 1, n)
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.5 * y[k - 1] + u[k - 1]
+    p = tmp_path / name
+    p.write_text("u,y\n" + "\n".join(f"{float(a)!r},{float(b)!r}" for a, b in zip(u, y)) + "\n")
+    return str(p)
+
+
+from test_cli import one_error_line as error_line, run     # noqa: E402
+
+
+def test_diverging_estimate_writes_a_loadable_model_and_warns(capsys, tmp_path):
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(5000, seed=1)
+    y = piezo_bouc_wen(u)
+    data = tmp_path / "pz.csv"
+    data.write_text("u,y\n" + "\n".join(f"{float(a)!r},{float(b)!r}" for a, b in zip(u, y)))
+    out = tmp_path / "m.json"
+    # fits one step ahead (an extrapolator y[k] ~ 3y[k-2] - 2y[k-3]); its free run diverges
+    code, _, err = run(capsys, "estimate", data, "--terms", "y[k-3]", "y[k-2]",
+                       "y[k-1]*y[k-1]*y[k-1]", "u[k-2]", "--out", out)
+    assert code == 0 and "warning: the estimated model's free run diverges" in err
+    m = load_model(out)                     # standard JSON, read back
+    assert m.meta["train"]["freerun_rmse"] == "inf"
+    # control: a stable model warns about nothing
+    code, _, err = run(capsys, "estimate", csv(tmp_path), "--terms", "y[k-1]", "u[k-1]",
+                       "--out", tmp_path / "s.json")
+    assert code == 0 and err.strip() == ""
+
+
+def test_save_refuses_what_load_would_refuse(tmp_path):
+    m = Model([f"u[k-{i}]" for i in range(1, 261)], theta=np.zeros(260))
+    with pytest.raises(ModelFileError, match="260 entries, more than the 256"):
+        m.save(tmp_path / "big.json")
+    assert not (tmp_path / "big.json").exists()
+
+
+@pytest.mark.parametrize("extra, text", [
+    ({"evil": 1}, "unknown key \"evil\""),
+    ({"format": "other"}, "'format' must be 'mggp-narx-model'"),
+    ({"version": 99}, "unsupported 'version' 99"),
+])
+def test_model_file_keys_format_and_version_are_checked(capsys, tmp_path, extra, text):
+    p = tmp_path / "x.json"
+    p.write_text(json.dumps({"output": "y", "inputs": ["u"], "terms": ["y[k-1]"],
+                             "theta": [0.5], **extra}))
+    code, _, err = run(capsys, "simulate", p, csv(tmp_path))
+    assert code == 2 and text in error_line(err)
+
+
+def test_out_directory_is_named_as_the_option(capsys, tmp_path):
+    code, _, err = run(capsys, "estimate", csv(tmp_path), "--terms", "y[k-1]", "u[k-1]",
+                       "--out", tmp_path)
+    assert code == 2 and f"--out {tmp_path}: is a directory" in error_line(err)
+    code, _, err = run(capsys, "estimate", csv(tmp_path), "--terms", "y[k-1]",
+                       "--out", tmp_path / "nodir" / "m.json")
+    assert code == 2 and "does not exist" in error_line(err)
+
+
+def test_fit_checks_destinations_before_the_search(capsys, tmp_path):
+    data = csv(tmp_path)
+    keep = tmp_path / "k.json"
+    keep.write_text("KEEP")
+    code, out, err = run(capsys, "fit", data, "--population", "10", "--generations", "1",
+                         "--out", keep, "--report", keep)
+    assert code == 2 and "--report" in error_line(err) and out == ""
+    assert keep.read_text() == "KEEP"
+    code, out, err = run(capsys, "fit", data, "--population", "10", "--generations", "1",
+                         "--checkpoint", tmp_path / "nodir" / "c.json")
+    assert code == 2 and "--checkpoint" in error_line(err) and out == ""
+
+
+@pytest.mark.parametrize("argv, text", [
+    (["--seed", "-5"], "--seed must be >= 0, got -5"),
+    (["--population", "1"], "--population must be >= 2, got 1"),
+    (["--max-lag", "0"], "--max-lag must be >= 1, got 0"),
+    (["--scheduler", "tcp://x:1"], "--scheduler tcp://x:1 needs --backend dask"),
+    (["--fitness", "ksa", "--k", "100000"], "k=100000 steps ahead do not fit"),
+])
+def test_fit_option_rules(capsys, tmp_path, argv, text):
+    code, _, err = run(capsys, "fit", csv(tmp_path), "--population", "10",
+                       "--generations", "1", *argv)
+    assert code == 2 and text in error_line(err)

@@ -1,0 +1,66 @@
+"""A checkpoint resumes only the run it belongs to: same data, same scoring,
+unedited; a run started without a seed resumes with the checkpoint's."""
+import json
+
+import numpy as np
+import pytest
+
+from mggp import MGGPRegressor
+
+
+def record(seed, n=300):
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1, 1, n)
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.5 * y[k - 1] + u[k - 1] + 0.01 * rng.standard_normal()
+    return u, y
+
+
+KW = dict(population=12, generations=2, max_height=2, use_phi=False, fitness="pem")
+
+
+def test_other_data_or_scoring_is_refused(tmp_path):
+    ck = tmp_path / "ck.json"
+    MGGPRegressor(random_state=1, checkpoint=ck, **KW).fit(*record(0))
+    with pytest.raises(ValueError, match=r"differs in: context\.data"):
+        MGGPRegressor(random_state=1, checkpoint=ck, resume=True,
+                      **dict(KW, generations=4)).fit(*record(1))
+    with pytest.raises(ValueError, match=r"context\.criterion \(checkpoint 'mse', this run 'bic'\)"):
+        MGGPRegressor(random_state=1, checkpoint=ck, resume=True, criterion="bic",
+                      **dict(KW, generations=4)).fit(*record(0))
+    with pytest.raises(ValueError, match=r"seed \(checkpoint 1, this run 2\)"):
+        MGGPRegressor(random_state=2, checkpoint=ck, resume=True,
+                      **dict(KW, generations=4)).fit(*record(0))
+    # control: the same run resumes
+    MGGPRegressor(random_state=1, checkpoint=ck, resume=True,
+                  **dict(KW, generations=4)).fit(*record(0))
+
+
+def test_run_without_seed_resumes_with_the_checkpoint_seed(tmp_path):
+    ck = tmp_path / "ck.json"
+    a = MGGPRegressor(checkpoint=ck, **KW).fit(*record(0))
+    b = MGGPRegressor(checkpoint=ck, resume=True, **dict(KW, generations=4)).fit(*record(0))
+    assert b.seed_ == a.seed_
+    full = MGGPRegressor(random_state=a.seed_, **dict(KW, generations=4)).fit(*record(0))
+    assert b.model_.term_texts == full.model_.term_texts
+    np.testing.assert_array_equal(b.model_.theta, full.model_.theta)
+
+
+@pytest.mark.parametrize("edit, text", [
+    (lambda d: d.update(population=d["population"][:3]), "population_size=12"),
+    (lambda d: d.update(generation=1000000), "logbook holds"),
+    (lambda d: d.update(generation=True), "'generation' must be an integer"),
+    (lambda d: d["settings"].update(population_size=3), "'fingerprint' does not match"),
+    (lambda d: d["population"][0].update(genes=d["population"][0]["genes"] * 40),
+     "more than max_terms"),
+])
+def test_edited_checkpoint_is_refused(tmp_path, edit, text):
+    ck = tmp_path / "ck.json"
+    MGGPRegressor(random_state=1, checkpoint=ck, **KW).fit(*record(0))
+    doc = json.loads(ck.read_text())
+    edit(doc)
+    ck.write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match=text):
+        MGGPRegressor(random_state=1, checkpoint=ck, resume=True,
+                      **dict(KW, generations=4)).fit(*record(0))
