@@ -64,6 +64,10 @@ def _cmd_compensate(args) -> int:
                            f"got {lo:g} {hi:g}")
     if args.max_step is not None and not 0 < args.max_step < np.inf:
         raise CLIError(f"--max-step must be a finite number > 0, got {args.max_step:g}")
+    for opt in ("u_past", "y_past"):
+        v = getattr(args, opt, None)
+        if v is not None and not np.isfinite(v):
+            raise CLIError(f"--{opt.replace('_', '-')} must be a finite number, got {v}")
     if args.out and os.path.isdir(args.out):
         raise CLIError(f"--out {args.out} is a folder, not a file")
     model = load_model(args.model)

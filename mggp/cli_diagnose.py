@@ -127,6 +127,12 @@ def _cmd_diagnose(args) -> int:
         train = Data(train.U.T, train.y, inputs=model.inputs, output=model.output)
         if val is not None:
             val = Data(val.U.T, val.y, inputs=model.inputs, output=model.output)
+    if model is not None:
+        fr = model.simulate(train, mode="freerun")
+        if fr.diverged:
+            raise CLIError(f"the model {args.model} is unstable on {args.train}: its free "
+                           f"run diverged (output beyond 1e4 times the data's magnitude); "
+                           f"a model whose simulation diverges has no simulation to diagnose")
     budget = Budget(population=args.population, generations=args.generations,
                     max_terms=args.max_terms, max_height=args.max_height,
                     max_degree=args.max_degree, window=args.window, shifts=args.shifts,

@@ -28,7 +28,7 @@ from typing import Iterator, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .atomic import atomic_writer
-from .data import Data, DataError
+from .data import MAX_ABS, Data, DataError
 
 __all__ = ["read_csv", "read_columns", "iter_rows", "write_with_column"]
 
@@ -81,6 +81,9 @@ def _number(path, line, col, text) -> float:
     if not math.isfinite(v):
         raise DataError(f"{path}: line {line}, column {col!r}: value {s!r} is not finite "
                         f"(NaN and inf are not allowed)")
+    if abs(v) > MAX_ABS:
+        raise DataError(f"{path}: line {line}, column {col!r}: value {s!r} is too large to "
+                        f"model (|values| up to {MAX_ABS:.0e} are accepted): rescale the data")
     return v
 
 

@@ -39,12 +39,23 @@ def _as_float(name, a, ndim_ok=(1,)):
     return arr
 
 
+#: largest magnitude accepted in a record: products of a few such samples
+#: (regressors of degree 3, their squares in LS) stay finite in float64
+MAX_ABS = 1e75
+
+
 def _check_finite(name, arr):
     bad = ~np.isfinite(arr)
     if bad.any():
         idx = np.argwhere(bad)[0]
         val = arr[tuple(idx)]
         raise DataError(f"{name} has a non-finite value ({val}) at sample {int(idx[0])}")
+    big = np.abs(arr) > MAX_ABS
+    if big.any():
+        idx = np.argwhere(big)[0]
+        raise DataError(f"{name} has a value too large to model ({arr[tuple(idx)]!r} at "
+                        f"sample {int(idx[0])}; |values| up to {MAX_ABS:.0e} are accepted): "
+                        f"rescale the data")
 
 
 class Data(HasSignals):

@@ -305,7 +305,11 @@ class _Parser:
         lag = 0
         if self.peek()[1] == "-":
             self.i += 1
-            lag = int(self.take("num", what="a lag (integer)")[1])
+            digits = self.take("num", what="a lag (integer)")[1]
+            if len(digits) > 6:                  # before int(): no huge conversion
+                raise TermError(f"lag {digits[:12]}... of {name!r} exceeds the maximum "
+                                f"{MAX_LAG} in term {self.text[:60]!r}")
+            lag = int(digits)
         elif self.peek()[1] == "+":
             raise TermError(f"future sample in term {self.text!r}: "
                             f"{name}[k+...] is not causal")

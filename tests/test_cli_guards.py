@@ -95,3 +95,29 @@ def test_fit_option_rules(capsys, tmp_path, argv, text):
     code, _, err = run(capsys, "fit", csv(tmp_path), "--population", "10",
                        "--generations", "1", *argv)
     assert code == 2 and text in error_line(err)
+
+
+def test_huge_values_and_huge_lags_get_one_clear_line(capsys, tmp_path):
+    p = tmp_path / "h.csv"
+    p.write_text("u,y\n" + "\n".join(f"{(-1) ** i * 1e300!r},{i * 1e299!r}" for i in range(300)))
+    code, _, err = run(capsys, "estimate", p, "--terms", "y[k-1]", "u[k-1]")
+    assert code == 2 and "too large to model" in error_line(err)
+    code, _, err = run(capsys, "estimate", csv(tmp_path), "--terms", "y[k-" + "9" * 5000 + "]")
+    assert code == 2 and "exceeds the maximum" in error_line(err)
+
+
+def test_diagnose_refuses_an_unstable_model(capsys, tmp_path):
+    m = tmp_path / "unstable.json"
+    m.write_text(json.dumps({"output": "y", "inputs": ["u"], "terms": ["y[k-1]", "u[k-1]"],
+                             "theta": [1.5, 1.0]}))
+    report = tmp_path / "r.json"
+    report.write_text("KEEP")
+    code, _, err = run(capsys, "diagnose", csv(tmp_path), "--model", m, "--json", report)
+    assert code == 2 and "is unstable on" in error_line(err)
+    assert report.read_text() == "KEEP"
+
+
+def test_compensate_non_finite_past_is_named(capsys, tmp_path):
+    code, _, err = run(capsys, "compensate", tmp_path / "m.json", csv(tmp_path),
+                       "--out", tmp_path / "o.csv", "--u-past", "nan")
+    assert code == 2 and "--u-past must be a finite number, got nan" in error_line(err)
