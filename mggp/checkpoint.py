@@ -124,6 +124,41 @@ def _jsonable(v):
     return v
 
 
+def _pack_cache(cache: Dict[Tuple[str, ...], float]) -> dict:
+    """The fitness cache with every term text written once: ``terms`` (the
+    distinct texts) and ``entries`` ``[[index, ...], fitness]`` (a run
+    scores tens of thousands of structures that share a few hundred terms)."""
+    index: Dict[str, int] = {}
+    entries = [[[index.setdefault(t, len(index)) for t in key], _num(v)]
+               for key, v in cache.items()]
+    return {"terms": list(index), "entries": entries}
+
+
+def _unpack_cache(packed) -> Dict[Tuple[str, ...], float]:
+    """Inverse of :func:`_pack_cache`; also reads the older plain list
+    ``[[[term, ...], fitness], ...]``."""
+    if isinstance(packed, list):                 # written before the packed form
+        packed = {"terms": [], "entries": packed}
+    if not (isinstance(packed, dict) and isinstance(packed.get("terms"), list)
+            and isinstance(packed.get("entries"), list)
+            and all(isinstance(t, str) for t in packed["terms"])):
+        raise ValueError("'fitness_cache' must be {'terms': [text, ...], 'entries': [...]}")
+    terms = packed["terms"]
+    cache = {}
+    for i, entry in enumerate(packed["entries"]):
+        ok = isinstance(entry, list) and len(entry) == 2 and isinstance(entry[0], list)
+        key = None
+        if ok and all(isinstance(t, str) for t in entry[0]):
+            key = tuple(entry[0])
+        elif ok and all(isinstance(t, int) and not isinstance(t, bool)
+                        and 0 <= t < len(terms) for t in entry[0]):
+            key = tuple(terms[t] for t in entry[0])
+        if key is None:
+            raise ValueError(f"fitness_cache entry {i} must be [[term index, ...], fitness]")
+        cache[key] = _unnum(entry[1])
+    return cache
+
+
 def save_checkpoint(path, state: EvolutionState) -> None:
     """Write ``state`` to ``path`` atomically (temp file, fsync, replace).
 
@@ -150,7 +185,7 @@ def save_checkpoint(path, state: EvolutionState) -> None:
         "pareto": [{"complexity": r.complexity, "fitness": _num(r.fitness),
                     "genes": [list(g) for g in r.genes]}
                    for r in state.archive.best_per_complexity()],
-        "fitness_cache": [[list(k), _num(v)] for k, v in state.cache.items()],
+        "fitness_cache": _pack_cache(state.cache),
         "evaluations": state.evaluations,
     }
     text = json.dumps(doc, allow_nan=False, separators=(",", ":"))
@@ -302,13 +337,7 @@ def load_checkpoint(path, pset, decoder: Optional[Decoder] = None) -> EvolutionS
             rows.append(ParetoRow(len(terms), _unnum(r["fitness"]), terms,
                                   tuple(tuple(g) for g in r["genes"])))
         archive.restore(rows)
-        cache = {}
-        for i, entry in enumerate(doc["fitness_cache"]):
-            if not (isinstance(entry, list) and len(entry) == 2
-                    and isinstance(entry[0], list)
-                    and all(isinstance(t, str) for t in entry[0])):
-                raise ValueError(f"fitness_cache[{i}] must be [[term, ...], fitness]")
-            cache[tuple(entry[0])] = _unnum(entry[1])
+        cache = _unpack_cache(doc["fitness_cache"])
         evaluations = doc["evaluations"]
         if not isinstance(evaluations, int) or evaluations < 0:
             raise ValueError(f"'evaluations' must be an integer >= 0, got {evaluations!r}")

@@ -64,3 +64,15 @@ def test_edited_checkpoint_is_refused(tmp_path, edit, text):
     with pytest.raises(ValueError, match=text):
         MGGPRegressor(random_state=1, checkpoint=ck, resume=True,
                       **dict(KW, generations=4)).fit(*record(0))
+
+
+def test_fitness_cache_is_packed_and_older_files_still_read(tmp_path):
+    from mggp.checkpoint import _pack_cache, _unpack_cache
+    cache = {("u[k-1]", "y[k-1]"): 0.5, ("y[k-1]",): float("inf"), ("u[k-1]",): 1.0}
+    packed = _pack_cache(cache)
+    assert packed["terms"] == ["u[k-1]", "y[k-1]"]           # each text once
+    assert _unpack_cache(json.loads(json.dumps(packed))) == cache
+    older = [[list(k), v if v != float("inf") else "inf"] for k, v in cache.items()]
+    assert _unpack_cache(older) == cache
+    with pytest.raises(ValueError, match="entry 0 must be"):
+        _unpack_cache({"terms": ["y[k-1]"], "entries": [[[3], 0.1]]})
