@@ -53,7 +53,7 @@ START = 16          # max_lag_for_height(5)
 
 def random_term_sets(count: int, seed: int = 0, max_terms: int = 15, max_height: int = 5):
     """``count`` random individuals decoded to non-empty tuples of terms."""
-    from mggp.estimator import _identically_zero
+    from mggp.primitives import identically_zero
     from mggp.operators import random_individual
     from mggp.primitives import Decoder, make_pset
     from narx.phi import default_registry
@@ -62,7 +62,7 @@ def random_term_sets(count: int, seed: int = 0, max_terms: int = 15, max_height:
     sets = []
     while len(sets) < count:
         ind = random_individual(pset, rng, max_terms=max_terms, max_height=max_height)
-        terms = tuple(t for t in dec.decode_individual(ind) if not _identically_zero(t, reg))
+        terms = tuple(t for t in dec.decode_individual(ind) if not identically_zero(t, reg))
         if terms:
             sets.append(terms)
     return sets

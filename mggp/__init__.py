@@ -19,3 +19,19 @@ def __getattr__(name):            # lazy: importing mggp stays cheap for the CLI
         from .estimator import MGGPRegressor
         return MGGPRegressor
     raise AttributeError(f"module 'mggp' has no attribute {name!r}")
+
+
+def versions() -> dict:
+    """Versions of mggp and of the libraries a result depends on (saved in
+    model files' ``meta``)."""
+    import deap
+    import numpy
+    import scipy
+    v = {"mggp": __version__, "deap": deap.__version__, "numpy": numpy.__version__,
+         "scipy": scipy.__version__}
+    try:
+        import numba
+        v["numba"] = numba.__version__
+    except ImportError:                     # pragma: no cover
+        pass
+    return v

@@ -24,27 +24,26 @@ References
 """
 from __future__ import annotations
 
-import contextlib
 import json
 import random
 import time
-import warnings
 from typing import List, Optional
 
 import numpy as np
 
 from narx import Model
-from narx.model import RankWarning
+from narx.model import ignore_rank_warnings
 from narx.data import Data, DataError, as_data
 from narx.fitness import StructureScorer
 from narx.phi import default_registry
 
 from .evaluate import Evaluator, criterion_value
+from . import versions
 from .checkpoint import checkpoint_seed, data_digest
 from .evolve import evolve
 from .params import check_params
 from .pareto import ParetoFront, front_rows
-from .primitives import make_pset, max_lag_for_height
+from .primitives import identically_zero, make_pset, max_lag_for_height
 from .screen import StabilityScreen
 from .selection import select_freerun, select_hold
 
@@ -193,6 +192,16 @@ class MGGPRegressor:
             setattr(self, k, v)
         return self
 
+    def __repr__(self):
+        """Parameters that differ from the defaults, as scikit-learn shows them."""
+        import inspect
+        defaults = {k: p.default for k, p in
+                    inspect.signature(type(self).__init__).parameters.items() if k != "self"}
+        changed = [f"{k}={v!r}" for k, v in self.get_params().items()
+                   if not (v is defaults[k] or (type(v) is type(defaults[k])
+                                                and v == defaults[k]))]
+        return f"{type(self).__name__}({', '.join(changed)})"
+
     # -------------------------------------------------------------- fit
     def _validate(self, data: Data):
         check_params(self)
@@ -302,10 +311,10 @@ class MGGPRegressor:
                 "max_terms": self.max_terms, "max_height": self.max_height,
                 "use_phi": self.use_phi, "screen": self.screen,
                 "search_fitness_value": self.fitness_}
-        meta["versions"] = _versions()
+        meta["versions"] = versions()
         # a searched structure may hold terms the record cannot tell apart
         # (``rank_`` < number of terms): θ is then the minimum-norm solution
-        with _quiet_rank():
+        with ignore_rank_warnings():
             self.model_ = Model(terms, inputs=data.inputs, output=data.output,
                                 meta=dict(meta, estimation="ls"), registry=registry).fit(data)
             self.rank_ = int(self.model_.fit_info_["rank"])
@@ -364,7 +373,7 @@ class MGGPRegressor:
         return cands
 
     def _allowed(self, term) -> bool:
-        if _identically_zero(term, self.registry or default_registry()):
+        if identically_zero(term, self.registry or default_registry()):
             return False
         if self.max_lag is not None and term.max_lag > self.max_lag:
             return False
@@ -418,7 +427,7 @@ class MGGPRegressor:
                 if c in chosen:
                     continue
                 trial = terms + chosen + (c,)
-                with _quiet_rank():                 # a trial, not a result
+                with ignore_rank_warnings():                 # a trial, not a result
                     m = Model(trial, inputs=data.inputs, output=data.output,
                               registry=registry).fit(data)
                 noise = np.zeros(data.n)
@@ -471,38 +480,3 @@ class MGGPRegressor:
 #: parameters besides the evolution settings that fitness values depend on
 _CONTEXT = ("fitness", "window", "k", "criterion", "search_constraints", "use_phi",
             "phi_names", "max_lag", "max_degree", "screen", "screen_top", "screen_band")
-
-
-@contextlib.contextmanager
-def _quiet_rank():
-    """No :class:`narx.model.RankWarning` inside (the caller reports rank)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RankWarning)
-        yield
-
-
-def _identically_zero(term, registry) -> bool:
-    """A Φ-call whose arguments are all the same lagged signal and whose
-    value at equal arguments is 0 (Phi1, Phi2) makes the term vanish."""
-    from narx.terms import PhiCall
-    for f in term.factors:
-        if isinstance(f, PhiCall) and len(set(f.args)) == 1:
-            fn = registry.get(f.name)
-            if fn.steady_is_constant and fn.steady_value() == 0.0:
-                return True
-    return False
-
-
-def _versions():
-    import deap
-    import numpy
-    import scipy
-    from . import __version__
-    v = {"mggp": __version__, "deap": deap.__version__, "numpy": numpy.__version__,
-         "scipy": scipy.__version__}
-    try:
-        import numba
-        v["numba"] = numba.__version__
-    except ImportError:                     # pragma: no cover
-        pass
-    return v

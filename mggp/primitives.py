@@ -381,3 +381,15 @@ def decode_individual(ind, decoder: Optional[Decoder] = None) -> Tuple[Term, ...
     tree cache; without it a throw-away :class:`Decoder` is used.
     """
     return (decoder if decoder is not None else Decoder()).decode_individual(ind)
+
+
+def identically_zero(term, registry) -> bool:
+    """A Φ-call whose arguments are all the same lagged signal and whose
+    value at equal arguments is 0 (Phi1, Phi2) makes the term vanish."""
+    from narx.terms import PhiCall
+    for f in term.factors:
+        if isinstance(f, PhiCall) and len(set(f.args)) == 1:
+            fn = registry.get(f.name)
+            if fn.steady_is_constant and fn.steady_value() == 0.0:
+                return True
+    return False

@@ -20,6 +20,7 @@ References
 """
 from __future__ import annotations
 
+import contextlib
 import warnings
 from typing import Optional, Sequence
 
@@ -34,11 +35,20 @@ from .simulate import SimulationResult, simulate
 from .steady import cluster_sums, steady_state_constraints
 from .terms import HasSignals, Signals, Term, parse_terms
 
-__all__ = ["Model", "RankWarning"]
+__all__ = ["Model", "RankWarning", "ignore_rank_warnings"]
 
 
 class RankWarning(UserWarning):
     """The regressor matrix of a fit is rank-deficient (dependent terms)."""
+
+
+@contextlib.contextmanager
+def ignore_rank_warnings():
+    """No :class:`RankWarning` inside: for trial fits whose caller reports
+    the rank itself (``fit_info_['rank']``)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RankWarning)
+        yield
 
 
 class Model(HasSignals):

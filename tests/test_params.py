@@ -63,3 +63,9 @@ def test_refit_leaves_nothing_from_the_earlier_fit(record):
     assert hasattr(est, "selection_")
     est.set_params(select="fitness").fit(*record)
     assert not hasattr(est, "selection_")
+
+
+def test_repr_shows_the_parameters_that_differ_from_the_defaults():
+    assert repr(MGGPRegressor()) == "MGGPRegressor()"
+    assert repr(MGGPRegressor(fitness="pem", population=10, use_phi=False)) == \
+        "MGGPRegressor(fitness='pem', population=10, use_phi=False)"

@@ -42,7 +42,6 @@ by how far they move.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, replace
 from typing import List, Optional, Sequence, Tuple
 
@@ -51,7 +50,7 @@ import numpy as np
 from narx import Model
 from narx.data import Data
 from narx.estimate import EstimationError
-from narx.model import RankWarning
+from narx.model import ignore_rank_warnings
 from narx.terms import Signals, parse_term
 
 from .holds import probe_holds
@@ -228,8 +227,7 @@ def _unique(terms, data: Data, registry) -> List[str]:
 
 def _candidate(terms, data: Data, constraints, registry) -> Optional[Model]:
     try:
-        with warnings.catch_warnings():         # a candidate, not a result
-            warnings.simplefilter("ignore", RankWarning)
+        with ignore_rank_warnings():            # a candidate, not a result
             return Model(terms, inputs=data.inputs, output=data.output,
                          registry=registry).fit(data, constraints=constraints)
     except (EstimationError, ValueError):
