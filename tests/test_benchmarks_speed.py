@@ -121,3 +121,14 @@ def test_window_sse_sums_each_window_then_the_windows(n, L):
         total += acc
     assert msk.window_sse(r, L) == total
     assert msk.window_sse(r, L) == pytest.approx(float(r @ r), rel=1e-12)
+
+
+def test_eval_phases_account_for_the_whole_evaluation():
+    from benchmarks.eval_phases import run
+    r = run(n=3000, individuals=12, window=100, repeats=1)
+    ph = r["phases"]
+    assert {"Gram dot products", "MS kernel", "columns", "Python"} <= set(ph)
+    assert sum(ph.values()) == pytest.approx(r["seconds_per_eval"])
+    assert all(v >= 0 for k, v in ph.items() if k != "Python")
+    import narx.fitness as fit
+    assert fit.fixed_dot.__name__ == "fixed_dot"          # wrappers removed again
