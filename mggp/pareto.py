@@ -106,6 +106,10 @@ class ParetoFront(list):
         if criterion == "loss":
             best = min(fitted, key=lambda i: (self[i]["loss"], self[i]["complexity"]))
         else:
+            if not lo > 0:
+                raise ValueError(f"criterion='score' needs positive losses (an MSE); this "
+                                 f"front's lowest loss is {lo:g} (an information "
+                                 f"criterion?): use criterion='loss'")
             near = [i for i in fitted if self[i]["loss"] <= tolerance * lo]
             best = max(near, key=lambda i: (self[i]["score"], -self[i]["complexity"]))
         return self.model(best)

@@ -43,6 +43,12 @@ def test_get_best_by_loss_and_by_score():
     assert f.get_best("score", tolerance=1.5).n_terms == 3
     with pytest.raises(ValueError, match="criterion must be 'loss' or 'score'"):
         f.get_best("aic")
+    bic = ParetoFront([{"complexity": 1, "loss": -10.0, "terms": ["y[k-1]"], "theta": [0.9]},
+                       {"complexity": 2, "loss": -30.0, "terms": ["y[k-1]", "u[k-1]"],
+                        "theta": [0.5, 1.0]}])
+    assert bic.get_best().n_terms == 2 and [r["score"] for r in bic] == [0.0, 0.0]
+    with pytest.raises(ValueError, match="needs positive losses"):
+        bic.get_best("score")
 
 
 def test_exports_and_errors():
@@ -76,3 +82,21 @@ def test_search_front_carries_the_search_parameters():
     s = max_lag_for_height(3)                  # the rows the search scores
     r = last.simulate(d.u, d.y, mode="osa")
     assert np.mean((d.y[s:] - r.y_hat[s:]) ** 2) == pytest.approx(f[-1]["loss"], rel=1e-9)
+
+
+def test_sympy_export_evaluates_to_the_model_prediction():
+    sympy = pytest.importorskip("sympy")
+    from conftest import MODEL19_TERMS, MODEL19_THETA
+    from narx.systems import piezo_bouc_wen, sine_input
+    m = Model(list(MODEL19_TERMS), theta=list(MODEL19_THETA))
+    expr = m.to_sympy()
+    syms = sorted(expr.free_symbols, key=str)
+    f = sympy.lambdify(syms, expr, modules=[{"Phi1": lambda a, b: a - b,
+                                             "Phi2": lambda a, b: np.sign(a - b)}, "numpy"])
+    _, u = sine_input()
+    y = piezo_bouc_wen(u)
+    osa = m.simulate(u, y, mode="osa").y_hat
+    for k in (100, 777, 2500):
+        vals = {"u": u, "y": y}
+        args = [vals[str(s)[0]][k - int(str(s)[4:-1])] for s in syms]   # 'u[k-3]'
+        assert f(*args) == pytest.approx(osa[k], rel=1e-12, abs=1e-12)
