@@ -322,3 +322,73 @@ def test_published_piezo_models_small_budget():
     assert {"prediction-bias", "hysteresis"} <= set(pem["findings"])
     assert "steady-state-drift" in ms["findings"]
     assert pem["gain"]["ratio"] > 1 and ms["gain"]["ratio"] > 1
+
+
+def _aug_record(f, seed, n=2000, sig=0.01):
+    r = np.random.default_rng(seed)
+    u = r.uniform(-1, 1, n)
+    x = np.zeros(n)
+    for k in range(3, n):
+        x[k] = f(x, u, k) + sig * r.standard_normal()
+    return Data(u, x)
+
+
+def _play_record(seed, n=2000, width=0.3):
+    g = np.random.default_rng(seed)
+    u = np.clip(np.cumsum(g.uniform(-0.1, 0.1, n)), -1, 1)
+    z = np.zeros(n)
+    for k in range(1, n):                      # play (backlash) operator
+        z[k] = min(max(z[k - 1], u[k] - width), u[k] + width)
+    x = np.zeros(n)
+    for k in range(1, n):
+        x[k] = 0.5 * x[k - 1] + 0.5 * z[k - 1]
+    return Data(u, x + 0.002 * g.standard_normal(n))
+
+
+@pytest.mark.parametrize("name, data, hysteretic", [
+    # a model that only misses dynamics, a dead time or a memoryless square:
+    # direction terms must not beat placebo ones (they did before the
+    # polynomial control terms entered both fits)
+    ("second order", lambda: _aug_record(lambda y, u, k: 1.2 * y[k - 1] - 0.5 * y[k - 2]
+                                         + 0.3 * u[k - 1], 1), False),
+    ("dead time 2", lambda: _aug_record(lambda y, u, k: 0.6 * y[k - 1] + 0.5 * u[k - 2], 1),
+     False),
+    ("memoryless square", lambda: _aug_record(
+        lambda y, u, k: 0.6 * y[k - 1] + 0.5 * u[k - 1] + 0.3 * u[k - 1] ** 2, 1), False),
+    ("play operator", lambda: _play_record(1), True),
+])
+def test_augmentation_names_hysteresis_not_a_misspecified_model(name, data, hysteretic):
+    from mggp.diagnose.hysteresis import phi_augmentation_test
+    d = data()
+    m = narx.Model(["y[k-1]", "u[k-1]"]).fit(d)
+    a = phi_augmentation_test(m, d, shifts=99, alpha=0.01, seed=0)
+    assert (a.statistic > a.null_quantile) == hysteretic, (name, a)
+
+
+def test_a_drifting_model_of_a_memoryless_system_is_drift_not_hysteresis():
+    # the system has no memory (data held at the same input rest at the same
+    # level); the model drifts during holds, so it rests apart: that is
+    # steady-state drift, and the rest-level check must not call it hysteresis
+    rng = np.random.default_rng(5)
+
+    def steps(n, seed, hold):
+        r = np.random.default_rng(seed)
+        u = []
+        while len(u) < n:
+            u += [r.uniform(-1, 1)] * int(r.integers(*hold))
+        return np.array(u[:n])
+
+    def record(u):
+        y = np.zeros(u.size)
+        for k in range(1, u.size):
+            y[k] = 0.3 * y[k - 1] + 0.7 * u[k - 1]
+        return Data(u, y + 0.005 * rng.standard_normal(u.size))
+    slow, fast = steps(3000, 20, (150, 300)), steps(3000, 120, (1, 4))
+    train = record(np.where((np.arange(3000) // 500) % 2 == 0, slow, fast))
+    val = record(steps(3000, 21, (150, 300)))
+    bad = narx.Model(["y[k-1]", "y[k-2]", "u[k-1]", "u[k-2]"],
+                     theta=[1.29, -0.297, 0.7, -0.7 * 0.985])
+    dx = diagnose(train, val, bad, budget=Budget(population=40, generations=5), seed=0,
+                  jobs=1)
+    assert "steady-state-drift" in dx.effects
+    assert "hysteresis" not in dx.effects

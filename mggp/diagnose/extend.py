@@ -185,10 +185,11 @@ def plan_extension(effects: Sequence[str], base: Setting, budget: Budget,
     if "prediction-bias" in effects:
         search = True
         if s.fitness != "ms":
-            old = s.fitness or "unknown"
+            old = (f" instead of {s.fitness}" if s.fitness
+                   else " (the baseline's own fitting is not known)")
             s = replace(s, fitness="ms", window=budget.window)
-            changes.append(f"prediction-bias: multiple-shooting fitness (window "
-                           f"{budget.window}) instead of {old}")
+            changes.append(f"prediction-bias: a search with multiple-shooting fitness "
+                           f"(window {budget.window}){old}")
         else:
             w = 4 * s.window if n_fit is None else min(4 * s.window, max(1, n_fit // 4))
             changes.append(f"prediction-bias: the baseline already used multiple shooting; "

@@ -248,6 +248,10 @@ def _rest_level_checks(ev: Evidence) -> List[Check]:
                     ev.hold_floors.get(h2.record, ev.floor))
         thr = max(z * float(np.hypot(h1.noise_se, h2.noise_se)), floor)
         stat = abs(gap - mgap) if np.isfinite(mgap) else float("inf")
+        if not abs(gap) > thr:
+            # the data show no memory here; a model that rests apart anyway
+            # is not evidence of hysteresis (drift is the hold checks' part)
+            stat = min(stat, abs(gap))
         rests = f"{_g(mgap)} apart" if np.isfinite(mgap) else "nowhere (it diverges)"
         detail = (f"with the input held at {h1.level:.4g}, the data rest at "
                   f"{_g(h1.data_end)} ({h1.record} samples {h1.start}-{h1.stop - 1}) and at "

@@ -47,6 +47,16 @@ in both forms, the larger drop kept; the threshold is the placebo drops'
 (1 − α) quantile. Without hysteresis the increment form is a poor model
 and the nested form gains nothing, whichever terms are used.
 
+Both forms, real and placebo, also hold *control terms*
+(:func:`control_terms`): the odd twins of the direction terms
+(Δu, y[k-1]Δu, u[k-1]Δu), y[k-2], u[k-1]² and u[k-2]². The direction terms
+carry information about the last two inputs that placebo terms do not; a
+model that merely lacks a second lag, a dead time or a memoryless
+nonlinearity would otherwise gain from them and be called hysteretic. With
+the controls in both fits, only what is even in the input change counts.
+The reference is the refitted baseline with its controls (the test falls
+back to the baseline alone when that cannot be simulated).
+
 References
 ----------
 .. [1] Ismail, M., Ikhouane, F., Rodellar, J., "The hysteresis Bouc-Wen
@@ -70,7 +80,7 @@ from narx.regressors import regressor_matrix
 from .evidence import bounded_mode, direction_of_change
 
 __all__ = ["LoopGapTest", "AugmentationTest", "branches", "loop_gap_test",
-           "phi_augmentation_test", "direction_terms"]
+           "phi_augmentation_test", "direction_terms", "control_terms"]
 
 
 def branches(u) -> List[Tuple[int, int, float]]:
@@ -247,9 +257,32 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
     D = [t for n, _ in pairs for t in Model(direction_terms(n, data.output), **sig).term_texts]
     inc = Model([f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n, _ in pairs],
                 **sig).term_texts
-    forms = [("baseline + direction terms", model.term_texts,
-              [t for t in D if t not in set(model.term_texts)]),
-             ("Bouc–Wen increment", inc, D)]
+    ctrl = [t for n, _ in pairs for t in Model(control_terms(n, data.output), **sig).term_texts]
+    for control in (ctrl, []):       # without the control only if it cannot be simulated
+        res = _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed)
+        if res is not None:
+            return res
+    return None
+
+
+def control_terms(inp: str, out: str) -> List[str]:
+    """Polynomial terms that stand in for the direction terms' information
+    about the last samples without their evenness in the input change: the
+    odd twins Δu, y[k-1]Δu, u[k-1]Δu, a second output lag and the squares
+    of the last two inputs. Added to both the real and the placebo fits, so
+    a model that only lacks dynamics, a dead time or a memoryless
+    nonlinearity gains nothing more from the direction terms than from
+    placebo ones."""
+    d = f"Phi1({inp}[k-1],{inp}[k-2])"
+    return [d, f"{out}[k-1]*{d}", f"{inp}[k-1]*{d}", f"{out}[k-2]",
+            f"{inp}[k-1]*{inp}[k-1]", f"{inp}[k-2]*{inp}[k-2]"]
+
+
+def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed):
+    reg = model.registry
+    base1 = model.term_texts + [t for t in control if t not in set(model.term_texts)]
+    forms = [("baseline + direction terms", base1, [t for t in D if t not in set(base1)]),
+             ("Bouc–Wen increment", inc + [t for t in control if t not in set(inc)], D)]
     start = max(model.max_lag, 2)
     blocks = []
     try:
@@ -263,11 +296,12 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
             for n, v in pairs:
                 placebo = _placebo(placebo, n, v)
             blocks.append((label, base, add, placebo, _BlockLS(Psi0, target), F))
-        ls0 = blocks[0][4] if blocks and blocks[0][1] is model.term_texts else _BlockLS(
-            *regressor_matrix(model.terms, data, start=start, registry=reg)[:2])
+        ls0 = blocks[0][4] if blocks and blocks[0][1] is base1 else _BlockLS(
+            *regressor_matrix(Model(base1, **sig).terms, data, start=start,
+                              registry=reg)[:2])
     except (EstimationError, ValueError):
         return None
-    ref = _model(model.term_texts, ls0.theta(), data, reg)
+    ref = _model(base1, ls0.theta(), data, reg)
     if ref is None or not blocks:
         return None
     kw, r0, text = bounded_mode(ref, data)
