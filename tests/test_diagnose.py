@@ -392,3 +392,21 @@ def test_a_drifting_model_of_a_memoryless_system_is_drift_not_hysteresis():
                   jobs=1)
     assert "steady-state-drift" in dx.effects
     assert "hysteresis" not in dx.effects
+
+
+@pytest.mark.parametrize("name, f, named, not_named", [
+    # a missing second lag leaves squares of past inputs in e²: the
+    # nonlinear tests must not read it as a nonlinearity
+    ("second order", lambda y, u, k: 1.2 * y[k - 1] - 0.5 * y[k - 2] + 0.3 * u[k - 1],
+     "unmodelled-dynamics", "unmodelled-nonlinearity"),
+    # a missing memoryless square: nonlinearity, not dynamics
+    ("memoryless square", lambda y, u, k: 0.6 * y[k - 1] + 0.5 * u[k - 1]
+     + 0.3 * u[k - 1] ** 2, "unmodelled-nonlinearity", "unmodelled-dynamics"),
+])
+def test_correlation_findings_name_the_missing_kind_of_term(name, f, named, not_named):
+    train, val = _aug_record(f, 1), _aug_record(f, 2)
+    linear = narx.Model(["y[k-1]", "u[k-1]"]).fit(train)
+    dx = diagnose(train, val, linear, budget=SMALL, seed=0, jobs=1)
+    assert named in dx.effects and not_named not in dx.effects, (name, dx.effects)
+    assert "hysteresis" not in dx.effects
+    assert dx.gain.ratio > 1.5

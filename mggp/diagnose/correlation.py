@@ -37,6 +37,16 @@ Bonferroni band :math:`z_{1-\\alpha/(2m)}/\\sqrt{N}`; the probability that
 a test of an adequate model is significant is then at most α whatever the
 number of lags (Bonferroni's inequality).
 
+**Completed residuals** (:func:`model_tests`). The tests assume the other
+part of the model is right: a model that only lacks a linear lag leaves
+squares of past inputs in ε², so φ_u²'ε² fires and reads as a missing
+nonlinearity; a model that only lacks a static nonlinearity leaves u³ in ε,
+so φ_uε fires and reads as missing dynamics. So the nonlinear tests use the
+residual of the model refitted with the *linear* lags y[k-1..4], u[k-1..4]
+added, and the linear tests the residual of the model refitted with the
+*static* terms y[k-1]², y[k-1]³, u[k-1]², u[k-1]³, y[k-1]u[k-1] added: each
+test then answers for what the other kind of term cannot repair.
+
 References
 ----------
 .. [1] Billings, S. A., Voon, W. S. F., "Correlation based model validity
@@ -44,14 +54,14 @@ References
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Dict, List
+from dataclasses import dataclass, replace
+from typing import Dict, List, Optional
 
 import numpy as np
 from scipy.stats import norm
 
 __all__ = ["CorrelationTest", "correlation_tests", "cross_correlation",
-           "bonferroni_z", "TEST_LABELS"]
+           "bonferroni_z", "TEST_LABELS", "model_tests", "completed_residual"]
 
 #: test key -> label shown in reports
 TEST_LABELS = {"ee": "φ_ee", "ue": "φ_ue", "u2e": "φ_u²'e", "u2e2": "φ_u²'e²"}
@@ -74,6 +84,10 @@ class CorrelationTest:
         1.96/√N.
     band : float
         Bonferroni band :math:`z_{1-\\alpha/(2m)}/\\sqrt N`, m = len(lags).
+    rms : float or None
+        RMS of the residual tested (None: the model's own one-step residual).
+    completed : str
+        What the model was completed with before the test ('' : nothing).
     """
 
     key: str
@@ -83,6 +97,8 @@ class CorrelationTest:
     n: int
     band95: float
     band: float
+    rms: Optional[float] = None
+    completed: str = ""
 
     @property
     def label(self) -> str:
@@ -107,7 +123,10 @@ class CorrelationTest:
         return self.max_abs > self.band
 
     def describe(self) -> str:
-        return (f"{self.label}: {self.excursions} of {self.lags.size} lags outside ±1.96/√N "
+        done = f" (residual of the model completed with {self.completed})" \
+            if self.completed else ""
+        return (f"{self.label}{done}: {self.excursions} of {self.lags.size} lags outside "
+                f"±1.96/√N "
                 f"= ±{self.band95:.3g} (≈{0.05 * self.lags.size:.1f} expected by chance); "
                 f"max |φ| = {self.max_abs:.3g} at τ = {self.worst_lag}, "
                 f"Bonferroni band ±{self.band:.3g}")
@@ -179,3 +198,48 @@ def correlation_tests(eps, inputs: Dict[str, np.ndarray], max_lag: int = 20,
         out.append(CorrelationTest("u2e2", name, lag0, cross_correlation(u2, e2, lag0), n,
                                    band95, band))
     return out
+
+
+def completed_residual(model, data, extra: List[str]):
+    """One-step residual of ``model``'s terms plus ``extra`` refitted by LS on
+    ``data``, and the sample indices it belongs to; None if it cannot be fitted."""
+    from narx import Model
+    from narx.regressors import regressor_matrix
+    sig = dict(inputs=data.inputs, output=data.output, registry=model.registry)
+    have = set(model.term_texts)
+    terms = model.term_texts + [t for t in Model(extra, **sig).term_texts if t not in have]
+    try:
+        m = Model(terms, **sig)
+        Psi, target, start = regressor_matrix(m.terms, data, registry=model.registry)
+        theta = np.linalg.lstsq(Psi, target, rcond=None)[0]
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    r = target - Psi @ theta
+    return (r, np.arange(start, data.n)) if np.all(np.isfinite(r)) else None
+
+
+def model_tests(model, data, max_lag: int = 20, alpha: float = 0.01
+                ) -> List[CorrelationTest]:
+    """The four tests of ``model`` on ``data`` with completed residuals (see
+    the module docstring): ``ee``/``ue`` on the statically completed
+    residual, ``u2e``/``u2e2`` on the linearly completed one. Empty when the
+    record is too short (fewer than 21 residuals)."""
+    y = data.output
+    linear = [f"{s}[k-{j}]" for s in (y, *data.inputs) for j in range(1, 5)]
+    static = [f"{y}[k-1]*{y}[k-1]", f"{y}[k-1]*{y}[k-1]*{y}[k-1]"]
+    for n in data.inputs:
+        static += [f"{n}[k-1]*{n}[k-1]", f"{n}[k-1]*{n}[k-1]*{n}[k-1]", f"{y}[k-1]*{n}[k-1]"]
+    out = []
+    for extra, keys, what in ((static, ("ee", "ue"), "static terms of the last samples"),
+                              (linear, ("u2e", "u2e2"), "linear lags 1-4")):
+        got = completed_residual(model, data, extra)
+        if got is None or got[0].size <= 20:
+            return []
+        r, rows = got
+        rms = float(np.sqrt(np.mean(r ** 2)))
+        tests = correlation_tests(r, {n: data.input(n)[rows] for n in data.inputs},
+                                  max_lag, alpha)
+        out += [replace(t, rms=rms, completed=what) for t in tests if t.key in keys]
+    order = {n: i for i, n in enumerate(data.inputs)}
+    return sorted(out, key=lambda t: (order.get(t.signal, -1),
+                                      ("ee", "ue", "u2e", "u2e2").index(t.key)))

@@ -272,10 +272,11 @@ def _correlation_checks(ev: Evidence) -> List[Check]:
     out = []
     rms = ev.osa_rms
     for t in ev.correlation:
-        floor_r = ev.floor / rms if rms > 0 else float("inf")
+        r_rms = rms if t.rms is None else t.rms          # of the residual tested
+        floor_r = ev.floor / r_rms if r_rms > 0 else float("inf")
         thr = max(t.band, floor_r)
         detail = (t.describe() + f"; resolution floor {_g(floor_r)} in correlation units "
-                  f"(floor {_g(ev.floor)} / one-step residual RMS {_g(rms)})")
+                  f"(floor {_g(ev.floor)} / RMS {_g(r_rms)} of the residual tested)")
         out.append(Check(t.label, _CORR_EFFECT[t.key], t.max_abs, thr, detail))
     return out
 

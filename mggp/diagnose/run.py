@@ -30,7 +30,7 @@ from narx import Model
 from narx.data import Data, DataError
 from narx.metrics import mape
 
-from .correlation import correlation_tests
+from .correlation import model_tests
 from .evidence import prediction_bias_test
 from .hysteresis import loop_gap_test, phi_augmentation_test
 from .extend import (Budget, Extension, baseline_search, fit_extension, plan_extension,
@@ -198,8 +198,7 @@ def _evidence(model: Model, fit: Data, measure: Data, names, offset: int, budget
     osa = model.simulate(fit, mode="osa")
     eps = np.where(osa.valid, fit.y - osa.y_hat, np.nan)
     ok = np.isfinite(eps)
-    corr = correlation_tests(eps[ok], {n: fit.input(n)[ok] for n in fit.inputs},
-                             budget.corr_lags, alpha) if ok.sum() > 20 else []
+    corr = model_tests(model, fit, budget.corr_lags, alpha)
     osa_rms = float(np.sqrt(np.mean(eps[ok] ** 2))) if ok.any() else 0.0
     loops = [g for g in (loop_gap_test(model, fit, signal=n, alpha=alpha) for n in fit.inputs)
              if g is not None]
