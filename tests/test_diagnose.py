@@ -410,3 +410,17 @@ def test_correlation_findings_name_the_missing_kind_of_term(name, f, named, not_
     assert named in dx.effects and not_named not in dx.effects, (name, dx.effects)
     assert "hysteresis" not in dx.effects
     assert dx.gain.ratio > 1.5
+
+
+def test_summary_says_which_evidence_could_not_be_measured():
+    from mggp.diagnose.report import terminal_summary
+    train, val = _aug_record(lambda y, u, k: 0.6 * y[k - 1] + 0.5 * u[k - 1], 1, n=24), \
+        _aug_record(lambda y, u, k: 0.6 * y[k - 1] + 0.5 * u[k - 1], 2, n=400)
+    m = narx.Model(["y[k-1]", "u[k-1]"]).fit(train)
+    text = terminal_summary(diagnose(train, val, m, budget=SMALL, seed=0, jobs=1))
+    assert "not tested: correlation tests (fewer than 21 one-step residuals)" in text
+    # control: a long record measures them
+    long = _aug_record(lambda y, u, k: 0.6 * y[k - 1] + 0.5 * u[k - 1], 1, n=2000)
+    text = terminal_summary(diagnose(long, val, narx.Model(["y[k-1]", "u[k-1]"]).fit(long),
+                                     budget=SMALL, seed=0, jobs=1))
+    assert "correlation tests (fewer" not in text

@@ -36,6 +36,20 @@ def _g(v) -> str:
     return "inf" if v is None or not np.isfinite(v) else f"{v:.4g}"
 
 
+def untested(ev) -> list:
+    """The kinds of evidence that could not be measured on this record."""
+    out = []
+    if not ev.correlation:
+        out.append("correlation tests (fewer than 21 one-step residuals)")
+    if not ev.loop_gap:
+        out.append("loop gap (no reversal of the input long enough)")
+    if ev.augmentation is None:
+        out.append("Φ-augmentation (its fits could not be made or simulated)")
+    if ev.bias is None:
+        out.append("prediction bias (no bootstrap possible)")
+    return out
+
+
 def terminal_summary(dx) -> str:
     """A short readable summary (the CLI prints it)."""
     b, e, g = dx.baseline, dx.extended, dx.gain
@@ -47,6 +61,9 @@ def terminal_summary(dx) -> str:
             lines.append(f"  {f.effect:<24s} {_g(f.statistic)} > threshold {_g(f.threshold)}")
     else:
         lines.append("findings: none (no statistic beat its threshold)")
+    missing = untested(dx.evidence)
+    if missing:
+        lines.append("not tested: " + "; ".join(missing))
     if dx.findings:
         lines.append(f"extension ({dx.extension.chosen}, {e.model.n_terms} terms):")
         lines += [f"  {c}" for c in dx.changes]
@@ -194,6 +211,9 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data")
                      for f in dx.findings], ["effect", "statistic", "threshold", "evidence"])
     else:
         L.append("None: no statistic beat its threshold, so nothing was changed.")
+    if untested(dx.evidence):
+        L += ["", "Not tested (a finding of these kinds could not be made): "
+              + "; ".join(untested(dx.evidence)) + "."]
     L += ["", "## Every test", "", f"False-alarm probability α = {dx.evidence.alpha:g} per "
           f"test; resolution floor {dx.evidence.resolution:g} × output range. A finding is "
           f"named when a statistic is above its threshold.", ""]
