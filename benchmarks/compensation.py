@@ -28,8 +28,9 @@ Rows (``d`` = the model's smallest input lag):
   validation record);
 * *data-driven*: the inverse identified directly from the data by
   :func:`mggp.compensate.identify_inverse` (lead 1, multiple shooting with
-  Δm = 500, lags <= 2; the best of ``--seeds`` by the inverse's free-run
-  input RMSE on the validation record);
+  Δm = 500, lags <= 2, structure chosen by free-run error over the
+  training record; the best of ``--seeds`` by the inverse's free-run input
+  RMSE on the validation record);
 * *PI alone*, *PI + root (19)* and *PI + data-driven*: a discrete PI loop
   (same gains) without and around a compensator.
 

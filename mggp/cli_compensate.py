@@ -76,12 +76,19 @@ def _cmd_compensate(args) -> int:
     info = model.meta.get("compensator")
     inverse = isinstance(info, dict) and info.get("kind") == INVERSE_KIND
     if inverse:
+        for opt, v, default in (("--max-step", args.max_step, None),
+                                ("--fallback", args.fallback, "minimise")):
+            if v != default:
+                raise CLIError(f"{opt} {v} applies to model-based compensators only; "
+                               f"{args.model} is a data-driven compensator")
         comp = InverseCompensator.from_model(model, args.input_range)
         if args.lead is not None:
             comp.lead = args.lead
         res = comp.run(r, u_past=args.u_past, r_past=args.y_past)
         name = model.output
-        print(f"data-driven compensator, lead {comp.lead}: {r.size} samples")
+        clip = (f"; {res.saturated} clipped to the input range {args.input_range[0]:g} .. "
+                f"{args.input_range[1]:g}" if args.input_range is not None else "")
+        print(f"data-driven compensator, lead {comp.lead}: {r.size} samples{clip}")
     else:
         try:
             comp = RootCompensator(model, input_range=args.input_range, lead=args.lead,
@@ -91,13 +98,20 @@ def _cmd_compensate(args) -> int:
         except ValueError as exc:
             raise CLIError(f"{args.model}: {exc}") from None
         res = comp.run(r)
+        if res.diverged:
+            raise CLIError(f"the inverse of {args.model} diverges on {args.reference} at "
+                           f"sample {res.diverged_at} (input or model output beyond 1e4 "
+                           f"times the reference's magnitude): the model cannot be inverted "
+                           f"stably there; give --input-range LOW HIGH, --max-step, or a "
+                           f"model whose inverse is stable")
         name = model.inputs[0]
         d, n = res.delay, r.size
         hit = ~res.fallback[: max(0, n - d)]        # y_model[j + d] answers target[j]
         err = np.abs(res.y_model[d:] - res.target[: n - d])[hit] if n > d else np.zeros(0)
         print(f"root compensator: input delay d = {d}, lead {res.lead}: {n} samples; "
               f"fallbacks {res.fallbacks} ({100 * res.fallback_rate:.2f} %), "
-              f"{res.saturated} with the root outside the input range; "
+              f"{res.saturated} whose exact root lay outside the input range or "
+              f"beyond --max-step (the target was not reachable in one step); "
               f"max |y_model - target| at the other steps {fmt(float(err.max()) if err.size else 0.0)}")
     if name in (args.column, "y_model", "fallback"):
         name = name + "_input"

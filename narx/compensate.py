@@ -86,6 +86,10 @@ class CompensationResult:
     steps without an admissible root (``fallbacks`` of them, ``saturated`` of
     which had an exact, branch-consistent root outside the input range or
     beyond ``max_step``); ``n_roots[j]`` counts the admissible roots.
+    ``diverged_at`` is the first step whose input or model output left the
+    bound (non-finite, or beyond 1e4 times the reference's and input
+    range's magnitude), -1 if none: an inverse can be unstable even when
+    the model is not; from there on ``m`` and ``y_model`` are NaN.
     """
 
     m: np.ndarray
@@ -98,6 +102,11 @@ class CompensationResult:
     fallbacks: int
     saturated: int
     n_roots: np.ndarray
+    diverged_at: int = -1
+
+    @property
+    def diverged(self) -> bool:
+        return self.diverged_at >= 0
 
     @property
     def fallback_rate(self) -> float:
@@ -466,14 +475,30 @@ class RootCompensator:
         n, i0, y0 = r.size, len(self.m), len(self.y) - self.delay
         target = r[np.minimum(np.arange(n) + self.lead, n - 1)]
         n_roots, sat = np.zeros(n, dtype=int), np.zeros(n, dtype=bool)
+        scale = max([1.0, float(np.max(np.abs(r)))]
+                    + [abs(v) for v in (self.input_range or ())])
+        bound, at = 1e4 * scale, -1
         for j in range(n):
-            self.step(target[j])
+            x = self.step(target[j])
             n_roots[j], sat[j] = self.last_
+            if not (abs(x) <= bound and abs(self.y[-1]) <= bound):   # NaN fails too
+                at = j
+                break
+        m = np.full(n, np.nan)
+        y_model = np.full(n, np.nan)
+        got_m, got_y = self.m[i0:i0 + n], self.y[y0:y0 + n]
+        m[:len(got_m)] = got_m
+        y_model[:len(got_y)] = got_y
+        if at >= 0:
+            m[at:] = np.nan
+            y_model[at + self.delay:] = np.nan
         fb = n_roots == 0
+        if at >= 0:
+            fb[at:] = False
         return CompensationResult(
-            m=np.array(self.m[i0:i0 + n]), r=r, target=target,
-            y_model=np.array(self.y[y0:y0 + n]), lead=self.lead, delay=self.delay,
-            fallback=fb, fallbacks=int(fb.sum()), saturated=int(sat.sum()), n_roots=n_roots)
+            m=m, r=r, target=target, y_model=y_model, lead=self.lead, delay=self.delay,
+            fallback=fb, fallbacks=int(fb.sum()), saturated=int(sat.sum()), n_roots=n_roots,
+            diverged_at=at)
 
 
 def compensate(model, r, *, input_range=None, lead=None, fallback="minimise",

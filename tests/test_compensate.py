@@ -201,6 +201,12 @@ def test_identify_inverse_small_search():
                            random_state=0, n_jobs=1, backend="sequential", max_terms=4)
     assert inv.model.inputs == ("r",) and inv.model.output == "u"
     assert inv.estimator_.n_evaluations_ > 0
+    # an inverse runs free: its structure is chosen by free-run error unless told
+    assert inv.estimator_.select == "freerun" and inv.estimator_.selection_
+    chosen = identify_inverse(u, piezo_bouc_wen(u), population=20, generations=2,
+                              random_state=0, n_jobs=1, backend="sequential", max_terms=4,
+                              select="fitness")
+    assert chosen.estimator_.select == "fitness"
     with pytest.raises(ValueError, match="same length"):
         identify_inverse(u, u[:10])
 
@@ -297,3 +303,44 @@ def test_benchmark_quick_run(tmp_path):
     row = doc["rows"]["sine 0.5 Hz"]
     assert row["root, model (19), lead 1 (= d)"]["ratio"] >= 5
     assert (tmp_path / "sine_2_Hz.png").exists() and (tmp_path / "compensation.md").exists()
+
+
+def test_an_unstable_inverse_is_detected_and_the_cli_writes_nothing(tmp_path, capsys):
+    # model (19)'s terms refitted on Prandtl-Ishlinskii data: a stable model
+    # whose inverse (solved for u[k-1]) is not; it used to write inf and NaN
+    from narx.systems import prandtl_ishlinskii, training_input
+    u = training_input(20000, seed=0)
+    m = narx.Model(list(MODEL19_TERMS)).fit(u, prandtl_ishlinskii(u),
+                                            constraints="steady-state")
+    assert not m.simulate(u, prandtl_ishlinskii(u), mode="freerun").diverged
+    t = np.arange(3000) * 1e-3
+    r = 36 * np.sin(2 * np.pi * 0.5 * t)
+    res = compensate(m, r)
+    assert res.diverged and 0 <= res.diverged_at < r.size
+    assert np.all(np.isnan(res.m[res.diverged_at:]))
+    assert np.all(np.isfinite(res.m[:res.diverged_at]))
+    # control: the published model (19) inverts this reference stably
+    ok = compensate(narx.Model(list(MODEL19_TERMS), theta=list(MODEL19_THETA)), r)
+    assert not ok.diverged and np.all(np.isfinite(ok.m))
+    mp, ref, out = tmp_path / "pi.json", tmp_path / "r.csv", tmp_path / "o.csv"
+    m.save(mp)
+    ref.write_text("r\n" + "\n".join(repr(float(v)) for v in r) + "\n")
+    out.write_text("KEEP")
+    assert main(["compensate", str(mp), str(ref), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "diverges on" in err and "--input-range" in err
+    assert out.read_text() == "KEEP"
+
+
+def test_data_driven_compensator_counts_clipping_and_refuses_root_options(tmp_path, capsys):
+    inv = InverseCompensator(narx.Model(["r[k]", "u[k-1]"], theta=[1.2, 0.1], inputs=("r",),
+                                        output="u"), lead=0)
+    res = inv.run(np.linspace(-100, 100, 400), input_range=(-80, 80))
+    assert res.saturated == int(np.sum(np.abs(res.m) >= 80 - 1e-12)) > 0
+    assert inv.run(np.linspace(-10, 10, 400), input_range=(-80, 80)).saturated == 0
+    path, ref, out = tmp_path / "inv.json", tmp_path / "r.csv", tmp_path / "o.csv"
+    inv.save(path)
+    ref.write_text("r\n" + "\n".join(str(v) for v in np.linspace(-1, 1, 50)) + "\n")
+    assert main(["compensate", str(path), str(ref), "--out", str(out), "--max-step", "1"]) == 2
+    assert "--max-step 1.0 applies to model-based compensators only" in capsys.readouterr().err
+    assert not out.exists()
