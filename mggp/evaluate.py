@@ -147,6 +147,42 @@ def _score_chunk(key, data, settings, registry, criterion, chunk):
         _checkin(key, sc)
 
 
+#: loky restarts a worker whose resident size grew by this much after its
+#: first task (its "memory leak" guard)
+_LOKY_GUARD = 300 * 2**20
+
+
+def _store_bytes(n: int) -> int:
+    """Bytes a worker's scorer allocates for a record of ``n`` samples (the
+    column store, at least 64 columns, and the window-major store)."""
+    from narx.fitness import SCORER_BUDGET, ColumnStore
+    from narx.ms_kernel import BUDGET
+    return ColumnStore.slots_for(n, SCORER_BUDGET) * 8 * n + BUDGET
+
+
+#: store bytes of the largest record loky's current workers have scored
+_LOKY_SEEN = {"bytes": 0}
+
+
+def _fit_loky_workers(need: int) -> None:
+    """Shut down loky's reusable workers when this record's stores outgrow
+    those they have held by half the guard, so the next workers take their
+    reference size with these stores. Workers kept from a fit on a shorter
+    record would see them as growth past the guard and be restarted
+    mid-run (a warning, and their caches lost)."""
+    if need - _LOKY_SEEN["bytes"] <= _LOKY_GUARD // 2:
+        _LOKY_SEEN["bytes"] = max(_LOKY_SEEN["bytes"], need)
+        return
+    try:
+        from joblib.externals.loky import reusable_executor
+        ex = getattr(reusable_executor, "_executor", None)
+        if ex is not None:
+            ex.shutdown(wait=True)
+    except ImportError:                        # pragma: no cover
+        pass
+    _LOKY_SEEN["bytes"] = need
+
+
 class Evaluator:
     """Callable mapping a list of term sets to fitness values (in order).
 
@@ -245,9 +281,15 @@ class Evaluator:
                                             scatter=[self.data]):
                     self._parallel = joblib.Parallel(n_jobs=-1, return_as="generator")
             else:
+                if self.backend == "loky":
+                    _fit_loky_workers(_store_bytes(self.data.n))
+                # max_nbytes=None: the record is pickled with a chunk, not
+                # memory-mapped through /dev/shm, whose files loky's resource
+                # tracker miscounts (KeyError tracebacks at exit for records
+                # over ~150,000 samples; joblib issue 1243)
                 self._parallel = joblib.Parallel(n_jobs=self._workers(),
                                                  backend=self.backend,
-                                                 return_as="generator")
+                                                 return_as="generator", max_nbytes=None)
         return self._parallel
 
     def _chunks(self, term_sets, workers):

@@ -133,6 +133,8 @@ def _solve_gelsy(A: np.ndarray, b: np.ndarray, cond: float) -> np.ndarray:
 
 
 FITNESS = ("pem", "freerun", "ksa", "ms")
+#: default size of a scorer's column cache (bytes)
+SCORER_BUDGET = 160 * 2**20
 #: rank tolerance of the unit-diagonal Gram matrix (its condition number is
 #: the square of the regressors'): columns dependent to ~1e-6 are dropped
 _GRAM_COND = 1e-12
@@ -148,15 +150,23 @@ class ColumnStore:
     resident size grows by 300 MB after its first task).
     """
 
+    @staticmethod
+    def slots_for(n: int, budget_bytes: int = 256 * 2**20, min_slots: int = 64,
+                  max_slots: int = 1024) -> int:
+        """Capacity of a store for ``n``-sample columns."""
+        return min(max_slots, max(min_slots, int(budget_bytes // (8 * max(n, 1)))))
+
     def __init__(self, n: int, budget_bytes: int = 256 * 2**20, min_slots: int = 64,
                  max_slots: int = 1024, prefault: bool = True):
-        self.capacity = min(max_slots, max(min_slots, int(budget_bytes // (8 * max(n, 1)))))
+        self.capacity = self.slots_for(n, budget_bytes, min_slots, max_slots)
         self.n = n
         # allocated once; nothing is ever copied to grow it
         self.array = np.empty((self.capacity, n))
         if prefault:
-            rows = min(self.capacity, max(1, int(budget_bytes // (8 * max(n, 1)))))
-            self.array[:rows] = 0.0
+            # every row, also those ``min_slots`` adds beyond the budget for
+            # long records: a worker that grew later would be restarted by
+            # loky's memory guard, losing its caches
+            self.array[:] = 0.0
         self.slots: "OrderedDict[str, int]" = OrderedDict()
         self.free = list(range(self.capacity - 1, -1, -1))
         self.builds = 0
@@ -217,7 +227,7 @@ class StructureScorer:
     def __init__(self, data: Data, fitness: str = "ms", *, window: Optional[int] = None,
                  k: Optional[int] = None, constraints: Optional[str] = None,
                  start: Optional[int] = None, registry: Optional[PhiRegistry] = None,
-                 budget_bytes: int = 160 * 2**20):
+                 budget_bytes: int = SCORER_BUDGET):
         if fitness == "osa":
             fitness = "pem"
         if fitness not in FITNESS:
@@ -270,7 +280,9 @@ class StructureScorer:
         key = str(f)
         col = self._out_cols.get(key)
         if col is None:
-            if len(self._out_cols) >= 64:
+            # at most 64 columns and 48 MB (long records), so a worker's
+            # resident size stays bounded
+            if len(self._out_cols) >= min(64, max(4, (48 << 20) // (8 * max(self.data.n, 1)))):
                 self._out_cols.clear()
             col = self._out_cols[key] = factor_column(f, self.data, self.y, None,
                                                       self.registry)

@@ -262,3 +262,39 @@ def test_sigkill_during_checkpoint_write_then_resume(piezo, tmp_path, capsys):
     a = json.loads((tmp_path / "full.json").read_text())
     b = json.loads((tmp_path / "resumed.json").read_text())
     assert a["terms"] == b["terms"] and a["theta"] == b["theta"]
+
+
+@pytest.mark.slow
+def test_a_long_record_after_a_short_one_keeps_its_workers():
+    # loky measures a worker's reference size after its first task; workers
+    # kept from a fit on a short record used to see a million-sample record's
+    # stores as a leak and were restarted mid-run (warning, caches lost)
+    import warnings
+    from mggp import MGGPRegressor
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(1_000_000, seed=1)
+    y = piezo_bouc_wen(u)
+    kw = dict(population=20, n_jobs=2, random_state=0, window=1000)
+    MGGPRegressor(generations=1, **kw).fit(u[:5000], y[:5000])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        MGGPRegressor(generations=3, **kw).fit(u, y)
+    assert not [w for w in caught if "worker stopped" in str(w.message)]
+
+
+@pytest.mark.slow
+def test_no_resource_tracker_tracebacks_after_a_parallel_fit_on_a_long_record():
+    # joblib memory-maps arrays over 1 MB through /dev/shm and loky's resource
+    # tracker miscounts those files: KeyError tracebacks at interpreter exit
+    import subprocess
+    import sys
+    code = ("from mggp import MGGPRegressor\n"
+            "from narx.systems import piezo_bouc_wen, training_input\n"
+            "u = training_input(300_000, seed=1)\n"
+            "MGGPRegressor(population=20, generations=2, n_jobs=2, random_state=0,"
+            " window=1000).fit(u, piezo_bouc_wen(u))\n"
+            "print('done')\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 0 and "done" in p.stdout
+    assert "Traceback" not in p.stderr and "KeyError" not in p.stderr, p.stderr[-2000:]
