@@ -4,6 +4,7 @@ Typical use::
 
     python -m benchmarks.compensation --out report/compensation --json comp.json
     python -m benchmarks.compensation --quick --out /tmp/comp      # a smaller search
+    python -m benchmarks.compensation --more     # + triangle, two sines, steps, slow ramp
 
 Every compensator computes the actuator input ``m`` from a reference ``r``;
 ``m`` drives the simulated actuator (``narx.systems.piezo_bouc_wen``, RK4),
@@ -75,6 +76,21 @@ def references(quick: bool, amplitude: float):
     return out
 
 
+def more_references(amplitude: float):
+    """References the compensators were not designed around (``--more``): a
+    0.5 Hz triangle, 0.5 Hz + 3 Hz sines, steps with 0.8 s holds, and a slow
+    ramp up and down (30 s each way); all from rest, within ±amplitude."""
+    t = np.arange(4000) * 1e-3
+    out = {"triangle 0.5 Hz": amplitude * (2 / np.pi) * np.arcsin(np.sin(np.pi * t)),
+           "0.5 + 3 Hz": amplitude * (0.7 * np.sin(np.pi * t) + 0.3 * np.sin(6 * np.pi * t))}
+    levels = np.random.default_rng(5).uniform(-1, 1, 7) * amplitude
+    out["steps, 0.8 s holds"] = np.concatenate([np.zeros(200)] + [np.full(800, v)
+                                                                  for v in levels])
+    ramp = np.linspace(0.0, amplitude, 30_000)
+    out["ramp 30 s up and down"] = np.concatenate([ramp, ramp[::-1]])
+    return out
+
+
 def fit_forward(u, y, uv, yv, seeds, budget, jobs):
     """MGGP forward models; keep the best (LS or CLS) by validation free-run MAPE."""
     best = None
@@ -134,7 +150,10 @@ def run(args):
             name = f"root, {tag}, lead {lead}" + (" (= d)" if lead == d else "")
             comps[name] = (model, lead)
     rows, traces = {}, {}
-    for rname, r in references(args.quick, amplitude).items():
+    refs = references(args.quick, amplitude)
+    if args.more:
+        refs.update(more_references(amplitude))
+    for rname, r in refs.items():
         yb = piezo_bouc_wen(np.clip(r / g, *RANGE))
         base = _rmse(yb - r)
         out = {"uncompensated (u = r/g)": {"rmse": base, "max": float(np.max(np.abs(yb - r))),
@@ -253,6 +272,8 @@ def main(argv=None) -> int:
     p.add_argument("--population", type=int, default=500)
     p.add_argument("--generations", type=int, default=60)
     p.add_argument("--jobs", type=int, default=2)
+    p.add_argument("--more", action="store_true",
+                   help="also a triangle, two sines, steps and a slow ramp")
     p.add_argument("--kp", type=float, default=0.1)
     p.add_argument("--ki", type=float, default=0.2)
     args = p.parse_args(argv)
