@@ -145,9 +145,11 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
     plan, P : optional precomputed :class:`Plan` and input parts.
     """
     mode = _mode(mode)
-    for name, v in (("k", k), ("window", window)):
+    for name, v, used in (("k", k, "ksa"), ("window", window, "ms")):
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
             raise ValueError(f"{name} must be an integer, got {v!r}")
+        if v is not None and mode != used:
+            raise ValueError(f"{name}={v} applies to mode {used!r} only, not to {mode!r}")
     terms = tuple(terms)
     theta = np.asarray(theta, dtype=np.float64).ravel()
     if theta.shape[0] != len(terms):

@@ -539,3 +539,18 @@ def test_result_metrics_use_valid_samples_only():
     assert r.rmse == pytest.approx(np.sqrt(np.mean(e ** 2)), rel=1e-12)
     assert r.mape == pytest.approx(100 * np.mean(np.abs(e)) / np.ptp(y[r.valid]), rel=1e-12)
     np.testing.assert_array_equal(r.residual, e)
+
+
+def test_a_horizon_or_window_for_another_mode_is_refused():
+    import narx
+    rng = np.random.default_rng(0)
+    u = rng.uniform(-1, 1, 200)
+    y = np.zeros(200)
+    for k in range(1, 200):
+        y[k] = 0.5 * y[k - 1] + u[k - 1]
+    m = narx.Model(["y[k-1]", "u[k-1]"], theta=[0.5, 1.0])
+    with pytest.raises(ValueError, match="k=5 applies to mode 'ksa' only, not to 'freerun'"):
+        m.simulate(u, y, mode="freerun", k=5)
+    with pytest.raises(ValueError, match="window=50 applies to mode 'ms' only, not to 'osa'"):
+        m.simulate(u, y, mode="osa", window=50)
+    assert np.isfinite(m.simulate(u, y, mode="ksa", k=5).rmse)        # control
