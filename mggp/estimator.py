@@ -27,6 +27,7 @@ from __future__ import annotations
 import json
 import random
 import time
+import warnings
 from typing import List, Optional
 
 import numpy as np
@@ -112,8 +113,11 @@ class MGGPRegressor:
         With q > 0, a moving-average noise model is selected after the
         search (NARMAX): candidates ``e[k-j]`` and ``x*e[k-j]`` (x a lag
         1..q of an input or the output), j = 1..q, are added one at a time
-        by extended least squares while the best has |t| >= ``t_threshold``.
-        Keeps the process parameters unbiased under coloured noise.
+        by extended least squares while the best has |t| >= ``t_threshold``,
+        and the process parameters are re-estimated with it. It does not
+        protect the *structure*: the search and ``prune`` score with the
+        plain one-step error, which strong coloured noise can lead to extra
+        output lags; there, prefer ``fitness='ms'`` or ``'freerun'``.
     t_threshold : float, optional
         Default: Bonferroni, Φ⁻¹(1 − 0.05/(2M)) with M the number of
         candidate monomials allowed by ``max_lag`` and ``max_degree``.
@@ -286,6 +290,11 @@ class MGGPRegressor:
         elif self.select == "hold":
             chosen, self.selection_ = select_hold(self._candidates(res, data, allowed),
                                                   data, start, registry, self.screen_band)
+            if not chosen:
+                warnings.warn(f"select='hold': none of the {len(self.selection_)} "
+                              f"candidates holds its output on a held input; model_ is "
+                              f"the best-fitness structure (see selection_)",
+                              UserWarning, stacklevel=2)
             terms = chosen or terms
         elif self.select != "fitness":
             raise ValueError(f"select must be 'fitness', 'freerun' or 'hold', "

@@ -152,7 +152,11 @@ def t_statistics(Psi, target, theta=None) -> np.ndarray:
                \quad \Psi = QR,\; \hat\sigma^2 = \frac{\|y-\Psi\theta\|^2}{N-p}
 
     (the diagonal of σ²(ΨᵀΨ)⁻¹ from the triangular factor; columns scaled to
-    unit norm first). Dependent columns get t = 0.
+    unit norm first). When the columns are dependent, a coefficient that the
+    data do not determine (its unit vector has a component in the null
+    space of Ψ) gets t = 0; the others keep their t-statistic, from the
+    diagonal of σ²(ΨᵀΨ)⁺ with σ² on N − rank degrees of freedom (θ is then
+    the minimum-norm solution, whose determined components are unique).
     """
     Psi, target = _check(Psi, target)
     n, p = Psi.shape
@@ -168,9 +172,27 @@ def t_statistics(Psi, target, theta=None) -> np.ndarray:
     out = np.zeros(p)
     ok = diag > 1e-10 * max(diag.max(initial=0.0), 1e-300)
     if not np.all(ok):
-        return out
+        return _t_dependent(Psi / norms, norms, r, theta)
     Rinv_t = scipy.linalg.solve_triangular(R, np.eye(p), lower=False).T
     se = sigma * np.sqrt(np.sum(Rinv_t ** 2, axis=0)) / norms
     with np.errstate(divide="ignore", invalid="ignore"):
         out = np.where(se > 0, np.abs(theta) / se, np.inf)
+    return out
+
+
+def _t_dependent(A, norms, r, theta) -> np.ndarray:
+    """t-statistics for dependent (column-scaled) regressors ``A``."""
+    n, p = A.shape
+    _, sv, Vt = np.linalg.svd(A, full_matrices=True)
+    rank = int(np.sum(sv > 1e-10 * max(sv.max(initial=0.0), 1e-300)))
+    V = Vt.T
+    null = V[:, rank:]
+    determined = np.sqrt(np.sum(null ** 2, axis=1)) < 1e-8
+    sigma = np.sqrt(float(r @ r) / max(n - rank, 1))
+    var = np.sum((V[:, :rank] / sv[:rank]) ** 2, axis=1)       # diag of (AᵀA)⁺
+    se = sigma * np.sqrt(var) / norms
+    out = np.zeros(p)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(se > 0, np.abs(theta) / se, np.inf)
+    out[determined] = t[determined]
     return out

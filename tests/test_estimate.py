@@ -238,3 +238,15 @@ def test_scorer_gelsy_call_equals_scipy_lstsq_bit_for_bit(shape, rank):
     for _ in range(2):                          # the second call uses the cached workspace
         x = _solve_gelsy(A, b, 1e-12)
         assert x.shape == (shape[1],) and np.array_equal(x, ref)
+
+
+def test_t_statistics_with_dependent_columns_keep_the_determined_ones():
+    from narx.estimate import t_statistics
+    rng = np.random.default_rng(0)
+    x0, x1, x2 = rng.standard_normal((3, 500))
+    y = 5 * x0 + 0.1 * rng.standard_normal(500)
+    t = t_statistics(np.c_[x0, x1, x2, x1 + x2], y)
+    # x0 is determined (and strongly significant); x1, x2, x1 + x2 are not
+    assert t[0] > 100 and np.all(t[1:] == 0)
+    full = t_statistics(np.c_[x0, x1, x2], y)
+    assert t[0] == pytest.approx(full[0], rel=1e-6)

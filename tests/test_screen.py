@@ -171,3 +171,18 @@ def test_hold_test_on_short_records():
               max_height=3, use_phi=False, random_state=0)
     est = MGGPRegressor(select="hold", **kw).fit(d.u, d.y)
     assert est.selection_ and isinstance(est.selection_[0][0], bool)
+
+
+def test_select_hold_warns_when_no_candidate_holds():
+    import warnings
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(20000)
+    y = piezo_bouc_wen(u)
+    kw = dict(fitness="ms", window=500, population=60, generations=10,
+              constraints="steady-state", select="hold")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        est = MGGPRegressor(random_state=1, **kw).fit(u, y)
+    holds = [ok for ok, _ in est.selection_]
+    said = [w for w in caught if "none of the" in str(w.message)]
+    assert not any(holds) and len(said) == 1
