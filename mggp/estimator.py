@@ -42,6 +42,7 @@ from .evaluate import Evaluator, criterion_value
 from . import versions
 from .checkpoint import checkpoint_seed, data_digest
 from .evolve import evolve
+from .noise import full_ma, prune_process, select_noise
 from .params import check_params
 from .pareto import ParetoFront, front_rows
 from .primitives import identically_zero, make_pset, max_lag_for_height
@@ -310,7 +311,12 @@ class MGGPRegressor:
         elif self.prune:
             raise ValueError(f"prune must be False, 'bic' or 't', got {self.prune!r}")
         if self.noise_lags:
-            terms = terms + self._select_noise(data, terms, start, registry)
+            crit = self._t_threshold(data)
+            if self.prune == "t":               # terms that only predicted the noise
+                terms = prune_process(data, terms, full_ma(data, int(self.noise_lags),
+                                                           registry), start, registry, crit)
+            terms = terms + select_noise(data, terms, start, registry,
+                                         int(self.noise_lags), crit)
         self.terms_ = terms
         self.fitness_ = res.best.fitness if terms == self.search_terms_ else \
             criterion_value(scorer.score(terms), len(terms), data.n - start, self.criterion)
@@ -413,42 +419,6 @@ class MGGPRegressor:
                 break
             terms = terms[:i] + terms[i + 1:]
         return terms
-
-    def _select_noise(self, data, terms, start, registry):
-        """Forward selection of MA noise terms by ELS t-statistics."""
-        from narx.estimate import t_statistics
-        from narx.regressors import regressor_matrix
-        from narx.terms import parse_term
-        q = int(self.noise_lags)
-        sig = data.signals
-        cands = []
-        for j in range(1, q + 1):
-            e = f"{sig.noise}[k-{j}]"
-            cands.append(e)
-            for name in (sig.output,) + tuple(sig.inputs):
-                cands += [f"{name}[k-{i}]*{e}" for i in range(1, q + 1)]
-        cands = [parse_term(c, sig, registry=registry) for c in cands]
-        crit = self._t_threshold(data)
-        chosen = ()
-        while True:
-            best = None
-            for c in cands:
-                if c in chosen:
-                    continue
-                trial = terms + chosen + (c,)
-                with ignore_rank_warnings():                 # a trial, not a result
-                    m = Model(trial, inputs=data.inputs, output=data.output,
-                              registry=registry).fit(data)
-                noise = np.zeros(data.n)
-                noise[m.fit_info_["start"]:] = m.fit_info_["residuals"]
-                Psi, target, _ = regressor_matrix(trial, data, noise=noise, start=start,
-                                                  registry=registry)
-                t = t_statistics(Psi, target, m.theta)[-1]
-                if best is None or t > best[0]:
-                    best = (t, c)
-            if best is None or best[0] < crit:
-                return chosen
-            chosen = chosen + (best[1],)
 
     @staticmethod
     def _prune(scorer, terms, n, criterion=None):

@@ -1,0 +1,92 @@
+"""NARMAX noise models for a searched structure (``noise_lags``).
+
+Typical use (inside :meth:`mggp.MGGPRegressor.fit`)::
+
+    from mggp.noise import select_noise, prune_process
+    terms = prune_process(data, terms, full_ma(data, 2, registry), start, registry, 3.6)
+    terms = terms + select_noise(data, terms, start, registry, q=2, crit=3.6)
+
+Candidates are ``e[k-j]`` and ``x*e[k-j]`` (x a lag 1..q of an input or the
+output), j = 1..q. They are added one at a time by extended least squares
+(ELS: the residuals of the previous fit stand in for the noise [1]_) while
+the best has |t| >= ``crit``. With coloured noise a one-step search also
+picks process terms that only predict the noise; once the noise model is
+in, :func:`prune_process` drops process terms whose ELS t-statistic falls
+below ``crit`` (least significant first, refitting each time), with the
+full MA(q) model ``e[k-1] .. e[k-q]`` in the fit, before the noise terms
+are selected for what remains.
+
+References
+----------
+.. [1] Billings, S. A., "Nonlinear System Identification: NARMAX Methods in
+   the Time, Frequency, and Spatio-Temporal Domains", Wiley, 2013, ch. 3.
+"""
+from __future__ import annotations
+
+from typing import Tuple
+
+import numpy as np
+
+from narx import Model
+from narx.estimate import t_statistics
+from narx.model import ignore_rank_warnings
+from narx.regressors import regressor_matrix
+from narx.terms import parse_term
+
+__all__ = ["select_noise", "prune_process", "els_t", "full_ma"]
+
+
+def els_t(data, terms, start, registry) -> np.ndarray:
+    """|t| of every term of an ELS fit of ``terms`` (noise terms included)."""
+    with ignore_rank_warnings():                 # a trial, not a result
+        m = Model(terms, inputs=data.inputs, output=data.output,
+                  registry=registry).fit(data)
+    noise = np.zeros(data.n)
+    noise[m.fit_info_["start"]:] = m.fit_info_["residuals"]
+    Psi, target, _ = regressor_matrix(terms, data, noise=noise, start=start,
+                                      registry=registry)
+    return t_statistics(Psi, target, m.theta)
+
+
+def full_ma(data, q: int, registry) -> Tuple:
+    """The plain MA(q) noise terms ``e[k-1] .. e[k-q]``."""
+    sig = data.signals
+    return tuple(parse_term(f"{sig.noise}[k-{j}]", sig, registry=registry)
+                 for j in range(1, q + 1))
+
+
+def select_noise(data, terms, start, registry, q: int, crit: float) -> Tuple:
+    """Forward selection of MA noise terms by ELS t-statistics."""
+    sig = data.signals
+    cands = []
+    for j in range(1, q + 1):
+        e = f"{sig.noise}[k-{j}]"
+        cands.append(e)
+        for name in (sig.output,) + tuple(sig.inputs):
+            cands += [f"{name}[k-{i}]*{e}" for i in range(1, q + 1)]
+    cands = [parse_term(c, sig, registry=registry) for c in cands]
+    chosen = ()
+    while True:
+        best = None
+        for c in cands:
+            if c in chosen:
+                continue
+            t = els_t(data, terms + chosen + (c,), start, registry)[-1]
+            if best is None or t > best[0]:
+                best = (t, c)
+        if best is None or best[0] < crit:
+            return chosen
+        chosen = chosen + (best[1],)
+
+
+def prune_process(data, terms, noise, start, registry, crit: float) -> Tuple:
+    """Process ``terms`` whose ELS t-statistic, with the ``noise`` terms in
+    the model, is at least ``crit`` (the least significant dropped first)."""
+    terms = tuple(terms)
+    while len(terms) > 1 and noise:
+        t = els_t(data, terms + tuple(noise), start, registry)[:len(terms)]
+        i = int(np.argmin(t))
+        if t[i] >= crit:
+            break
+        terms = terms[:i] + terms[i + 1:]
+    return terms
