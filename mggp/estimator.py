@@ -115,10 +115,11 @@ class MGGPRegressor:
         search (NARMAX): candidates ``e[k-j]`` and ``x*e[k-j]`` (x a lag
         1..q of an input or the output), j = 1..q, are added one at a time
         by extended least squares while the best has |t| >= ``t_threshold``,
-        and the process parameters are re-estimated with it. It does not
-        protect the *structure*: the search and ``prune`` score with the
-        plain one-step error, which strong coloured noise can lead to extra
-        output lags; there, prefer ``fitness='ms'`` or ``'freerun'``.
+        and the process parameters are re-estimated with it. The search
+        scores with the plain one-step error, so strong coloured noise can
+        lead it to extra lags that only predict the noise; with
+        ``prune='t'`` those are pruned by their ELS t-statistics with the
+        full MA(q) model in the fit first (:mod:`mggp.noise`).
     t_threshold : float, optional
         Default: Bonferroni, Φ⁻¹(1 − 0.05/(2M)) with M the number of
         candidate monomials allowed by ``max_lag`` and ``max_degree``.
