@@ -128,6 +128,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="mggp", description="NARX models of hysteretic systems by "
                 "multi-gene genetic programming.")
     p.add_argument("--version", action="version", version=f"mggp {__version__}")
+    p.add_argument("--phi-module", action="append", default=[], metavar="MODULE",
+                   help="import MODULE (a dotted name, or a .py file) before the command; "
+                        "it registers your Φ-functions with narx.register_phi "
+                        "(repeatable; model files never run code)")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
 
@@ -161,6 +165,30 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _import_plugin(spec: str) -> None:
+    """Import a module that registers Φ-functions: ``pkg.mod`` or ``file.py``."""
+    import importlib
+    import importlib.util
+    import os
+    try:
+        if spec.endswith(".py"):
+            if not os.path.isfile(spec):
+                raise CLIError(f"--phi-module {spec}: no such file")
+            name = "mggp_plugin_" + os.path.splitext(os.path.basename(spec))[0]
+            loader = importlib.util.spec_from_file_location(name, spec)
+            module = importlib.util.module_from_spec(loader)
+            loader.loader.exec_module(module)
+        else:
+            if os.getcwd() not in sys.path:
+                sys.path.insert(0, os.getcwd())
+            importlib.import_module(spec)
+    except CLIError:
+        raise
+    except Exception as exc:                   # the user's module: report, no traceback
+        raise CLIError(f"--phi-module {spec}: cannot import it "
+                       f"({type(exc).__name__}: {exc})") from None
+
+
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):
     print("warning: " + " ".join(str(message).split()), file=sys.stderr)
 
@@ -174,6 +202,8 @@ def main(argv: Optional[List[str]] = None) -> int:
 def _main(argv: Optional[List[str]]) -> int:
     try:
         args = build_parser().parse_args(argv)
+        for mod in args.phi_module:
+            _import_plugin(mod)
         for name in ("k", "window"):           # shared by every subcommand
             v = getattr(args, name, None)
             if v is not None and v < 1:

@@ -325,7 +325,9 @@ class _Parser:
     def phi_call(self, name) -> PhiCall:
         if name not in self.reg:
             raise TermError(f"unknown Φ-function {name!r} in term {self.text!r} "
-                            f"(registered: {', '.join(self.reg.names())})")
+                            f"(registered: {', '.join(self.reg.names())}; register "
+                            f"yours with narx.register_phi, or give the mggp command "
+                            f"--phi-module MODULE)")
         fn = self.reg.get(name)
         self.take("op", "(")
         args = []

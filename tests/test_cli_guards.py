@@ -121,3 +121,25 @@ def test_compensate_non_finite_past_is_named(capsys, tmp_path):
     code, _, err = run(capsys, "compensate", tmp_path / "m.json", csv(tmp_path),
                        "--out", tmp_path / "o.csv", "--u-past", "nan")
     assert code == 2 and "--u-past must be a finite number, got nan" in error_line(err)
+
+
+def test_phi_module_registers_user_functions_for_the_command(tmp_path):
+    import subprocess
+    import sys
+    plugin = tmp_path / "myphis.py"
+    plugin.write_text("import numpy as np\nimport narx\n"
+                      "narx.register_phi('SatPlug', arity=1, func=np.tanh, steady=np.tanh)\n")
+    m = tmp_path / "m.json"
+    m.write_text(json.dumps({"output": "y", "inputs": ["u"],
+                             "terms": ["y[k-1]", "SatPlug(u[k-1])"], "theta": [0.5, 1.0]}))
+    data = csv(tmp_path)
+    cmd = [sys.executable, "-m", "mggp"]
+    p = subprocess.run(cmd + ["simulate", str(m), data], capture_output=True, text=True)
+    assert p.returncode == 2 and "--phi-module MODULE" in p.stderr      # control
+    p = subprocess.run(cmd + ["--phi-module", str(plugin), "simulate", str(m), data],
+                       capture_output=True, text=True)
+    assert p.returncode == 0 and "freerun: RMSE" in p.stdout, p.stderr
+    p = subprocess.run(cmd + ["--phi-module", "no_such_module_xyz", "simulate", str(m), data],
+                       capture_output=True, text=True)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1
+    assert "--phi-module no_such_module_xyz: cannot import it" in p.stderr
