@@ -325,7 +325,12 @@ class MGGPRegressor:
                 "criterion": self.criterion, "seed": seed,
                 "population": self.population, "generations": self.generations,
                 "max_terms": self.max_terms, "max_height": self.max_height,
-                "use_phi": self.use_phi, "screen": self.screen,
+                "use_phi": self.use_phi, "phi_names": self.phi_names,
+                "screen": self.screen, "select": self.select, "prune": self.prune,
+                "noise_lags": self.noise_lags, "max_lag": self.max_lag,
+                "max_degree": self.max_degree,
+                "cls_refit": self.constraints == "steady-state",
+                "search_constraints": self.search_constraints,
                 "search_fitness_value": self.fitness_}
         meta["versions"] = versions()
         # a searched structure may hold terms the record cannot tell apart
