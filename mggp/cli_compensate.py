@@ -113,6 +113,13 @@ def _cmd_compensate(args) -> int:
               f"{res.saturated} whose exact root lay outside the input range or "
               f"beyond --max-step (the target was not reachable in one step); "
               f"max |y_model - target| at the other steps {fmt(float(err.max()) if err.size else 0.0)}")
+        if res.fallback_rate > 0.05:
+            import warnings
+            warnings.warn(f"{100 * res.fallback_rate:.0f} % of the steps had no admissible "
+                          f"root: the reference asks for changes the model cannot follow in "
+                          f"one step (steps or jumps?); the tracking may be worse than with "
+                          f"no compensation (benchmarks/RESULTS.md, compensation --more); "
+                          f"smooth the reference or use a PI loop")
     if name in (args.column, "y_model", "fallback"):
         name = name + "_input"
     print(f"actuator input spans {fmt(float(res.m.min()))} .. {fmt(float(res.m.max()))}")

@@ -344,3 +344,18 @@ def test_data_driven_compensator_counts_clipping_and_refuses_root_options(tmp_pa
     assert main(["compensate", str(path), str(ref), "--out", str(out), "--max-step", "1"]) == 2
     assert "--max-step 1.0 applies to model-based compensators only" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_cli_warns_when_most_steps_fall_back(tmp_path, capsys):
+    m = tmp_path / "m19.json"
+    narx.Model(list(MODEL19_TERMS), theta=list(MODEL19_THETA)).save(m)
+    levels = np.random.default_rng(5).uniform(-40, 40, 5)
+    steps = np.concatenate([np.zeros(200)] + [np.full(800, v) for v in levels])
+    smooth = 40 * np.sin(2 * np.pi * 0.5 * np.arange(3000) * 1e-3)
+    for r, warned in ((steps, True), (smooth, False)):
+        ref = tmp_path / "r.csv"
+        ref.write_text("r\n" + "\n".join(repr(float(v)) for v in r) + "\n")
+        assert main(["compensate", str(m), str(ref), "--out", str(tmp_path / "o.csv"),
+                     "--input-range", "-80", "80"]) == 0
+        err = capsys.readouterr().err
+        assert ("warning: " in err and "no admissible root" in err) == warned, err
