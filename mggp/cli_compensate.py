@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import csv
 import os
+import warnings
 
 import numpy as np
 
@@ -114,7 +115,6 @@ def _cmd_compensate(args) -> int:
               f"beyond --max-step (the target was not reachable in one step); "
               f"max |y_model - target| at the other steps {fmt(float(err.max()) if err.size else 0.0)}")
         if res.fallback_rate > 0.05:
-            import warnings
             warnings.warn(f"{100 * res.fallback_rate:.0f} % of the steps had no admissible "
                           f"root: the reference asks for changes the model cannot follow in "
                           f"one step (steps or jumps?); the tracking may be worse than with "

@@ -105,10 +105,7 @@ def _cmd_fit(args) -> int:
     # every destination is checked before the search, so no run is lost to it
     for opt, path in (("--out", args.out), ("--checkpoint", args.checkpoint)):
         if path:
-            try:
-                check_writable(path, opt)
-            except ValueError as exc:
-                raise CLIError(str(exc)) from None
+            check_writable(path, opt)           # a ValueError is one error: line
     if args.report and os.path.exists(args.report) and not os.path.isdir(args.report):
         raise CLIError(f"--report {args.report}: exists and is not a folder")
     if args.report and args.out and os.path.abspath(args.report) == os.path.abspath(args.out):

@@ -42,7 +42,7 @@ from .evaluate import Evaluator, criterion_value
 from . import versions
 from .checkpoint import checkpoint_seed, data_digest
 from .evolve import evolve
-from .noise import full_ma, prune_process, select_noise
+from .noise import full_ma, prune_by_t, prune_process, select_noise
 from .params import check_params
 from .pareto import ParetoFront, front_rows
 from .primitives import identically_zero, make_pset, max_lag_for_height
@@ -298,9 +298,6 @@ class MGGPRegressor:
                               f"the best-fitness structure (see selection_)",
                               UserWarning, stacklevel=2)
             terms = chosen or terms
-        elif self.select != "fitness":
-            raise ValueError(f"select must be 'fitness', 'freerun' or 'hold', "
-                             f"got {self.select!r}")
         self.search_terms_ = terms
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
@@ -309,8 +306,6 @@ class MGGPRegressor:
             terms = self._prune(scorer, terms, data.n - start)
         elif self.prune == "t":
             terms = self._prune_t(data, terms, start)
-        elif self.prune:
-            raise ValueError(f"prune must be False, 'bic' or 't', got {self.prune!r}")
         if self.noise_lags:
             crit = self._t_threshold(data)
             if self.prune == "t":               # terms that only predicted the noise
@@ -363,8 +358,6 @@ class MGGPRegressor:
     def _make_screen(self, data, start, registry):
         if self.screen is None:
             return None
-        if self.screen not in ("freerun", "hold"):
-            raise ValueError(f"screen must be None, 'freerun' or 'hold', got {self.screen!r}")
         top = self.screen_top
         if top is None:
             top = max(1, int(round(self.elite_fraction * self.population)))
@@ -415,16 +408,9 @@ class MGGPRegressor:
     def _prune_t(self, data, terms, start):
         from narx.estimate import t_statistics
         from narx.regressors import regressor_matrix
-        crit = self._t_threshold(data)
-        self.t_threshold_ = crit
-        while len(terms) > 1:
-            Psi, target, _ = regressor_matrix(terms, data, start=start)
-            t = t_statistics(Psi, target)
-            i = int(np.argmin(t))
-            if t[i] >= crit:
-                break
-            terms = terms[:i] + terms[i + 1:]
-        return terms
+        crit = self.t_threshold_ = self._t_threshold(data)
+        return prune_by_t(terms, lambda ts: t_statistics(
+            *regressor_matrix(ts, data, start=start)[:2]), crit)
 
     @staticmethod
     def _prune(scorer, terms, n, criterion=None):

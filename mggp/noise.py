@@ -33,7 +33,7 @@ from narx.model import ignore_rank_warnings
 from narx.regressors import regressor_matrix
 from narx.terms import parse_term
 
-__all__ = ["select_noise", "prune_process", "els_t", "full_ma"]
+__all__ = ["select_noise", "prune_process", "prune_by_t", "els_t", "full_ma"]
 
 
 def els_t(data, terms, start, registry) -> np.ndarray:
@@ -79,14 +79,25 @@ def select_noise(data, terms, start, registry, q: int, crit: float) -> Tuple:
         chosen = chosen + (best[1],)
 
 
-def prune_process(data, terms, noise, start, registry, crit: float) -> Tuple:
-    """Process ``terms`` whose ELS t-statistic, with the ``noise`` terms in
-    the model, is at least ``crit`` (the least significant dropped first)."""
+def prune_by_t(terms, t_of, crit: float) -> Tuple:
+    """Backward elimination: while the least significant of ``terms`` has
+    |t| < ``crit`` (``t_of(terms)``, refitted each time), drop it; at least
+    one term stays."""
     terms = tuple(terms)
-    while len(terms) > 1 and noise:
-        t = els_t(data, terms + tuple(noise), start, registry)[:len(terms)]
+    while len(terms) > 1:
+        t = t_of(terms)
         i = int(np.argmin(t))
         if t[i] >= crit:
             break
         terms = terms[:i] + terms[i + 1:]
     return terms
+
+
+def prune_process(data, terms, noise, start, registry, crit: float) -> Tuple:
+    """Process ``terms`` whose ELS t-statistic, with the ``noise`` terms in
+    the model, is at least ``crit`` (the least significant dropped first)."""
+    if not noise:
+        return tuple(terms)
+    noise = tuple(noise)
+    return prune_by_t(terms, lambda ts: els_t(data, ts + noise, start, registry)[:len(ts)],
+                      crit)

@@ -80,3 +80,13 @@ def piezo_validation():
     from narx.systems import piezo_bouc_wen, sine_input
     _, u = sine_input()
     return u, piezo_bouc_wen(u)
+
+
+def first_order_record(n=300, seed=0, noise=0.0):
+    """u ~ U(-1, 1) and y[k] = 0.5 y[k-1] + u[k-1] (+ N(0, noise²) equation noise)."""
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1, 1, n)
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.5 * y[k - 1] + u[k - 1] + (noise * rng.standard_normal() if noise else 0.0)
+    return u, y

@@ -8,13 +8,11 @@ import pytest
 from narx import Model
 from narx.modelio import ModelFileError, load_model
 
+from conftest import first_order_record
+
 
 def csv(tmp_path, name="d.csv", n=300, seed=0):
-    rng = np.random.default_rng(seed)
-    u = rng.uniform(-1, 1, n)
-    y = np.zeros(n)
-    for k in range(1, n):
-        y[k] = 0.5 * y[k - 1] + u[k - 1]
+    u, y = first_order_record(n, seed)
     p = tmp_path / name
     p.write_text("u,y\n" + "\n".join(f"{float(a)!r},{float(b)!r}" for a, b in zip(u, y)) + "\n")
     return str(p)

@@ -5,15 +5,12 @@ import pytest
 from mggp import MGGPRegressor
 from narx.data import DataError
 
+from conftest import first_order_record
+
 
 @pytest.fixture(scope="module")
 def record():
-    rng = np.random.default_rng(0)
-    u = rng.uniform(-1, 1, 300)
-    y = np.zeros(300)
-    for k in range(1, 300):
-        y[k] = 0.5 * y[k - 1] + u[k - 1]
-    return u, y
+    return first_order_record()
 
 
 @pytest.mark.parametrize("param, value, text", [

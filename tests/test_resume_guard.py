@@ -7,14 +7,11 @@ import pytest
 
 from mggp import MGGPRegressor
 
+from conftest import first_order_record
+
 
 def record(seed, n=300):
-    rng = np.random.default_rng(seed)
-    u = rng.uniform(-1, 1, n)
-    y = np.zeros(n)
-    for k in range(1, n):
-        y[k] = 0.5 * y[k - 1] + u[k - 1] + 0.01 * rng.standard_normal()
-    return u, y
+    return first_order_record(n, seed, noise=0.01)
 
 
 KW = dict(population=12, generations=2, max_height=2, use_phi=False, fitness="pem")

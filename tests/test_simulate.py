@@ -543,11 +543,8 @@ def test_result_metrics_use_valid_samples_only():
 
 def test_a_horizon_or_window_for_another_mode_is_refused():
     import narx
-    rng = np.random.default_rng(0)
-    u = rng.uniform(-1, 1, 200)
-    y = np.zeros(200)
-    for k in range(1, 200):
-        y[k] = 0.5 * y[k - 1] + u[k - 1]
+    from conftest import first_order_record
+    u, y = first_order_record(200)
     m = narx.Model(["y[k-1]", "u[k-1]"], theta=[0.5, 1.0])
     with pytest.raises(ValueError, match="k=5 applies to mode 'ksa' only, not to 'freerun'"):
         m.simulate(u, y, mode="freerun", k=5)
