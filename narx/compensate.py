@@ -484,17 +484,11 @@ class RootCompensator:
             if not (abs(x) <= bound and abs(self.y[-1]) <= bound):   # NaN fails too
                 at = j
                 break
-        m = np.full(n, np.nan)
-        y_model = np.full(n, np.nan)
-        got_m, got_y = self.m[i0:i0 + n], self.y[y0:y0 + n]
-        m[:len(got_m)] = got_m
-        y_model[:len(got_y)] = got_y
-        if at >= 0:
-            m[at:] = np.nan
-            y_model[at + self.delay:] = np.nan
-        fb = n_roots == 0
-        if at >= 0:
-            fb[at:] = False
+        stop = n if at < 0 else at                    # steps kept (NaN from ``at``)
+        m, y_model = np.full(n, np.nan), np.full(n, np.nan)
+        m[:stop] = self.m[i0:i0 + stop]
+        y_model[:min(n, stop + self.delay)] = self.y[y0:y0 + min(n, stop + self.delay)]
+        fb = (n_roots == 0) & (np.arange(n) < stop)
         return CompensationResult(
             m=m, r=r, target=target, y_model=y_model, lead=self.lead, delay=self.delay,
             fallback=fb, fallbacks=int(fb.sum()), saturated=int(sat.sum()), n_roots=n_roots,
