@@ -10,7 +10,10 @@ Typical use::
 
 The file has a header row; the named columns must each appear once and hold
 finite numbers (plain ASCII decimal notation, as ``float`` reads it, without
-``_`` separators) on every data row; other columns are ignored (their
+``_`` separators) on every data row; the field separator is ``,``, ``;`` or
+a tab, whichever the header row uses most (``,`` when it uses none), and in
+a ``;`` or tab separated file a decimal comma is read as a point
+(``1,5e-3``), as spreadsheet programs of many locales write them; other columns are ignored (their
 content is not checked), blank lines are skipped, rows must all have the
 header's number of fields. Every problem raises
 :class:`~narx.data.DataError` with the file, the line (1-based, header =
@@ -33,18 +36,44 @@ from .data import MAX_ABS, Data, DataError
 __all__ = ["read_csv", "read_columns", "iter_rows", "write_with_column"]
 
 MAX_FIELD = 1 << 20
+#: field separators recognised in the header row, the first wins a tie
+DELIMITERS = (",", ";", "\t")
 
 
-def _records(path) -> Iterator[Tuple[int, int, List[str]]]:
+def _open(path):
+    try:
+        return open(path, newline="", encoding="utf-8-sig")
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read file ({exc.strerror})") from None
+
+
+def delimiter(path) -> str:
+    """Field separator of a CSV file: whichever of ``,``, ``;`` and tab its
+    first non-blank line holds most often (``,`` if none)."""
+    path = os.fspath(path)
+    with _open(path) as fh:
+        number = 0
+        try:
+            while True:                  # a bounded read: a header is short
+                number += 1
+                line = fh.readline(MAX_FIELD)
+                if not line:
+                    break
+                if line.strip():
+                    counts = [line.count(d) for d in DELIMITERS]
+                    return DELIMITERS[counts.index(max(counts))] if max(counts) else ","
+        except UnicodeDecodeError:
+            raise DataError(f"{path}: not UTF-8 text (near line {number})") from None
+    return ","
+
+
+def _records(path, sep: str = ",") -> Iterator[Tuple[int, int, List[str]]]:
     """Yield (first line, last line, fields) of non-blank records."""
     path = os.fspath(path)
     csv.field_size_limit(MAX_FIELD)
-    try:
-        fh = open(path, newline="", encoding="utf-8-sig")
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read file ({exc.strerror})") from None
+    fh = _open(path)
     with fh:
-        reader = csv.reader(fh)
+        reader = csv.reader(fh, delimiter=sep)
         end = 0
         try:
             for fields in reader:
@@ -60,24 +89,30 @@ def _records(path) -> Iterator[Tuple[int, int, List[str]]]:
             raise DataError(f"{path}: {where}: malformed CSV ({exc})") from None
 
 
-def iter_rows(path) -> Iterator[Tuple[int, List[str]]]:
+def iter_rows(path, sep: Optional[str] = None) -> Iterator[Tuple[int, List[str]]]:
     """Yield (line number, fields) of non-blank rows, header included.
 
-    The line number is where the row starts (a quoted field may span lines).
+    The line number is where the row starts (a quoted field may span lines);
+    ``sep`` defaults to the file's :func:`delimiter`.
     """
-    for first, _, fields in _records(path):
+    for first, _, fields in _records(path, delimiter(path) if sep is None else sep):
         yield first, fields
 
 
-def _number(path, line, col, text) -> float:
+def _number(path, line, col, text, decimal_comma: bool = False) -> float:
     s = text.strip()
+    if decimal_comma and s.count(",") == 1 and "." not in s:
+        s = s.replace(",", ".")
     try:
         v = float(s)
         if "_" in s or not s.isascii():
             raise ValueError(s)
     except ValueError:
         shown = s if len(s) <= 40 else s[:37] + "..."
-        raise DataError(f"{path}: line {line}, column {col!r}: {shown!r} is not a number") from None
+        hint = ("" if line > 2 or not s or s[0] in "+-.0123456789" else
+                " (a row of units or comments under the header? remove it)")
+        raise DataError(f"{path}: line {line}, column {col!r}: {shown!r} is not a "
+                        f"number{hint}") from None
     if not math.isfinite(v):
         raise DataError(f"{path}: line {line}, column {col!r}: value {s!r} is not finite "
                         f"(NaN and inf are not allowed)")
@@ -90,7 +125,8 @@ def _number(path, line, col, text) -> float:
 def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
     """Read the named columns as a float array (N, len(names)) and the header."""
     path = os.fspath(path)
-    rows = _records(path)
+    sep = delimiter(path)
+    rows = _records(path, sep)
     try:
         line, _, header = next(rows)
     except StopIteration:
@@ -119,7 +155,7 @@ def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
             raise DataError(f"{path}: line {line} has {len(fields)} fields but the "
                             f"header has {width}{span}")
         for name, i in pairs:
-            values.append(_number(path, line, name, fields[i]))
+            values.append(_number(path, line, name, fields[i], sep != ","))
     if not values:
         raise DataError(f"{path}: no data rows after the header")
     arr = np.frombuffer(values, dtype=np.float64).reshape(-1, len(names))
@@ -166,10 +202,12 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
 
 
 def write_with_column(src, dst, name: str, values: np.ndarray) -> None:
-    """Copy CSV ``src`` to ``dst`` (atomically, streaming) adding a column."""
+    """Copy CSV ``src`` to ``dst`` (atomically, streaming) adding a column,
+    with ``src``'s field separator."""
+    sep = delimiter(src)
     with atomic_writer(dst, newline="") as fh:
-        w = csv.writer(fh)
-        rows = iter_rows(src)
+        w = csv.writer(fh, delimiter=sep)
+        rows = iter_rows(src, sep)
         _, header = next(rows)
         w.writerow([h.strip() for h in header] + [name])
         for i, (_, fields) in enumerate(rows):

@@ -187,3 +187,31 @@ def test_dependent_terms_warn_in_one_line_and_the_model_is_written(capsys, tmp_p
     code, _, err = run(capsys, "estimate", data2, "--terms", "1", "u[k-1]*u[k-1]", "u[k-1]",
                        "--out", tmp_path / "m2.json")
     assert code == 0 and err.strip() == ""
+
+
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_semicolon_and_tab_files_with_decimal_commas(capsys, sine_csv, model19, tmp_path, sep):
+    """Spreadsheet exports: ';' or tab separated, decimal commas; the same
+    figures as the comma file, and the prediction written with the source's
+    separator."""
+    code, out, _ = run(capsys, "simulate", model19, sine_csv)
+    assert code == 0
+    lines = open(sine_csv).read().splitlines()
+    p = tmp_path / "semi.csv"
+    p.write_text("\n".join(sep.join(f.replace(".", ",") for f in ln.split(","))
+                           for ln in lines) + "\n")
+    pred = tmp_path / "pred.csv"
+    code2, out2, err2 = run(capsys, "simulate", model19, p, "--out", pred)
+    assert code2 == 0, err2
+    assert out2.splitlines()[0] == out.splitlines()[0]          # same RMSE and MAPE
+    head = pred.read_text().splitlines()[:2]
+    assert head[0] == sep.join(["t", "u", "y", "y_hat"])
+    assert len(head[1].split(sep)) == 4
+
+
+def test_units_row_under_the_header_is_named(capsys, tmp_path):
+    p = tmp_path / "units.csv"
+    p.write_text("t;u;y\ns;V;um\n0;1;2\n1;2;3\n")
+    code, _, err = run(capsys, "estimate", p, "--terms", "u[k-1]")
+    line = one_error_line(err)
+    assert code == 2 and "line 2" in line and "'V' is not a number" in line and "units" in line
