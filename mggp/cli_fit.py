@@ -23,35 +23,59 @@ __all__ = ["register"]
 
 
 def register(sub):
-    p = sub.add_parser("fit", help="search a model structure by MGGP")
+    p = sub.add_parser("fit", help="search a model structure by MGGP",
+                       description="Search the structure of a polynomial NARX model by "
+                                   "multi-gene GP; defaults are the published setup.")
     p.add_argument("data", metavar="DATA.csv")
-    p.add_argument("--fitness", choices=["pem", "freerun", "ksa", "ms"], default="ms")
+    p.add_argument("--fitness", choices=["pem", "freerun", "ksa", "ms"], default="ms",
+                   help="simulation whose MSE scores a structure: one-step-ahead, free "
+                        "run, k steps ahead or multiple shooting (default ms)")
     p.add_argument("--window", type=int, default=100, help="Δm for ms (default 100)")
     p.add_argument("--k", type=int, default=10, help="horizon for ksa (default 10)")
-    p.add_argument("--criterion", choices=["mse", "bic", "aic"], default="mse")
-    p.add_argument("--population", type=int, default=500)
-    p.add_argument("--generations", type=int, default=200)
-    p.add_argument("--seed", type=int, default=None)
-    p.add_argument("--jobs", type=int, default=1)
+    p.add_argument("--criterion", choices=["mse", "bic", "aic"], default="mse",
+                   help="fitness: the MSE or an information criterion penalising terms "
+                        "(default mse)")
+    p.add_argument("--population", type=int, default=500, help="(default 500)")
+    p.add_argument("--generations", type=int, default=200, help="(default 200)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="fixes the run whatever --jobs is (default: drawn, and reported)")
+    p.add_argument("--jobs", type=int, default=1,
+                   help="worker processes, -1 for all cores (default 1)")
     p.add_argument("--backend", choices=["loky", "threading", "sequential", "dask"],
-                   default="loky")
+                   default="loky", help="joblib backend of the evaluator (default loky)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="dask scheduler address for --backend dask")
-    p.add_argument("--max-terms", type=int, default=15)
-    p.add_argument("--max-height", type=int, default=5)
-    p.add_argument("--max-lag", type=int, default=None)
-    p.add_argument("--max-degree", type=int, default=None)
-    p.add_argument("--prune", choices=["bic", "t"], default=None)
-    p.add_argument("--constraints", choices=["steady-state"], default=None)
+    p.add_argument("--max-terms", type=int, default=15,
+                   help="genes (model terms) per individual (default 15)")
+    p.add_argument("--max-height", type=int, default=5, help="tree height (default 5)")
+    p.add_argument("--max-lag", type=int, default=None,
+                   help="largest lag a term may use (default: what --max-height allows)")
+    p.add_argument("--max-degree", type=int, default=None,
+                   help="largest polynomial degree of a term (default: none)")
+    p.add_argument("--prune", choices=["bic", "t"], default=None,
+                   help="drop terms of the best structure by BIC or by t-statistics "
+                        "(default: keep all)")
+    p.add_argument("--select", choices=["fitness", "freerun", "hold"], default="fitness",
+                   help="the result among the best distinct structures: best fitness, "
+                        "least free-run error over the record, or (hold) the best whose "
+                        "CLS refit holds its output on a held input (default fitness)")
+    p.add_argument("--noise-lags", type=int, default=0, metavar="Q",
+                   help="select moving-average noise terms e[k-1]..e[k-Q] by extended LS "
+                        "after the search (NARMAX; for coloured noise; default 0)")
+    p.add_argument("--constraints", choices=["steady-state"], default=None,
+                   help="also refit the best structure by CLS with the derived "
+                        "continuum-of-steady-states constraints")
     p.add_argument("--no-phi", action="store_true", help="plain polynomial terms only")
     p.add_argument("--screen", choices=["freerun", "hold"], default=None,
                    help="reject each generation's leaders whose free run over the "
                         "record leaves the output band ('hold': or whose CLS refit "
                         "does not hold its output on a held input)")
-    p.add_argument("--out", metavar="MODEL.json")
-    p.add_argument("--report", metavar="DIR")
-    p.add_argument("--checkpoint", metavar="FILE")
-    p.add_argument("--resume", action="store_true")
+    p.add_argument("--out", metavar="MODEL.json", help="write the model (the CLS fit "
+                                                      "with --constraints)")
+    p.add_argument("--report", metavar="DIR", help="write figures and a Markdown summary")
+    p.add_argument("--checkpoint", metavar="FILE", help="save the state every generation")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run saved in --checkpoint")
     p.add_argument("--quiet", action="store_true", help="no progress line")
     add_signal_args(p)
     p.set_defaults(func=_cmd_fit)
@@ -88,7 +112,7 @@ def _cmd_fit(args) -> int:
     from .estimator import MGGPRegressor
     from narx.atomic import check_writable
     lows = {"population": 2, "generations": 0, "max_terms": 1, "max_height": 1,
-            "max_lag": 1, "max_degree": 1, "seed": 0}
+            "max_lag": 1, "max_degree": 1, "seed": 0, "noise_lags": 0}
     for name, lo in lows.items():
         v = getattr(args, name)
         if v is not None and v < lo:
@@ -119,6 +143,7 @@ def _cmd_fit(args) -> int:
                         max_terms=args.max_terms, max_height=args.max_height,
                         max_lag=args.max_lag, max_degree=args.max_degree,
                         prune=args.prune or False, use_phi=not args.no_phi,
+                        select=args.select, noise_lags=args.noise_lags,
                         screen=args.screen,
                         random_state=args.seed, n_jobs=args.jobs, backend=args.backend,
                         scheduler=args.scheduler, inputs=inputs, output=output,

@@ -141,3 +141,12 @@ def test_phi_module_registers_user_functions_for_the_command(tmp_path):
                        capture_output=True, text=True)
     assert p.returncode == 2 and p.stderr.count("\n") == 1
     assert "--phi-module no_such_module_xyz: cannot import it" in p.stderr
+
+
+def test_fit_select_reaches_the_estimator(capsys, tmp_path):
+    out = tmp_path / "m.json"
+    code, _, err = run(capsys, "fit", csv(tmp_path), "--population", "20", "--generations",
+                       "2", "--seed", "0", "--select", "freerun", "--quiet", "--out", out)
+    assert code == 0, err
+    meta = json.loads(out.read_text())["meta"]
+    assert meta["select"] == "freerun" and meta["noise_lags"] == 0

@@ -50,3 +50,28 @@ def test_coloured_noise_proxies_are_pruned_once_the_noise_model_is_in():
     assert len(split(plain.model_.term_texts)[0]) > 3               # the proxies
     mse = [m.model_.simulate(uv, yv, mode="freerun").mse for m in (plain, narmax)]
     assert mse[1] < mse[0] / 3
+
+
+def test_cli_noise_lags_selects_the_ma_terms(tmp_path, capsys):
+    """`mggp fit --noise-lags Q` reaches the NARMAX selection; without it no
+    noise term appears (control)."""
+    import json
+    from mggp.cli import main
+    d = system_by_name("S5", n=500, seed=1)
+    csv = tmp_path / "s5.csv"
+    np.savetxt(csv, np.c_[d.u.ravel(), d.y], delimiter=",", header="u,y", comments="")
+    base = ["fit", str(csv), "--no-phi", "--max-lag", "2", "--max-degree", "3",
+            "--population", "200", "--generations", "20", "--seed", "1", "--fitness", "pem",
+            "--criterion", "bic", "--prune", "t", "--quiet"]
+    terms = {}
+    for q in ("0", "2"):
+        out = tmp_path / f"m{q}.json"
+        assert main(base + ["--noise-lags", q, "--out", str(out)]) == 0
+        terms[q] = json.loads(out.read_text())["terms"]
+    capsys.readouterr()
+    assert not [t for t in terms["0"] if "e[" in t]
+    process, noise = split(terms["2"])
+    assert process == sorted(t for t in d.terms if "e[" not in t)
+    assert noise == sorted(t for t in d.terms if "e[" in t)
+    assert main(base + ["--noise-lags", "-1"]) == 2
+    assert "--noise-lags must be >= 0, got -1" in capsys.readouterr().err
