@@ -44,6 +44,7 @@ from .checkpoint import checkpoint_seed, data_digest
 from .evolve import evolve
 from .noise import full_ma, prune_by_t, prune_process, select_noise
 from .params import check_params
+from .precision import SearchPrecisionWarning, offset_message, search_precision
 from .pareto import ParetoFront, front_rows
 from .primitives import identically_zero, make_pset, max_lag_for_height
 from .screen import StabilityScreen
@@ -132,6 +133,13 @@ class MGGPRegressor:
     inputs, output : signal names when ``fit`` gets arrays.
     checkpoint : path, optional;  resume : bool
     callbacks : list of callables ``f(state)`` called every generation.
+
+    After ``fit``, besides ``model_``, ``model_cls_``, ``pareto_front_`` and
+    ``logbook_``: ``precision_`` (:class:`mggp.precision.PrecisionCheck`) holds
+    the chosen structure's fitness with the search's normal-equation fit and
+    with the QR refit of ``model_``; a :class:`SearchPrecisionWarning` says
+    when the refit is more than 1.25× better (the search was misled, most
+    often by an offset that dominates a signal).
     """
 
     def __init__(self, *, fitness="ms", window=100, k=10, criterion="mse",
@@ -246,6 +254,8 @@ class MGGPRegressor:
         data = as_data(u, y, inputs=inputs, output=self.output)
         data.require_output("fit")
         start = self._validate(data)
+        if offset_message(data):
+            warnings.warn(offset_message(data), SearchPrecisionWarning, stacklevel=2)
         registry = self.registry or default_registry()
         pset = make_pset(data.signals, registry, use_phi=self.use_phi, phi_names=self.phi_names)
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
@@ -334,6 +344,22 @@ class MGGPRegressor:
             self.model_ = Model(terms, inputs=data.inputs, output=data.output,
                                 meta=dict(meta, estimation="ls"), registry=registry).fit(data)
             self.rank_ = int(self.model_.fit_info_["rank"])
+            # ELS fits of noise terms are not the search's fits: not compared
+            self.precision_ = check = None if any(t.has_noise for t in terms) else \
+                search_precision(scorer, terms, self.model_.theta)
+            if check is not None and check.refit_worse:   # keep what the search scored
+                theta, _ = scorer.fit(terms)
+                self.model_ = Model(terms, theta, inputs=data.inputs, output=data.output,
+                                    meta=dict(meta, estimation="ls-search",
+                                              qr_refit_fitness_value=check.refit_mse),
+                                    registry=registry)
+                warnings.warn(
+                    f"the QR refit of the chosen structure simulates worse than the "
+                    f"search's own fit ({self.fitness} MSE {check.refit_mse:.4g} against "
+                    f"{check.search_mse:.4g}): its terms are nearly collinear and the exact "
+                    f"least-squares θ has large cancelling coefficients; model_ keeps the "
+                    f"search's θ (rank-truncated normal equations)",
+                    SearchPrecisionWarning, stacklevel=2)
             self.model_cls_ = None
             if self.constraints == "steady-state":
                 try:

@@ -134,13 +134,20 @@ def constrained_least_squares(Psi, target, S, c, *, labels=None,
                 break
         raise EstimationError(f"redundant constraints: {S.shape[0]} rows but rank "
                               f"{rank}; {name(i - 1)} repeats earlier rows")
-    Z = Vt[rank:].T                                  # null space of S
+    # solved in column-scaled coordinates z = norms * θ (S θ = (S / norms) z),
+    # so the result does not depend on the units of the signals
+    norms = np.sqrt(np.einsum("ij,ij->j", Psi, Psi))
+    norms[norms == 0] = 1.0
+    A, Sa = Psi / norms, S / norms
+    _, _, Vta = np.linalg.svd(Sa)
+    z_p = np.linalg.lstsq(Sa, c, rcond=None)[0]
+    Z = Vta[rank:].T                                 # null space of S / norms
     if Z.shape[1] == 0:
-        theta = theta_p
-        z_rank = 0
+        z, z_rank = z_p, 0
     else:
-        z, z_rank = _solve(Psi @ Z, target - Psi @ theta_p)
-        theta = theta_p + Z @ z
+        w, z_rank = _solve(A @ Z, target - A @ z_p)
+        z = z_p + Z @ w
+    theta = z / norms
     r = target - Psi @ theta
     return Estimate(theta, z_rank + rank, p, float(r @ r), "cls")
 

@@ -402,6 +402,11 @@ class StructureScorer:
                            length, write_from, bound=self.bound if bound is None else bound,
                            registry=self.registry, idx=idx)
 
+    def simulated_mse(self, terms: Sequence[Term], theta, s: int) -> float:
+        """The fitness MSE of ``terms`` with a given ``theta`` (e.g. a final
+        QR fit) from row ``s``; ``inf`` for a diverging simulation."""
+        return self._simulate_mse(tuple(terms), np.asarray(theta, dtype=np.float64), int(s))
+
     def _simulate_mse(self, terms, theta, s) -> float:
         n, y = self.data.n, self.y
         if self.fitness == "pem":

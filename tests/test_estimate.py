@@ -250,3 +250,21 @@ def test_t_statistics_with_dependent_columns_keep_the_determined_ones():
     assert t[0] > 100 and np.all(t[1:] == 0)
     full = t_statistics(np.c_[x0, x1, x2], y)
     assert t[0] == pytest.approx(full[0], rel=1e-6)
+
+
+def test_cls_does_not_depend_on_the_units_of_the_output():
+    """CLS in column-scaled coordinates: y in other units (×1e3, ×1e6) gives
+    the same θ up to the implied scaling (the unscaled null-space solve
+    used to lose rank at y×1e6 and move θ at y×1e3)."""
+    from narx import Model
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(10_000, seed=1)
+    y = piezo_bouc_wen(u)
+    terms = ["y[k-1]", "y[k-2]", "Phi1(u[k-1],u[k-2])", "y[k-1]*y[k-1]*y[k-1]",
+             "y[k-3]*y[k-3]*y[k-3]", "u[k-1]", "u[k-4]", "y[k-1]*u[k-1]", "y[k-2]*u[k-3]"]
+    base = Model(terms).fit(u, y, constraints="steady-state")
+    for s in (1e3, 1e6):
+        m = Model(terms).fit(u, y * s, constraints="steady-state")
+        assert m.fit_info_["rank"] == base.fit_info_["rank"] == len(terms)
+        back = m.theta * np.array([1, 1, 1 / s, s**2, s**2, 1 / s, 1 / s, 1, 1])
+        np.testing.assert_allclose(back, base.theta, rtol=1e-6, atol=1e-12)

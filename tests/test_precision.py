@@ -1,0 +1,81 @@
+"""The search's normal-equation fits against the final QR refit (mggp.precision)."""
+import warnings
+
+import numpy as np
+import pytest
+
+from mggp import MGGPRegressor
+from mggp.precision import SearchPrecisionWarning, offsets, search_precision
+from narx import Model
+from narx.data import as_data
+from narx.fitness import StructureScorer
+from narx.systems import piezo_bouc_wen, training_input
+from narx.terms import parse_terms
+
+#: a structure a search found on the record below: nearly collinear Φ1 and
+#: output lags, whose exact LS θ (QR) has large cancelling coefficients
+COLLINEAR = ["Phi1(u[k-1],u[k-6])", "y[k-3]", "u[k-1]", "Phi1(u[k-8],u[k-9])",
+             "y[k-2]*Phi2(u[k-4],u[k-1])", "y[k-5]", "y[k-1]", "Phi1(u[k-6],u[k-9])",
+             "Phi2(u[k-2],u[k-1])", "Phi1(u[k-2],u[k-3])", "y[k-1]*u[k-1]", "y[k-4]",
+             "Phi2(u[k-2],u[k-3])"]
+
+
+@pytest.fixture(scope="module")
+def record():
+    u = training_input(10_000, seed=1)
+    return u, piezo_bouc_wen(u)
+
+
+def test_qr_refit_of_collinear_terms_simulates_worse_than_the_search_fit(record):
+    u, y = record
+    data = as_data(u, y)
+    terms = parse_terms(COLLINEAR, data.signals)
+    sc = StructureScorer(data, "ms", window=100, start=16)
+    qr = Model(COLLINEAR).fit(u, y)
+    check = search_precision(sc, terms, qr.theta)
+    assert check.refit_worse and not check.refit_better
+    assert check.refit_mse > 100 * check.search_mse
+    # control: a well-conditioned structure refits to the same fitness
+    good = ["y[k-1]", "Phi1(u[k-1],u[k-2])", "Phi2(u[k-1],u[k-2])*Phi1(u[k-1],u[k-2])"]
+    ok = search_precision(sc, parse_terms(good, data.signals), Model(good).fit(u, y).theta)
+    assert not ok.refit_worse and not ok.refit_better
+    assert ok.refit_mse == pytest.approx(ok.search_mse, rel=1e-3)
+
+
+def test_estimator_keeps_the_scored_theta_when_the_refit_is_worse(record, monkeypatch):
+    """The search is replaced by one that returns COLLINEAR, so the test
+    needs no search: model_ must simulate as the search scored it."""
+    import mggp.estimator as E
+    u, y = record
+    real = E.evolve
+
+    def fake(pset, evaluate_batch, **kw):
+        import dataclasses
+        res = real(pset, evaluate_batch, **kw)
+        terms = tuple(parse_terms(COLLINEAR, as_data(u, y).signals))
+        fit = evaluate_batch([terms])[0]
+        return dataclasses.replace(res, best=dataclasses.replace(res.best, terms=terms,
+                                                                 fitness=fit))
+    monkeypatch.setattr(E, "evolve", fake)
+    with pytest.warns(SearchPrecisionWarning, match="QR refit of the chosen structure"):
+        est = MGGPRegressor(population=4, generations=0, random_state=0).fit(u, y)
+    assert est.model_.term_texts == COLLINEAR
+    assert est.model_.meta["estimation"] == "ls-search"
+    assert np.isfinite(est.model_.simulate(u, y).mape)
+    assert est.precision_.refit_worse
+
+
+@pytest.mark.parametrize("shift", [0.0, 3.0])
+def test_no_offset_warning_without_a_dominating_offset(record, shift):
+    u, y = record
+    data = as_data(u + shift * u.std(), y + shift * y.std())
+    assert offsets(data) == []
+
+
+def test_offset_that_dominates_the_output_is_named_before_the_search(record):
+    u, y = record
+    with pytest.warns(SearchPrecisionWarning, match=r"an offset dominates y \(mean"):
+        MGGPRegressor(population=6, generations=1, random_state=0).fit(u, y + 1e3)
+    with warnings.catch_warnings():                                  # control
+        warnings.simplefilter("error", SearchPrecisionWarning)
+        MGGPRegressor(population=6, generations=1, random_state=0).fit(u, y)
