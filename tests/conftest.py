@@ -66,12 +66,17 @@ def abs_registry():
     return reg
 
 
+def piezo_record(n=50_000, seed=None):
+    """(u, y): the training input of ``n`` samples and the piezo output."""
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(n) if seed is None else training_input(n, seed=seed)
+    return u, piezo_bouc_wen(u)
+
+
 @pytest.fixture(scope="session")
 def piezo_training():
     """The published training record: N = 50,000, piezo Bouc-Wen."""
-    from narx.systems import piezo_bouc_wen, training_input
-    u = training_input(50_000)
-    return u, piezo_bouc_wen(u)
+    return piezo_record()
 
 
 @pytest.fixture(scope="session")

@@ -13,13 +13,12 @@ import narx.ms_kernel as msk
 from benchmarks import evals, full_setup, speed
 from narx.data import as_data
 from narx.fitness import StructureScorer
-from narx.systems import piezo_bouc_wen, training_input
+from conftest import piezo_record
 
 
 @pytest.fixture(scope="module")
 def record():
-    u = training_input(3000, seed=3)
-    return u, piezo_bouc_wen(u)
+    return piezo_record(3000, seed=3)
 
 
 def test_hand_written_loop_is_model33(record):

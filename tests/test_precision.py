@@ -9,7 +9,7 @@ from mggp.precision import SearchPrecisionWarning, offsets, search_precision
 from narx import Model
 from narx.data import as_data
 from narx.fitness import StructureScorer
-from narx.systems import piezo_bouc_wen, training_input
+from conftest import piezo_record
 from narx.terms import parse_terms
 
 #: a structure a search found on the record below: nearly collinear Φ1 and
@@ -22,8 +22,7 @@ COLLINEAR = ["Phi1(u[k-1],u[k-6])", "y[k-3]", "u[k-1]", "Phi1(u[k-8],u[k-9])",
 
 @pytest.fixture(scope="module")
 def record():
-    u = training_input(10_000, seed=1)
-    return u, piezo_bouc_wen(u)
+    return piezo_record(10_000, seed=1)
 
 
 def test_qr_refit_of_collinear_terms_simulates_worse_than_the_search_fit(record):
