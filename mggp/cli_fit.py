@@ -161,15 +161,20 @@ def _cmd_fit(args) -> int:
     final = m
     lines = [f"seed {est.seed_}; {est.n_evaluations_} structures evaluated in "
              f"{est.fit_time_:.1f} s; best {args.fitness} fitness {fmt(est.fitness_)}",
-             "LS:  " + m.equation(), _freerun_line(m, data)]
+             "LS:  " + m.equation(), _freerun_line(m.simulate(data, mode="freerun"))]
     if args.constraints:
         if est.model_cls_ is None:
             lines.append(f"CLS: not possible: {getattr(est, 'cls_error_', 'unknown reason')}")
         else:
             c = est.model_cls_
-            lines += ["CLS: " + c.equation(), _freerun_line(c, data)]
-            c.meta["ls_theta"] = [float(v) for v in m.theta]
-            final = c
+            fr = c.simulate(data, mode="freerun")
+            lines += ["CLS: " + c.equation(), _freerun_line(fr)]
+            if fr.diverged:                   # a model that fails its own record
+                print("warning: the CLS refit's free run diverges on the training record; "
+                      "the LS model is written instead", file=sys.stderr)
+            else:
+                c.meta["ls_theta"] = [float(v) for v in m.theta]
+                final = c
     final.meta.update({"command": "fit", "data": str(args.data), "n_samples": data.n})
     if args.out:                              # saved first: a closed pipe loses nothing
         final.save(args.out)
@@ -183,7 +188,6 @@ def _cmd_fit(args) -> int:
     return 0
 
 
-def _freerun_line(model, data) -> str:
-    fr = model.simulate(data, mode="freerun")
+def _freerun_line(fr) -> str:
     return (f"     free-run RMSE {fmt(fr.rmse)}, MAPE {fmt(fr.mape)} %"
             + ("  (free run diverged)" if fr.diverged else ""))

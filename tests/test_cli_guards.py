@@ -150,3 +150,22 @@ def test_fit_select_reaches_the_estimator(capsys, tmp_path):
     assert code == 0, err
     meta = json.loads(out.read_text())["meta"]
     assert meta["select"] == "freerun" and meta["noise_lags"] == 0
+
+
+def test_fit_writes_the_ls_model_when_the_cls_refit_diverges(capsys, tmp_path, monkeypatch):
+    import mggp.estimator as E
+    real = E.MGGPRegressor.fit
+
+    def fit(self, *a, **k):
+        real(self, *a, **k)
+        self.model_cls_ = Model(["y[k-1]", "u[k-1]"], [1.5, 1.0])      # diverges
+        return self
+    monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
+    out = tmp_path / "m.json"
+    code, stdout, err = run(capsys, "fit", csv(tmp_path), "--population", "20",
+                            "--generations", "2", "--seed", "0", "--quiet",
+                            "--constraints", "steady-state", "--out", out)
+    assert code == 0, err
+    assert "CLS refit's free run diverges" in err and "LS model is written" in err
+    assert json.loads(out.read_text())["meta"]["estimation"] != "cls"
+    assert "(CLS fit)" not in stdout
