@@ -15,7 +15,7 @@ a tab, whichever the header row uses most (``,`` when it uses none), and in
 a ``;`` or tab separated file a decimal comma is read as a point
 (``1,5e-3``), as spreadsheet programs of many locales write them; other columns are ignored (their
 content is not checked), blank lines are skipped, rows must all have the
-header's number of fields. Every problem raises
+header's number of fields (empty fields after the last are ignored). Every problem raises
 :class:`~narx.data.DataError` with the file, the line (1-based, header =
 line 1), the column and the rule. Memory is linear in the number of rows
 (8 bytes per value read, no per-row Python objects kept).
@@ -150,6 +150,8 @@ def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
     values = array("d")
     pairs = list(zip(names, idx))
     for line, end, fields in rows:
+        if len(fields) > width and not any(f.strip() for f in fields[width:]):
+            fields = fields[:width]               # trailing separators (LabVIEW, Excel)
         if len(fields) != width:
             span = "" if end == line else f" (the row runs to line {end}: an unclosed quote?)"
             raise DataError(f"{path}: line {line} has {len(fields)} fields but the "
@@ -210,6 +212,9 @@ def write_with_column(src, dst, name: str, values: np.ndarray) -> None:
         rows = iter_rows(src, sep)
         _, header = next(rows)
         w.writerow([h.strip() for h in header] + [name])
+        width = len(header)
         for i, (_, fields) in enumerate(rows):
             v = values[i]
+            if len(fields) > width and not any(f.strip() for f in fields[width:]):
+                fields = fields[:width]
             w.writerow(fields + ["" if not np.isfinite(v) else repr(float(v))])

@@ -66,12 +66,17 @@ class Signals:
         names = [self.output, *inputs, self.noise]
         for n in names:
             if not isinstance(n, str) or not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", n):
-                raise TermError(f"signal names must be identifiers, got {n!r}")
+                hint = re.sub(r"\W+", "_", n).strip("_") if isinstance(n, str) else ""
+                hint = f" (e.g. {hint!r})" if hint and re.match(r"^[A-Za-z_]\w*$", hint) else ""
+                raise TermError(f"signal names must be identifiers (letters, digits and _, "
+                                f"not starting with a digit), got {n!r}: rename the "
+                                f"column{hint}")
             if n == "k":
                 raise TermError("signal name 'k' is reserved (it is the time index)")
         if len(set(names)) != len(names):
             raise TermError(f"signal names must be distinct: output={self.output!r}, "
-                            f"inputs={list(inputs)!r}, noise={self.noise!r}")
+                            f"inputs={list(inputs)!r}, noise={self.noise!r} (the noise "
+                            f"signal of NARMAX terms): rename the column")
         if not inputs:
             raise TermError("a model needs at least one input")
 

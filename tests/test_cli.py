@@ -215,3 +215,27 @@ def test_units_row_under_the_header_is_named(capsys, tmp_path):
     code, _, err = run(capsys, "estimate", p, "--terms", "u[k-1]")
     line = one_error_line(err)
     assert code == 2 and "line 2" in line and "'V' is not a number" in line and "units" in line
+
+
+def test_trailing_separators_on_data_rows_are_ignored(capsys, sine_csv, model19, tmp_path):
+    code, out, _ = run(capsys, "simulate", model19, sine_csv)
+    p = tmp_path / "trailing.csv"
+    lines = open(sine_csv).read().splitlines()
+    p.write_text("\n".join([lines[0]] + [ln + "," for ln in lines[1:]]) + "\n")
+    pred = tmp_path / "pred.csv"
+    code2, out2, err2 = run(capsys, "simulate", model19, p, "--out", pred)
+    assert code2 == 0, err2
+    assert out2.splitlines()[0] == out.splitlines()[0]
+    assert all(len(r.split(",")) == 4 for r in pred.read_text().splitlines())
+    bad = tmp_path / "bad.csv"                          # a filled extra field still counts
+    bad.write_text("u,y\n1,2,3\n2,3\n")
+    code3, _, err3 = run(capsys, "estimate", bad, "--terms", "u[k-1]")
+    assert code3 == 2 and "line 2 has 3 fields but the header has 2" in err3
+
+
+def test_column_name_that_is_no_identifier_gets_a_rename_hint(capsys, tmp_path):
+    p = tmp_path / "v.csv"
+    p.write_text("Voltage [V],y\n1,2\n2,3\n3,1\n4,2\n")
+    code, _, err = run(capsys, "estimate", p, "--input", "Voltage [V]", "--terms", "u[k-1]")
+    line = one_error_line(err)
+    assert code == 2 and "'Voltage [V]'" in line and "rename the column (e.g. 'Voltage_V')" in line
