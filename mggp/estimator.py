@@ -97,7 +97,8 @@ class MGGPRegressor:
         Stability screen during the search (:mod:`mggp.screen`): in each
         generation the ``screen_top`` best new structures are simulated in
         free run over the whole training record, and those whose output
-        leaves ``max|y| + screen_band * range(y)`` get the fitness ``inf``;
+        leaves ``[min y, max y]`` widened by ``screen_band * range(y)`` on
+        each side get the fitness ``inf``;
         so the elites, and the result, never diverge over the record.
         ``'hold'`` also requires the structure's CLS refit to hold its
         output when the input is frozen (stretches of the training record
@@ -106,7 +107,8 @@ class MGGPRegressor:
     screen_top : int, optional
         Leaders screened per generation (default: the elite size).
     screen_band : float
-        Width of the allowed band beyond ``max|y|``, in output ranges (1).
+        Widening of the allowed band beyond ``[min y, max y]``, in output
+        ranges (1).
     prune : False, 'bic' or 't'
         Backward elimination of the best structure: by the BIC of the
         search fitness, or by LS t-statistics (drop the least significant

@@ -14,7 +14,8 @@ piezo case study with Δm = 1000). The screen simulates the best structures
 of each batch in free run over the whole training record, with the same
 LS (or CLS) parameters, and gives those whose output leaves the band
 
-.. math::  |\\hat y_k| \\le \\max_k |y_k| + f\\,(\\max_k y_k - \\min_k y_k)
+.. math::  \\min_k y_k - f R \\le \\hat y_k \\le \\max_k y_k + f R,
+           \\quad R = \\max_k y_k - \\min_k y_k
 
 (``f = band``) the fitness ``inf``. It repeats until the ``top`` best
 finite structures of the batch all passed, so no structure that could
@@ -50,6 +51,7 @@ from narx.data import Data
 from narx.estimate import EstimationError
 from narx.fitness import StructureScorer
 from narx.phi import PhiRegistry
+from narx.simulate import recursion_windows
 from narx.terms import Term
 
 __all__ = ["StabilityScreen"]
@@ -99,7 +101,10 @@ class StabilityScreen:
         self.scorer = StructureScorer(data, "freerun", start=start, constraints=constraints,
                                       registry=registry, budget_bytes=96 * 2**20)
         y = self.scorer.y[start:]
-        self.scorer.bound = float(np.max(np.abs(y)) + band * np.ptp(y))
+        self.lo = float(np.min(y) - band * np.ptp(y))
+        self.hi = float(np.max(y) + band * np.ptp(y))
+        # the kernels' symmetric divergence guard, containing the band
+        self.scorer.bound = max(abs(self.lo), abs(self.hi))
         self.checked = 0
         self.rejected = 0
         self.rejected_hold = 0
@@ -114,12 +119,29 @@ class StabilityScreen:
     def stable(self, terms: Tuple[Term, ...]) -> bool:
         """Whether the free run of ``terms`` stays inside the band."""
         self.checked += 1
-        ok = math.isfinite(self.scorer.score(terms))
+        ok = self.inside_band(terms)
         self.rejected += not ok
         if ok and self.hold is not None:
             ok = self.holds(terms)
             self.rejected_hold += not ok
         return ok
+
+    def inside_band(self, terms: Tuple[Term, ...]) -> bool:
+        """Whether the LS (or CLS) free run of ``terms`` over the record stays
+        within ``[min y - f range, max y + f range]``."""
+        sc = self.scorer
+        try:
+            theta, s = sc.fit(terms)
+        except (EstimationError, np.linalg.LinAlgError, ValueError):
+            return False
+        if not np.all(np.isfinite(theta)):
+            return False
+        starts, length, wf, first = recursion_windows("freerun", sc.data.n, s, sc.k)
+        if starts.size == 0:
+            return False
+        out, diverged = sc.run_windows(terms, theta, starts, length, wf)
+        out = out[first:]
+        return not diverged and bool(np.all((out >= self.lo) & (out <= self.hi)))
 
     def holds(self, terms: Tuple[Term, ...]) -> bool:
         """Whether the CLS refit of ``terms`` holds on the held record."""

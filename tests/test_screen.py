@@ -186,3 +186,24 @@ def test_select_hold_warns_when_no_candidate_holds():
     holds = [ok for ok, _ in est.selection_]
     said = [w for w in caught if "none of the" in str(w.message)]
     assert not any(holds) and len(said) == 1
+
+
+def test_band_follows_an_output_offset():
+    """Output around 1000: a static model of the input (ŷ near 0) leaves the
+    band [min y - R, max y + R] (it used to pass: |ŷ| <= max|y| + R holds
+    everything down to -(max|y| + R)); the true integrating structure stays
+    in it (control)."""
+    rng = np.random.default_rng(0)
+    n = 3000
+    u = np.repeat(rng.uniform(-1, 1, n // 30), 30)
+    y = np.full(n, 1000.0)
+    for k in range(2, n):
+        y[k] = y[k - 1] + 0.5 * (u[k - 1] - u[k - 2])
+    data = as_data(u, y)
+    sc = StabilityScreen(data, start=2, top=1, band=1.0)
+    static = (parse_term("u[k-1]", data.signals), parse_term("u[k-2]", data.signals))
+    true = (parse_term("y[k-1]", data.signals),
+            parse_term("Phi1(u[k-1],u[k-2])", data.signals))
+    assert math.isfinite(sc.scorer.score(static))           # no divergence at all
+    assert not sc.stable(static)
+    assert sc.stable(true)
