@@ -132,7 +132,9 @@ class MGGPRegressor:
         Worker processes for evaluation.
     backend : {'loky', 'threading', 'sequential', 'dask'}
     scheduler : str or dask Client, optional
-    inputs, output : signal names when ``fit`` gets arrays.
+    inputs, output : sequence of str, str
+        Signal names when ``fit`` gets arrays. With several inputs every
+        Φ-term searched takes lags of one input only.
     checkpoint : path, optional;  resume : bool
     callbacks : list of callables ``f(state)`` called every generation.
 

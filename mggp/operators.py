@@ -20,7 +20,9 @@ individuals share a gene list. Heights are DEAP heights (a lone terminal
 is 0); every operator keeps genes at or below ``max_height`` (a child over
 the limit is replaced by its parent gene: static limit) and individuals
 between 1 and ``max_terms`` genes. Types are respected everywhere, so Φ
-arguments remain lagged inputs.
+arguments remain lagged inputs, all of one input (with several inputs each
+has its own lagged-input type, see :mod:`mggp.primitives`): a crossover
+only exchanges, and a mutation only regrows, a subtree of the same type.
 """
 from __future__ import annotations
 

@@ -14,7 +14,7 @@ Typical use::
 
 Type design
 -----------
-Two GP types (DEAP selects candidates by type; we use no subtyping):
+DEAP selects candidates by type; the types are:
 
 ``Expr``
     A monomial (product of factors); the type of every gene root. Terminals
@@ -23,16 +23,31 @@ Two GP types (DEAP selects candidates by type; we use no subtyping):
     (q⁻¹..q⁻³, shifting every lag inside their argument, Φ arguments
     included) and the Φ-functions ``Phi1, Phi2, <user> (InputLag, ...)``.
 ``InputLag``
-    A single lagged input, the only thing a Φ-function accepts. Terminals:
-    the inputs ``u[k-1]`` again; primitives: the back-shifts ``q1, q2, q3
+    A single lagged input, the only thing a Φ-function accepts. Terminal:
+    the input ``u[k-1]`` again; primitives: the back-shifts ``q1, q2, q3
     (InputLag)``. An ``InputLag`` subtree is a chain of back-shifts over one
     input terminal, so ``Phi1(q2(u[k-1]), u[k-1])`` is
     ``Phi1(u[k-3],u[k-1])`` and Φ of an output can never be built.
+``InputLag_u1``, ``InputLag_u2``, ... (several inputs)
+    One lagged-input type per input (:func:`input_lag_type`, subclasses of
+    ``InputLag``, which is then unused), each with its own terminal
+    ``u1[k-1]`` and back-shifts; every Φ-function is registered once per
+    input type: ``Phi1 (InputLag_u1, InputLag_u1)``, ``Phi1 (InputLag_u2,
+    InputLag_u2)``, ... So the arguments of a Φ-call are lags of one and
+    the same input, in random trees and after every crossover and mutation
+    (they exchange or regrow subtrees of one type): ``Phi1(u2[k-8],u1[k-7])``
+    would compare signals of different units and is never built. Each input
+    brings its own Φ-primitives, as it brings its own terminal. With one
+    input the set is the historical one (type ``InputLag``, same nodes in
+    the same order): single-input searches are unchanged draw for draw.
+    Only the search is restricted: a hand-written model (``narx.Model``,
+    ``mggp estimate``) may still use a Φ-call mixing inputs.
 
-The input terminals and back-shifts exist once per type under the same
-name; the type of a node follows from its parent's argument type, so a
-tree's text (and its list of node names) identifies it uniquely. That is
-why :func:`tree_from_tokens` resolves names by the type expected at each
+Back-shifts, input terminals and Φ-functions exist once per type under the
+same name; the type of a node follows from its parent's argument type, and
+the type of a Φ-call from its first argument's input terminal, so a tree's
+text (and its list of node names) identifies it uniquely. That is why
+:func:`tree_from_tokens` resolves names by the type expected at each
 position, and never calls ``eval`` (unlike ``PrimitiveTree.from_string``).
 
 Heights follow DEAP (a lone terminal has height 0). A path of ``h``
@@ -50,7 +65,7 @@ from deap import gp
 from narx.phi import PhiRegistry, default_registry
 from narx.terms import Lag, PhiCall, Signals, Term
 
-__all__ = ["Expr", "InputLag", "LagSymbol", "SHIFTS", "make_pset",
+__all__ = ["Expr", "InputLag", "input_lag_type", "LagSymbol", "SHIFTS", "make_pset",
            "tree_from_tokens", "tree_to_tokens", "decode", "Decoder",
            "decode_individual", "pset_signature", "max_lag_for_height"]
 
@@ -64,7 +79,59 @@ class Expr:
 
 
 class InputLag:
-    """GP type of one lagged input: the only argument type of Φ-functions."""
+    """GP type of one lagged input: the only argument type of Φ-functions.
+
+    With several inputs each has its own subclass (:func:`input_lag_type`);
+    ``input`` is then that input's name (None for this base class).
+    """
+
+    input: Optional[str] = None
+
+
+_INPUT_LAG_TYPES: Dict[str, type] = {}
+_TYPE_PREFIX = "InputLag_"
+
+
+def input_lag_type(name: str) -> type:
+    """The GP type of the lags of input ``name`` in a several-input set.
+
+    One class per name and process, ``InputLag_<name>``, a subclass of
+    :class:`InputLag`. It is reachable as ``mggp.primitives.InputLag_<name>``
+    (created on first access), so trees and individuals holding it pickle
+    and load in another process.
+
+    Parameters
+    ----------
+    name : str
+        Input name (an identifier, see :class:`narx.terms.Signals`).
+
+    Returns
+    -------
+    type
+    """
+    t = _INPUT_LAG_TYPES.get(name)
+    if t is None:
+        if not name.isidentifier():
+            raise ValueError(f"input name must be an identifier, got {name!r}")
+        t = type(_TYPE_PREFIX + name, (InputLag,),
+                 {"__module__": __name__, "input": name,
+                  "__doc__": f"GP type of one lag of input {name!r}."})
+        _INPUT_LAG_TYPES[name] = t
+    return t
+
+
+def __getattr__(attr):
+    # module attribute lookup used by pickle for the per-input types
+    if attr.startswith(_TYPE_PREFIX) and attr[len(_TYPE_PREFIX):].isidentifier():
+        return input_lag_type(attr[len(_TYPE_PREFIX):])
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
+
+
+def _lag_types(inputs: Sequence[str]) -> Dict[str, type]:
+    """Input name -> lagged-input type: ``InputLag`` for a single input."""
+    if len(inputs) == 1:
+        return {inputs[0]: InputLag}
+    return {name: input_lag_type(name) for name in inputs}
 
 
 class LagSymbol:
@@ -131,7 +198,15 @@ def make_pset(signals: Optional[Signals] = None,
     -------
     deap.gp.PrimitiveSetTyped
         Root type :class:`Expr`; extra attributes ``signals`` and
-        ``phi_names`` (tuple) record how it was built.
+        ``phi_names`` (tuple) record how it was built, ``lag_types`` maps
+        each input name to its lagged-input type (:class:`InputLag` for a
+        single input, :func:`input_lag_type` for several; empty without Φ).
+
+    Notes
+    -----
+    Every Φ-function is added once per lagged-input type, all its
+    arguments of that type: the search only builds Φ-calls whose arguments
+    are lags of one and the same input (see the module notes).
 
     Raises
     ------
@@ -162,14 +237,17 @@ def make_pset(signals: Optional[Signals] = None,
     pset.addPrimitive(_PRIM_FUNCS["mul"], [Expr, Expr], Expr, name="mul")
     for q in SHIFTS:
         pset.addPrimitive(_PRIM_FUNCS[q], [Expr], Expr, name=q)
-    if phis:
-        for name in signals.inputs:
-            pset.addTerminal(LagSymbol(Lag(name, 1, "u")), InputLag)
+    lag_types = _lag_types(signals.inputs) if phis else {}
+    # one input: the historical order (terminal, q1..q3, Φs) on InputLag
+    for name, t in lag_types.items():
+        pset.addTerminal(LagSymbol(Lag(name, 1, "u")), t)
         for q in SHIFTS:
-            pset.addPrimitive(_PRIM_FUNCS[q], [InputLag], InputLag, name=q)
-        for f in phis:
-            pset.addPrimitive(f.func, [InputLag] * f.arity, Expr, name=f.name)
+            pset.addPrimitive(_PRIM_FUNCS[q], [t], t, name=q)
+    for f in phis:
+        for t in lag_types.values():
+            pset.addPrimitive(f.func, [t] * f.arity, Expr, name=f.name)
     pset.signals = signals
+    pset.lag_types = lag_types
     pset.phi_names = tuple(f.name for f in phis)
     return pset
 
@@ -190,13 +268,29 @@ def pset_signature(pset) -> List[List[str]]:
     return rows
 
 
-def _index(pset) -> Dict[Tuple[type, str], object]:
-    idx = {}
+def _index(pset) -> Dict[Tuple[type, str], list]:
+    """(type, name) -> nodes; several only for a Φ-function of several inputs."""
+    idx: Dict[Tuple[type, str], list] = {}
     for table in (pset.primitives, pset.terminals):
         for t, nodes in table.items():
             for node in nodes:
-                idx.setdefault((t, node.name), node)
+                same = idx.setdefault((t, node.name), [])
+                if node not in same:
+                    same.append(node)
     return idx
+
+
+def _by_first_input(nodes, tokens, pos, pset):
+    """Of Φ nodes alike but for their input type, the one whose first
+    argument takes the next input terminal after ``pos`` (an input-lag
+    subtree is back-shifts over one terminal); else the first node."""
+    terminals = {n.name for ns in pset.terminals.values() for n in ns}
+    nxt = next((tok for tok in tokens[pos + 1:]
+                if isinstance(tok, str) and tok in terminals), None)
+    for node in nodes:
+        if any(n.name == nxt for n in pset.terminals.get(node.args[0], ())):
+            return node
+    return nodes[0]
 
 
 def tree_from_tokens(tokens: Sequence[str], pset, type_=None) -> gp.PrimitiveTree:
@@ -228,12 +322,15 @@ def tree_from_tokens(tokens: Sequence[str], pset, type_=None) -> gp.PrimitiveTre
             raise ValueError(f"trailing node {tok!r} at position {pos}: the tree "
                              "was already complete")
         t = expected.pop()
-        node = idx.get((t, tok))
-        if node is None:
+        cands = idx.get((t, tok))
+        if cands is None:
             if tok in known:
+                hint = "" if getattr(t, "input", None) is None else \
+                    " (a Φ-function's arguments are lags of one input)"
                 raise ValueError(f"{tok!r} at position {pos} is not allowed where "
-                                 f"{t.__name__} is expected")
+                                 f"{t.__name__} is expected{hint}")
             raise ValueError(f"unknown primitive or terminal {tok!r}")
+        node = cands[0] if len(cands) == 1 else _by_first_input(cands, tokens, pos, pset)
         nodes.append(node)
         expected.extend(reversed(getattr(node, "args", ())))
     if not nodes:
@@ -278,7 +375,9 @@ def decode(tree, signals: Optional[Signals] = None) -> Term:
     ------
     ValueError
         A terminal that is not a lagged signal of ``signals``, a Φ argument
-        that is not a lagged input, or a malformed tree.
+        that is not a lagged input, Φ arguments that are lags of different
+        inputs (trees of :func:`make_pset` never have them; a hand-written
+        term may), or a malformed tree.
     """
     stack = []  # values: tuple of factors (Expr) or a Lag (InputLag)
     for node in reversed(tree):
@@ -290,7 +389,7 @@ def decode(tree, signals: Optional[Signals] = None) -> Term:
             if signals is not None and signals.role(lag.signal) != lag.role:
                 raise ValueError(f"terminal {node.name!r} is not a signal of "
                                  f"{signals}")
-            stack.append(lag if node.ret is InputLag else (lag,))
+            stack.append(lag if issubclass(node.ret, InputLag) else (lag,))
             continue
         if len(stack) < node.arity:
             raise ValueError(f"malformed tree {tree!s}")
@@ -305,6 +404,8 @@ def decode(tree, signals: Optional[Signals] = None) -> Term:
         else:
             if not all(isinstance(a, Lag) and a.role == "u" for a in args):
                 raise ValueError(f"{name} arguments must be lagged inputs in {tree!s}")
+            if len({a.signal for a in args}) > 1:
+                raise ValueError(f"{name} arguments must be lags of one input in {tree!s}")
             stack.append((PhiCall(name, tuple(args)),))
     if len(stack) != 1 or isinstance(stack[0], Lag):
         raise ValueError(f"malformed tree {tree!s}")
@@ -315,9 +416,10 @@ class Decoder:
     """Tree -> term decoder with a cache keyed by the tree's node names.
 
     A prefix sequence of node names identifies a tree, since every
-    primitive has a fixed arity and a unique name (the primitive set has
-    no ephemeral constants); building that tuple is several times faster
-    than ``str(tree)``.
+    primitive has a fixed arity and a name unique up to its type, which
+    the names around it determine (see the module notes; the primitive set
+    has no ephemeral constants); building that tuple is several times
+    faster than ``str(tree)``.
 
     Parameters
     ----------
@@ -386,7 +488,6 @@ def decode_individual(ind, decoder: Optional[Decoder] = None) -> Tuple[Term, ...
 def identically_zero(term, registry) -> bool:
     """A Φ-call whose arguments are all the same lagged signal and whose
     value at equal arguments is 0 (Phi1, Phi2) makes the term vanish."""
-    from narx.terms import PhiCall
     for f in term.factors:
         if isinstance(f, PhiCall) and len(set(f.args)) == 1:
             fn = registry.get(f.name)

@@ -14,6 +14,10 @@ Typical use::
     str(t)        # 'y[k-1]*u[k-2]*u[k-2]*Phi2(u[k-1],u[k-3])'
     t.max_lag     # 3
 
+A Φ-call may take lags of different signals (``Phi1(u1[k-1],u2[k-1])``,
+``Abs(y[k-1])``): a hand-written model is the user's choice. The structure
+search of :mod:`mggp` only builds Φ-calls of lags of one and the same input.
+
 Every term has one canonical text: factors sorted as output lags, input lags
 (by input name), noise lags, then Φ-calls (by name and arguments); powers are
 written as repeated factors. Parsing is a small hand-written tokenizer and

@@ -121,7 +121,10 @@ def test_bad_evaluate_batch_and_settings(pset):
             s.max_height, s.n_elite, s.tournament_size) == (500, 200, 0.8, 0.2, 15, 5, 50, 2)
 
 
-def test_resume_equals_uninterrupted(pset, tmp_path):
+@pytest.mark.parametrize("inputs", [("u",), ("u1", "u2")])
+def test_resume_equals_uninterrupted(inputs, tmp_path):
+    # several inputs: Φ nodes of each input type share their name in the file
+    pset = make_pset(Signals("y", inputs))
     straight = Recorder()
     ref = evolve(pset, straight, seed=11, generations=6, **SMALL)
     ck = tmp_path / "run.ckpt.json"

@@ -146,3 +146,40 @@ def test_select_freerun_picks_the_best_whole_record_simulation():
     with pytest.raises(ValueError,
                        match="select must be one of 'fitness', 'freerun', 'hold', got 'best'"):
         MGGPRegressor(select="best", **kw).fit(u, y)
+
+
+def _two_input_fit(scale=1.0):
+    """A search on y = piezo(u1 + 20 u2), u1 of amplitude 80 and u2 of 1 (other
+    units), u2 multiplied by ``scale``."""
+    from narx.systems import piezo_bouc_wen, training_input
+    u1 = training_input(2000, seed=1, bandwidth=2.0)
+    u2 = training_input(2000, seed=2, bandwidth=2.0, amplitude=1.0)
+    y = piezo_bouc_wen(u1 + 20 * u2)
+    est = MGGPRegressor(fitness="ms", window=50, population=40, generations=4,
+                        random_state=5, max_terms=8, n_jobs=1, inputs=["u1", "u2"])
+    return est.fit(np.c_[u1, scale * u2], y)
+
+
+def _phi_input_sets(terms):
+    from narx.terms import PhiCall
+    return [{a.signal for a in f.args} for t in terms for f in t.factors
+            if isinstance(f, PhiCall)]
+
+
+def test_two_input_search_never_mixes_inputs_in_phi():
+    from mggp.primitives import Decoder
+    est = _two_input_fit()
+    dec = Decoder(est.model_.signals)
+    searched = [t for ind in est.result_.population for t in dec.decode_individual(ind)]
+    searched += [t for r in est.result_.pareto for t in r.terms]
+    sets = _phi_input_sets(searched) + _phi_input_sets(est.model_.terms)
+    assert sets and all(len(s) == 1 for s in sets), "a Φ-term mixes u1 and u2"
+    assert set().union(*sets) == {"u1", "u2"}
+
+
+def test_two_input_search_does_not_depend_on_the_unit_of_u2():
+    a, b = _two_input_fit(), _two_input_fit(scale=1e3)
+    assert a.model_.term_texts == b.model_.term_texts
+    assert a.n_evaluations_ == b.n_evaluations_
+    assert [r["best"] for r in a.logbook_] == pytest.approx([r["best"] for r in b.logbook_],
+                                                            rel=1e-6)

@@ -1,5 +1,8 @@
 """Primitive set, decoding, safe tree parsing and genetic operators."""
+import pickle
 import random
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -11,7 +14,7 @@ from mggp.individual import Individual
 from mggp.operators import (cx_high_level, cx_low_level, gen_tree,
                             mut_high_level, mut_low_level, random_individual,
                             remove_duplicate_genes, sel_tournament)
-from mggp.primitives import (Decoder, Expr, InputLag, decode,
+from mggp.primitives import (Decoder, Expr, InputLag, LagSymbol, decode,
                              decode_individual, make_pset, max_lag_for_height,
                              tree_from_tokens, tree_to_tokens)
 
@@ -38,9 +41,11 @@ def check_typed(tree, pset):
 
 
 def check_phi_args(term):
+    """Every Φ-call takes lags of one and the same input."""
     for f in term.factors:
         if isinstance(f, PhiCall):
             assert all(isinstance(a, Lag) and a.role == "u" for a in f.args), str(term)
+            assert len({a.signal for a in f.args}) == 1, f"Φ mixing inputs in {term}"
 
 
 # ------------------------------------------------------------ primitive set
@@ -60,7 +65,15 @@ def test_no_phi_and_multi_input_and_user_phi():
     names = {p.name for ps in plain.primitives.values() for p in ps}
     assert names == {"mul", "q1", "q2", "q3"} and not plain.terminals.get(InputLag)
     two = make_pset(Signals("y", ("u1", "u2")))
-    assert sorted(t.name for t in two.terminals[InputLag]) == ["u1[k-1]", "u2[k-1]"]
+    u1, u2 = two.lag_types["u1"], two.lag_types["u2"]     # one lagged-input type each
+    assert not two.terminals.get(InputLag) and len(two.lag_types) == 2
+    for name, t in two.lag_types.items():
+        assert issubclass(t, InputLag) and t.__name__ == f"InputLag_{name}" and t.input == name
+        assert [n.name for n in two.terminals[t]] == [f"{name}[k-1]"]
+        assert [p.name for p in two.primitives[t]] == ["q1", "q2", "q3"]
+    assert [(p.name, p.args) for p in two.primitives[Expr] if p.name.startswith("Phi")] \
+        == [("Phi1", [u1, u1]), ("Phi1", [u2, u2]), ("Phi2", [u1, u1]), ("Phi2", [u2, u2])]
+    assert make_pset().lag_types == {"u": InputLag}
     reg = PhiRegistry()
     reg.register("Abs", 1, np.abs, np.abs)
     ps = make_pset(registry=reg)
@@ -167,8 +180,9 @@ def test_no_global_random_state(pset):
 
 
 # ------------------------------------------------------------ operators
-def test_operators_keep_limits_types_and_phi_args(pset):
-    rng = random.Random(42)
+def run_operators(pset, rng):
+    """3000 random operator applications on a population of 30, checking
+    limits, types and Φ arguments of every individual an operator returns."""
     dec = Decoder(pset.signals)
     pop = [random_individual(pset, rng, MAX_TERMS, MAX_HEIGHT) for _ in range(30)]
     counts = dict(cxh=0, cxl=0, muth=0, mutl=0)
@@ -199,6 +213,11 @@ def test_operators_keep_limits_types_and_phi_args(pset):
     ids = [id(g) for ind in pop for g in ind]
     assert len(ids) == len(set(ids))
     assert min(counts.values()) > 500
+    return pop
+
+
+def test_operators_keep_limits_types_and_phi_args(pset):
+    run_operators(pset, random.Random(42))
 
 
 def test_high_level_crossover_changes_sizes(pset):
@@ -258,3 +277,108 @@ def test_tournament(pset):
     b = sel_tournament(pop, 30, 2, random.Random(9))
     assert [id(x) for x in a] == [id(x) for x in b]
     assert np.mean([x.fitness.values[0] for x in a]) < 9.5   # pressure towards low
+
+
+# ------------------------------------------------------------ several inputs
+def _hyst3(a, b, c):
+    return a - 2 * b + c
+
+
+@pytest.fixture(scope="module", params=["two", "three+user"])
+def multi(request):
+    """Two inputs (Phi1, Phi2), or three inputs with a user Φ of arity 3."""
+    if request.param == "two":
+        return make_pset(Signals("y", ("u1", "u2")))
+    reg = PhiRegistry()
+    reg.register("Hyst3", 3, _hyst3, 0.0)
+    return make_pset(Signals("y", ("u1", "u2", "u3")), registry=reg)
+
+
+def phi_inputs(terms):
+    """Input names used by the Φ-calls of some terms."""
+    return {a.signal for t in terms for f in t.factors if isinstance(f, PhiCall)
+            for a in f.args}
+
+
+def test_random_individuals_never_mix_inputs_in_phi(multi):
+    rng, dec = random.Random(0), Decoder(multi.signals)
+    terms = []
+    for _ in range(300):
+        ind = random_individual(multi, rng, MAX_TERMS, MAX_HEIGHT)
+        for g in ind:
+            check_typed(g, multi)
+        terms += dec.decode_individual(ind)
+    for t in terms:
+        check_phi_args(t)
+    # every input gets Φ-terms of its own, every Φ-function is used
+    assert phi_inputs(terms) == set(multi.signals.inputs)
+    used = {f.name for t in terms for f in t.factors if isinstance(f, PhiCall)}
+    assert used == set(multi.phi_names)
+
+
+def test_operators_never_mix_inputs_in_phi(multi):
+    pop = run_operators(multi, random.Random(42))
+    assert phi_inputs(t for ind in pop for t in decode_individual(ind)) \
+        == set(multi.signals.inputs)
+
+
+def test_tokens_of_several_inputs():
+    two = make_pset(Signals("y", ("u1", "u2")))
+    rng = random.Random(3)
+    for _ in range(300):
+        t = gen_tree(two, rng, 0, 5)
+        back = tree_from_tokens(tree_to_tokens(t), two)
+        assert list(back) == list(t) and str(back) == str(t)
+    t = T(two, "mul", "Phi1", "q1", "u2[k-1]", "u2[k-1]", "Phi2", "u1[k-1]", "q2", "u1[k-1]")
+    assert decode(t).text == "Phi1(u2[k-2],u2[k-1])*Phi2(u1[k-1],u1[k-3])"
+    with pytest.raises(ValueError, match="not allowed where InputLag_u1 is expected"):
+        T(two, "Phi1", "u1[k-1]", "q1", "u2[k-1]")
+    with pytest.raises(ValueError, match="not allowed where InputLag_u2 is expected"):
+        T(two, "Phi2", "q3", "u2[k-1]", "y[k-1]")
+
+
+def test_decode_refuses_phi_of_two_inputs():
+    # a tree built by hand outside make_pset: the decoder still refuses it
+    def lag(name):
+        return gp.Terminal(LagSymbol(Lag(name, 1, "u")), False, InputLag)
+    tree = gp.PrimitiveTree([gp.Primitive("Phi1", [InputLag, InputLag], Expr),
+                             lag("u1"), lag("u2")])
+    with pytest.raises(ValueError, match="lags of one input"):
+        decode(tree)
+    same = gp.PrimitiveTree([gp.Primitive("Phi1", [InputLag, InputLag], Expr),
+                             lag("u2"), lag("u2")])
+    assert decode(same).text == "Phi1(u2[k-1],u2[k-1])"
+    # only the search is restricted: a hand-written term may mix inputs
+    two = Signals("y", ("u1", "u2"))
+    assert parse_term("Phi1(u1[k-1],u2[k-1])", two).text == "Phi1(u1[k-1],u2[k-1])"
+
+
+def test_several_input_trees_pickle_into_a_fresh_process():
+    two = make_pset(Signals("y", ("u1", "u2")))
+    ind = random_individual(two, random.Random(1), 8, 4, min_terms=8)
+    blob = pickle.dumps(ind)
+    back = pickle.loads(blob)
+    assert [list(g) for g in back] == [list(g) for g in ind]
+    code = ("import pickle, sys; ind = pickle.loads(sys.stdin.buffer.read()); "
+            "print(repr([str(g) for g in ind]))")
+    r = subprocess.run([sys.executable, "-c", code], input=blob, capture_output=True)
+    assert r.returncode == 0, r.stderr.decode()
+    assert r.stdout.decode().strip() == repr([str(g) for g in ind])
+
+
+def test_low_level_crossover_keeps_phi_on_one_input():
+    # parents whose Φ-calls are all on one input stay so under subtree
+    # crossover alone (an input-lag subtree only meets one of its input)
+    two = make_pset(Signals("y", ("u1", "u2")))
+    rng, dec = random.Random(8), Decoder(two.signals)
+
+    def clean(ind):
+        return all(len({a.signal for a in f.args}) == 1 for t in dec.decode_individual(ind)
+                   for f in t.factors if isinstance(f, PhiCall))
+    pop = [ind for ind in (random_individual(two, rng, MAX_TERMS, MAX_HEIGHT)
+                           for _ in range(200)) if clean(ind)][:30]
+    assert len(pop) == 30 and len(phi_inputs(t for i in pop for t in dec.decode_individual(i))) == 2
+    for _ in range(2000):
+        a, b = rng.sample(pop, 2)
+        cx_low_level(a, b, rng, MAX_HEIGHT)
+        assert clean(a) and clean(b)
