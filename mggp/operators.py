@@ -54,6 +54,30 @@ def _min_heights(pset) -> Dict[type, float]:
     return h
 
 
+def _choices(pset, minh) -> Dict[type, List[tuple]]:
+    """Per type, ``(room needed, primitives)`` with the primitives of one
+    name and need grouped, in order of first appearance: the variants of a
+    Φ-function over several inputs form one choice."""
+    table = {}
+    for t, prims in pset.primitives.items():
+        groups: Dict[tuple, list] = {}
+        for p in prims:
+            need = 1 + max(minh.get(a, math.inf) for a in p.args)
+            groups.setdefault((p.name, need), []).append(p)
+        table[t] = [(need, g) for (_, need), g in groups.items()]
+    return table
+
+
+def _tables(pset):
+    """``(_min_heights, _choices)`` of a set, cached on it until a node is added."""
+    key = (pset.prims_count, pset.terms_count)
+    cached = getattr(pset, "_gen_tables", None)
+    if cached is None or cached[0] != key:
+        minh = _min_heights(pset)
+        cached = pset._gen_tables = (key, minh, _choices(pset, minh))
+    return cached[1], cached[2]
+
+
 def gen_tree(pset, rng: random.Random, min_height: int, max_height: int,
              type_=None, method: Optional[str] = None) -> gp.PrimitiveTree:
     """Ramped half-and-half tree generation for a typed set.
@@ -66,6 +90,12 @@ def gen_tree(pset, rng: random.Random, min_height: int, max_height: int,
     arguments can still be completed within the target height; otherwise a
     terminal of the right type is used. The result never exceeds
     ``max_height``.
+
+    Primitives of one name count as one candidate: a Φ-function registered
+    once per input (several inputs, see :mod:`mggp.primitives`) is drawn
+    like any other primitive, then its input uniformly. So the share of
+    Φ-calls does not grow with the number of inputs, and with one input
+    (one primitive per name) the draws are those of a plain uniform choice.
 
     Parameters
     ----------
@@ -89,7 +119,7 @@ def gen_tree(pset, rng: random.Random, min_height: int, max_height: int,
         method = "full" if rng.random() < 0.5 else "grow"
     elif method not in ("full", "grow"):
         raise ValueError(f"method must be 'full' or 'grow', got {method!r}")
-    minh = _min_heights(pset)
+    minh, choices = _tables(pset)
     if minh.get(type_, math.inf) > max_height:
         raise ValueError(f"no tree of type {type_.__name__} fits in height {max_height}")
     height = max(height, int(minh[type_]))
@@ -98,8 +128,7 @@ def gen_tree(pset, rng: random.Random, min_height: int, max_height: int,
     while stack:
         depth, t = stack.pop()
         room = height - depth
-        prims = [p for p in pset.primitives.get(t, ())
-                 if 1 + max(minh.get(a, math.inf) for a in p.args) <= room]
+        prims = [g for need, g in choices.get(t, ()) if need <= room]
         terms = pset.terminals.get(t, ())
         if not prims:
             use_term = True
@@ -115,7 +144,8 @@ def gen_tree(pset, rng: random.Random, min_height: int, max_height: int,
                 raise ValueError(f"cannot complete a {t.__name__} branch at depth {depth}")
             nodes.append(terms[rng.randrange(len(terms))])
         else:
-            p = prims[rng.randrange(len(prims))]
+            alike = prims[rng.randrange(len(prims))]
+            p = alike[0] if len(alike) == 1 else alike[rng.randrange(len(alike))]
             nodes.append(p)
             for a in reversed(p.args):
                 stack.append((depth + 1, a))

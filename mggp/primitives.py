@@ -36,10 +36,12 @@ DEAP selects candidates by type; the types are:
     InputLag_u2)``, ... So the arguments of a Φ-call are lags of one and
     the same input, in random trees and after every crossover and mutation
     (they exchange or regrow subtrees of one type): ``Phi1(u2[k-8],u1[k-7])``
-    would compare signals of different units and is never built. Each input
-    brings its own Φ-primitives, as it brings its own terminal. With one
-    input the set is the historical one (type ``InputLag``, same nodes in
-    the same order): single-input searches are unchanged draw for draw.
+    would compare signals of different units and is never built. The
+    generator draws a Φ-function as one choice and then its input
+    (:func:`mggp.operators.gen_tree`), so Φ-calls are not drawn more often
+    with more inputs. With one input the set is the historical one (type
+    ``InputLag``, same nodes in the same order): single-input searches are
+    unchanged draw for draw.
     Only the search is restricted: a hand-written model (``narx.Model``,
     ``mggp estimate``) may still use a Φ-call mixing inputs.
 

@@ -316,6 +316,21 @@ def test_random_individuals_never_mix_inputs_in_phi(multi):
     assert used == set(multi.phi_names)
 
 
+def test_phi_share_does_not_grow_with_the_number_of_inputs():
+    # a Φ-function is one choice of the generator, its input a second one:
+    # the share of Φ among the Expr primitives drawn stays 2/6 (mul, q1..q3,
+    # Phi1, Phi2), it would be 4/8 and 6/10 with a choice per input variant
+    def share(inputs):
+        ps, rng = make_pset(Signals("y", inputs)), random.Random(0)
+        drawn = [n for _ in range(3000) for n in gen_tree(ps, rng, 0, MAX_HEIGHT)
+                 if n.arity and n.ret is Expr]
+        return sum(n.name in ps.phi_names for n in drawn) / len(drawn)
+    one = share(("u",))
+    assert one == pytest.approx(1 / 3, abs=0.02)
+    assert share(("u1", "u2")) == pytest.approx(one, abs=0.02)
+    assert share(("u1", "u2", "u3")) == pytest.approx(one, abs=0.02)
+
+
 def test_operators_never_mix_inputs_in_phi(multi):
     pop = run_operators(multi, random.Random(42))
     assert phi_inputs(t for ind in pop for t in decode_individual(ind)) \
