@@ -43,10 +43,12 @@ def register(sub):
                    help="input when no root is admissible (default minimise |y - r|)")
     p.add_argument("--max-step", type=float, default=None, metavar="DU",
                    help="largest input change per sample (slew limit)")
-    p.add_argument("--u-past", type=float, default=0.0,
-                   help="actuator input before the record (default 0: at rest)")
-    p.add_argument("--y-past", type=float, default=0.0,
-                   help="model output before the record (default 0)")
+    p.add_argument("--u-past", type=float, default=None,
+                   help="actuator input before the record (default: the middle of the "
+                        "input range the model was fitted on, else 0)")
+    p.add_argument("--y-past", type=float, default=None,
+                   help="model output before the record (default: the reference's first "
+                        "value, at rest on it)")
     p.set_defaults(func=_cmd_compensate)
 
 
@@ -74,6 +76,14 @@ def _cmd_compensate(args) -> int:
     model = load_model(args.model)
     arr, _ = read_columns(args.reference, [args.column])
     r = arr[:, 0]
+    if args.y_past is None:
+        args.y_past = float(r[0])
+    if args.u_past is None:
+        rng = model.meta.get("ranges", {}).get(model.inputs[0]) \
+            if isinstance(model.meta.get("ranges"), dict) else None
+        ok = (isinstance(rng, list) and len(rng) == 2
+              and all(isinstance(v, (int, float)) and np.isfinite(v) for v in rng))
+        args.u_past = 0.5 * (float(rng[0]) + float(rng[1])) if ok else 0.0
     info = model.meta.get("compensator")
     inverse = isinstance(info, dict) and info.get("kind") == INVERSE_KIND
     if inverse:
@@ -101,10 +111,11 @@ def _cmd_compensate(args) -> int:
         res = comp.run(r)
         if res.diverged:
             raise CLIError(f"the inverse of {args.model} diverges on {args.reference} at "
-                           f"sample {res.diverged_at} (input or model output beyond 1e4 "
-                           f"times the reference's magnitude): the model cannot be inverted "
-                           f"stably there; give --input-range LOW HIGH, --max-step, or a "
-                           f"model whose inverse is stable")
+                           f"sample {res.diverged_at} (input or model output beyond 1e4 times "
+                           f"the signals' magnitude): the model cannot be inverted "
+                           f"stably there; give --input-range LOW HIGH, --max-step, the "
+                           f"state before the record (--u-past, --y-past), or a model "
+                           f"whose inverse is stable")
         name = model.inputs[0]
         d, n = res.delay, r.size
         hit = ~res.fallback[: max(0, n - d)]        # y_model[j + d] answers target[j]

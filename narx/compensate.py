@@ -88,8 +88,9 @@ class CompensationResult:
     which had an exact, branch-consistent root outside the input range or
     beyond ``max_step``); ``n_roots[j]`` counts the admissible roots.
     ``diverged_at`` is the first step whose input or model output left the
-    bound (non-finite, or beyond 1e4 times the reference's and input
-    range's magnitude), -1 if none: an inverse can be unstable even when
+    bound (non-finite, or beyond 1e4 times the largest magnitude of the
+    reference, the input range, the past values and the signal ranges the
+    model was fitted on, ``meta['ranges']``), -1 if none: an inverse can be unstable even when
     the model is not; from there on ``m`` and ``y_model`` are NaN.
     """
 
@@ -436,7 +437,9 @@ class RootCompensator:
         target = r[np.minimum(np.arange(n) + self.lead, n - 1)]
         n_roots, sat = np.zeros(n, dtype=int), np.zeros(n, dtype=bool)
         scale = max([1.0, float(np.max(np.abs(r)))]
-                    + [abs(v) for v in (self.input_range or ())])
+                    + [abs(v) for v in (self.input_range or ())]
+                    + [abs(v) for v in self.m + self.y if math.isfinite(v)]   # the past
+                    + training_magnitudes(self.model))
         bound, at = 1e4 * scale, -1
         for j in range(n):
             x = self.step(target[j])
@@ -453,6 +456,19 @@ class RootCompensator:
             m=m, r=r, target=target, y_model=y_model, lead=self.lead, delay=self.delay,
             fallback=fb, fallbacks=int(fb.sum()), saturated=int(sat.sum()), n_roots=n_roots,
             diverged_at=at)
+
+
+def training_magnitudes(model) -> list:
+    """|ends| of the signal ranges the model was fitted on (``meta['ranges']``,
+    written by :meth:`narx.Model.fit`); ``[]`` when absent or malformed."""
+    ranges = getattr(model, "meta", {}).get("ranges")
+    out = []
+    if isinstance(ranges, dict):
+        for v in ranges.values():
+            if (isinstance(v, (list, tuple)) and len(v) == 2
+                    and all(isinstance(x, (int, float)) and math.isfinite(x) for x in v)):
+                out += [abs(float(x)) for x in v]
+    return out
 
 
 def compensate(model, r, *, input_range=None, lead=None, fallback="minimise",

@@ -166,6 +166,10 @@ class Model(HasSignals):
                           "residual_ss": est.residual_ss,
                           "constraints": labels if S is not None else None}
         self.meta.setdefault("estimation", est.method)
+        # the training record's signal ranges: compensators and checks use
+        # them for the scale of the signals (units, offsets)
+        self.meta["ranges"] = {name: [float(np.min(x)), float(np.max(x))] for name, x in
+                               [(n, d.input(n)) for n in d.inputs] + [(d.output, d.y)]}
         return self
 
     def _constraints(self, constraints):

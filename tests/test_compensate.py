@@ -359,3 +359,33 @@ def test_cli_warns_when_most_steps_fall_back(tmp_path, capsys):
                      "--input-range", "-80", "80"]) == 0
         err = capsys.readouterr().err
         assert ("warning: " in err and "no admissible root" in err) == warned, err
+
+
+@pytest.mark.parametrize("u_scale,u_off,y_scale,y_off", [
+    (1e3, 0.0, 1e-6, 0.0),          # input in mV, output in metres
+    (1.0, 50.0, 1.0, 1000.0),       # offsets on both signals
+])
+def test_cli_compensates_in_any_units_and_offsets(capsys, tmp_path, u_scale, u_off,
+                                                  y_scale, y_off):
+    """A model fitted on rescaled or offset data compensates with the CLI's
+    defaults: the divergence bound follows the training ranges the model
+    records (meta['ranges']) and the state before the record defaults to
+    rest on the reference's first value and the middle of the training input
+    range (it used to report a divergence at sample 45, or 2)."""
+    u = training_input(10_000, seed=1)
+    y = piezo_bouc_wen(u)
+    m = narx.Model(list(MODEL19_TERMS)).fit(u * u_scale + u_off, y * y_scale + y_off,
+                                             constraints="steady-state")
+    lo, hi = m.meta["ranges"]["u"]
+    assert lo == pytest.approx(u.min() * u_scale + u_off) and hi > lo
+    mp = tmp_path / "m.json"
+    m.save(mp)
+    assert narx.load_model(mp).meta["ranges"] == m.meta["ranges"]
+    t = np.arange(3000) * 1e-3
+    ref = tmp_path / "r.csv"
+    np.savetxt(ref, (30 * np.sin(2 * np.pi * t)) * y_scale + y_off, header="r",
+               comments="")
+    out = tmp_path / "c.csv"
+    assert main(["compensate", str(mp), str(ref), "--out", str(out)]) == 0, \
+        capsys.readouterr().err
+    assert "fallbacks 0 " in capsys.readouterr().out
