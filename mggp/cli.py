@@ -105,11 +105,12 @@ def _cmd_simulate(args) -> int:
                        f"largest lag {model.max_lag}")
     from narx.data import Data
     d = Data(data.U.T, data.y, inputs=model.inputs, output=model.output)
+    mode_option(args.mode, {"ksa": "k", "ms": "window"}, args)
     kw = {}
     if args.mode == "ksa":
-        kw["k"] = args.k
+        kw["k"] = 10 if args.k is None else args.k
     elif args.mode == "ms":
-        kw["window"] = args.window
+        kw["window"] = 50 if args.window is None else args.window
     res = model.simulate(d, mode=args.mode, **kw)
     if res.diverged:
         raise CLIError(f"the model is unstable on {args.data}: its {args.mode} simulation "
@@ -147,8 +148,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("model", metavar="MODEL.json")
     s.add_argument("data", metavar="DATA.csv")
     s.add_argument("--mode", choices=["freerun", "osa", "ksa", "ms"], default="freerun")
-    s.add_argument("--k", type=int, default=10, help="horizon for --mode ksa (default 10)")
-    s.add_argument("--window", type=int, default=50,
+    s.add_argument("--k", type=int, default=None, help="horizon for --mode ksa (default 10)")
+    s.add_argument("--window", type=int, default=None,
                    help="window Δm for --mode ms (default 50)")
     s.add_argument("--out", metavar="PRED.csv")
     add_signal_args(s)
@@ -197,6 +198,16 @@ def main(argv: Optional[List[str]] = None) -> int:
     with warnings.catch_warnings():             # restores showwarning on return
         warnings.showwarning = _one_line_warning
         return _main(argv)
+
+
+def mode_option(mode: str, uses: dict, args, flag: str = "--mode") -> None:
+    """Refuse ``--k``/``--window`` given for a mode that does not use them
+    (``uses``: mode -> the option it takes)."""
+    for name in ("k", "window"):
+        if getattr(args, name, None) is not None and uses.get(mode) != name:
+            need = [m for m, o in uses.items() if o == name]
+            raise CLIError(f"--{name} applies to {flag} {' or '.join(need)} only, got "
+                           f"{flag} {mode}")
 
 
 def _main(argv: Optional[List[str]]) -> int:

@@ -64,9 +64,9 @@ def register(sub):
 def _check_args(args):
     for name in ("population", "max_terms", "max_height", "max_degree", "window",
                  "shifts", "bootstrap"):
-        v = getattr(args, name)
-        if v < 1:
-            raise CLIError(f"--{name.replace('_', '-')} must be >= 1, got {v}")
+        v, low = getattr(args, name), 2 if name == "population" else 1
+        if v < low:
+            raise CLIError(f"--{name.replace('_', '-')} must be >= {low}, got {v}")
     if args.generations < 0:
         raise CLIError(f"--generations must be >= 0, got {args.generations}")
     if args.jobs == 0 or args.jobs < -1:

@@ -17,9 +17,13 @@ import shlex
 import sys
 import time
 
-from .cli import CLIError, add_signal_args, fmt
+from .cli import CLIError, add_signal_args, fmt, mode_option
 
 __all__ = ["register"]
+
+#: a CLS refit whose free-run RMSE is more than this many times the LS fit's
+#: is not written (the LS model is, with a warning)
+CLS_WORSE = 2.0
 
 
 def register(sub):
@@ -30,8 +34,8 @@ def register(sub):
     p.add_argument("--fitness", choices=["pem", "freerun", "ksa", "ms"], default="ms",
                    help="simulation whose MSE scores a structure: one-step-ahead, free "
                         "run, k steps ahead or multiple shooting (default ms)")
-    p.add_argument("--window", type=int, default=100, help="Δm for ms (default 100)")
-    p.add_argument("--k", type=int, default=10, help="horizon for ksa (default 10)")
+    p.add_argument("--window", type=int, default=None, help="Δm for ms (default 100)")
+    p.add_argument("--k", type=int, default=None, help="horizon for ksa (default 10)")
     p.add_argument("--criterion", choices=["mse", "bic", "aic"], default="mse",
                    help="fitness: the MSE or an information criterion penalising terms "
                         "(default mse)")
@@ -111,6 +115,9 @@ def _cmd_fit(args) -> int:
     from narx.csvdata import read_csv
     from .estimator import MGGPRegressor
     from narx.atomic import check_writable
+    mode_option(args.fitness, {"ksa": "k", "ms": "window"}, args, "--fitness")
+    window = 100 if args.window is None else args.window
+    k = 10 if args.k is None else args.k
     lows = {"population": 2, "generations": 0, "max_terms": 1, "max_height": 1,
             "max_lag": 1, "max_degree": 1, "seed": 0, "noise_lags": 0}
     for name, lo in lows.items():
@@ -137,7 +144,7 @@ def _cmd_fit(args) -> int:
     inputs = args.input or ["u"]
     output = args.output or "y"
     data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True)
-    est = MGGPRegressor(fitness=args.fitness, window=args.window, k=args.k,
+    est = MGGPRegressor(fitness=args.fitness, window=window, k=k,
                         criterion=args.criterion, constraints=args.constraints,
                         population=args.population, generations=args.generations,
                         max_terms=args.max_terms, max_height=args.max_height,
@@ -159,9 +166,13 @@ def _cmd_fit(args) -> int:
         raise CLIError(str(exc)) from None
     m = est.model_
     final = m
+    fr_ls = m.simulate(data, mode="freerun")
     lines = [f"seed {est.seed_}; {est.n_evaluations_} structures evaluated in "
              f"{est.fit_time_:.1f} s; best {args.fitness} fitness {fmt(est.fitness_)}",
-             "LS:  " + m.equation(), _freerun_line(m.simulate(data, mode="freerun"))]
+             "LS:  " + m.equation(), _freerun_line(fr_ls)]
+    if m.meta.get("estimation") == "ls-search":
+        lines.append(f"     θ from the search's fit: the QR refit of these terms simulates "
+                     f"worse ({args.fitness} MSE {fmt(m.meta['qr_refit_fitness_value'])})")
     if args.constraints:
         if est.model_cls_ is None:
             lines.append(f"CLS: not possible: {getattr(est, 'cls_error_', 'unknown reason')}")
@@ -169,9 +180,13 @@ def _cmd_fit(args) -> int:
             c = est.model_cls_
             fr = c.simulate(data, mode="freerun")
             lines += ["CLS: " + c.equation(), _freerun_line(fr)]
-            if fr.diverged:                   # a model that fails its own record
-                print("warning: the CLS refit's free run diverges on the training record; "
-                      "the LS model is written instead", file=sys.stderr)
+            worse = fr_ls.rmse > 0 and fr.rmse > CLS_WORSE * fr_ls.rmse
+            if fr.diverged or (worse and not fr_ls.diverged):
+                why = ("diverges on the training record" if fr.diverged else
+                       f"is {fr.rmse / fr_ls.rmse:.3g} times the LS fit's free-run RMSE")
+                print(f"warning: the CLS refit {why}; the LS model is written instead "
+                      f"(`mggp estimate DATA --terms ... --constraints steady-state` "
+                      f"writes the CLS fit of these terms)", file=sys.stderr)
             else:
                 c.meta["ls_theta"] = [float(v) for v in m.theta]
                 final = c

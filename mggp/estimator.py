@@ -141,9 +141,12 @@ class MGGPRegressor:
     After ``fit``, besides ``model_``, ``model_cls_``, ``pareto_front_`` and
     ``logbook_``: ``precision_`` (:class:`mggp.precision.PrecisionCheck`) holds
     the chosen structure's fitness with the search's normal-equation fit and
-    with the QR refit of ``model_``; a :class:`SearchPrecisionWarning` says
-    when the refit is more than 1.25× better (the search was misled, most
-    often by an offset that dominates a signal).
+    with the QR refit; when the refit simulates more than 1.25× worse (nearly
+    collinear terms: the exact LS θ has large cancelling coefficients)
+    ``model_`` keeps the search's θ, which is what was scored
+    (``model_.meta['estimation'] == 'ls-search'``). A
+    :class:`SearchPrecisionWarning` names an offset that dominates a signal
+    before the search (its normal equations lose precision on such data).
     """
 
     def __init__(self, *, fitness="ms", window=100, k=10, criterion="mse",
@@ -357,13 +360,6 @@ class MGGPRegressor:
                                     meta=dict(meta, estimation="ls-search",
                                               qr_refit_fitness_value=check.refit_mse),
                                     registry=registry)
-                warnings.warn(
-                    f"the QR refit of the chosen structure simulates worse than the "
-                    f"search's own fit ({self.fitness} MSE {check.refit_mse:.4g} against "
-                    f"{check.search_mse:.4g}): its terms are nearly collinear and the exact "
-                    f"least-squares θ has large cancelling coefficients; model_ keeps the "
-                    f"search's θ (rank-truncated normal equations)",
-                    SearchPrecisionWarning, stacklevel=2)
             self.model_cls_ = None
             if self.constraints == "steady-state":
                 try:

@@ -194,8 +194,10 @@ class Evaluator:
         Δm for ``ms``; horizon for ``ksa``.
     constraints : None or 'steady-state'
         CLS during the search (default LS).
-    start : int
-        Fixed first row for estimation and scoring (>= every set's lag).
+    start : int, optional
+        Fixed first row for estimation and scoring (>= every set's lag;
+        ``MGGPRegressor`` fixes it from ``max_height``, so all structures
+        are scored on the same rows). Default: each set's own largest lag.
     criterion : {'mse', 'bic', 'aic'}
     n_jobs : int
         Worker count (``-1``: all cores). Results do not depend on it.
@@ -217,7 +219,8 @@ class Evaluator:
     """
 
     def __init__(self, data: Data, fitness: str = "ms", *, window: int = 100,
-                 k: int = 10, constraints: Optional[str] = None, start: int = 0,
+                 k: int = 10, constraints: Optional[str] = None,
+                 start: Optional[int] = None,
                  criterion: str = "mse", n_jobs: int = 1, backend: str = "loky",
                  scheduler=None, registry: Optional[PhiRegistry] = None,
                  max_retries: int = 3):

@@ -5,7 +5,7 @@ Typical use::
     est = MGGPRegressor(...).fit(u, y)
     print(est.pareto_front_)                 # complexity, loss, equation
     m = est.pareto_front_.get_best()         # lowest loss, as a narx.Model
-    m = est.pareto_front_.get_best("score")  # the knee: best loss drop per term
+    m = est.pareto_front_.get_best("score")  # best loss drop per term, loss within 2x the best
     est.pareto_front_.to_latex(2)            # row 2 as LaTeX
     est.pareto_front_.to_sympy(-1)           # the last row as a sympy expression
 

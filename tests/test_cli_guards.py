@@ -88,6 +88,9 @@ def test_fit_checks_destinations_before_the_search(capsys, tmp_path):
     (["--max-lag", "0"], "--max-lag must be >= 1, got 0"),
     (["--scheduler", "tcp://x:1"], "--scheduler tcp://x:1 needs --backend dask"),
     (["--fitness", "ksa", "--k", "100000"], "k=100000 steps ahead do not fit"),
+    (["--fitness", "pem", "--window", "7"], "--window applies to --fitness ms only, got "
+                                            "--fitness pem"),
+    (["--k", "3"], "--k applies to --fitness ksa only, got --fitness ms"),
 ])
 def test_fit_option_rules(capsys, tmp_path, argv, text):
     code, _, err = run(capsys, "fit", csv(tmp_path), "--population", "10",
@@ -152,13 +155,18 @@ def test_fit_select_reaches_the_estimator(capsys, tmp_path):
     assert meta["select"] == "freerun" and meta["noise_lags"] == 0
 
 
-def test_fit_writes_the_ls_model_when_the_cls_refit_diverges(capsys, tmp_path, monkeypatch):
+@pytest.mark.parametrize("theta, text", [
+    ([1.5, 1.0], "CLS refit diverges on the training record"),
+    ([0.5, 0.5], "CLS refit is "),                     # stable, far off the data
+])
+def test_fit_writes_the_ls_model_when_the_cls_refit_fails(capsys, tmp_path, monkeypatch,
+                                                          theta, text):
     import mggp.estimator as E
     real = E.MGGPRegressor.fit
 
     def fit(self, *a, **k):
         real(self, *a, **k)
-        self.model_cls_ = Model(["y[k-1]", "u[k-1]"], [1.5, 1.0])      # diverges
+        self.model_cls_ = Model(["y[k-1]", "u[k-1]"], theta)
         return self
     monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
     out = tmp_path / "m.json"
@@ -166,6 +174,41 @@ def test_fit_writes_the_ls_model_when_the_cls_refit_diverges(capsys, tmp_path, m
                             "--generations", "2", "--seed", "0", "--quiet",
                             "--constraints", "steady-state", "--out", out)
     assert code == 0, err
-    assert "CLS refit's free run diverges" in err and "LS model is written" in err
+    assert text in err and "LS model is written" in err
     assert json.loads(out.read_text())["meta"]["estimation"] != "cls"
     assert "(CLS fit)" not in stdout
+
+
+@pytest.mark.parametrize("argv, text", [
+    (["--k", "5"], "--k applies to --mode ksa only, got --mode freerun"),
+    (["--mode", "osa", "--window", "5"], "--window applies to --mode ms only, got --mode osa"),
+])
+def test_simulate_refuses_options_of_another_mode(capsys, tmp_path, argv, text):
+    m = tmp_path / "m.json"
+    Model(["y[k-1]", "u[k-1]"], [0.5, 1.0]).save(m)
+    code, _, err = run(capsys, "simulate", m, csv(tmp_path), *argv)
+    assert code == 2 and text in error_line(err)
+
+
+def test_diagnose_population_rule_comes_first(capsys, tmp_path):
+    code, out, err = run(capsys, "diagnose", csv(tmp_path), "--population", "1")
+    assert code == 2 and "--population must be >= 2, got 1" in error_line(err)
+    assert out == ""
+
+
+def test_evaluator_scores_without_a_start():
+    """The Evaluator's documented call without ``start=``: finite scores (it
+    used to default to row 0, below every set's lag, and score all inf)."""
+    from mggp.evaluate import Evaluator
+    from narx.data import as_data
+    from narx.terms import parse_terms
+    u, y = first_order_record(500)
+    data = as_data(u, y)
+    sets = [tuple(parse_terms(["y[k-1]", "u[k-1]"], data.signals)),
+            tuple(parse_terms(["u[k-2]"], data.signals))]
+    ev = Evaluator(data, fitness="ms", window=20)
+    try:
+        values = ev(sets)
+    finally:
+        ev.close()
+    assert np.all(np.isfinite(values)) and values[0] < 1e-20 < values[1]
