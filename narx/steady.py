@@ -34,7 +34,7 @@ import numpy as np
 
 from .estimate import EstimationError
 from .phi import PhiRegistry, default_registry
-from .terms import Lag, PhiCall, Term
+from .terms import Lag, PhiCall, Term, parse_term
 
 __all__ = ["Cluster", "SteadyStateConstraints", "clusters", "cluster_sums",
            "steady_state_constraints"]
@@ -95,12 +95,19 @@ def _monomial(term: Term, reg: PhiRegistry):
     return ("*".join(parts) if parts else "1"), mult
 
 
+def _as_terms(terms, registry) -> Tuple[Term, ...]:
+    """Terms, parsed from text where given as text (signals y, u and e;
+    a model of other signal names gives its parsed ``Model.terms``)."""
+    return tuple(parse_term(t, registry=registry) if isinstance(t, str) else t
+                 for t in terms)
+
+
 def clusters(terms: Sequence[Term], registry: Optional[PhiRegistry] = None
              ) -> List[Cluster]:
     """Clusters of a term set (terms vanishing at steady state are omitted)."""
     reg = registry or default_registry()
     acc: "OrderedDict[str, list]" = OrderedDict()
-    for i, t in enumerate(terms):
+    for i, t in enumerate(_as_terms(terms, reg)):
         key, mult = _monomial(t, reg)
         if key is not None:
             acc.setdefault(key, []).append((i, mult))
@@ -151,7 +158,7 @@ def steady_state_constraints(terms: Sequence[Term],
         When no linear output term survives at steady state (Σ_y = 1 is
         then impossible).
     """
-    terms = tuple(terms)
+    terms = _as_terms(terms, registry)
     cls = clusters(terms, registry)
     out_names = {f.signal for t in terms for f in t.factors
                  if isinstance(f, Lag) and f.role == "y"}

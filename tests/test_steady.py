@@ -213,3 +213,15 @@ def test_cls_model_holds_its_output_when_the_input_is_held(piezo_models):
     assert max(drift["cls"]) < 1e-6 * span, drift
     assert max(drift["ls"]) > 1e-6 * span, drift          # the control drifts
     assert min(drift["ls"]) > 10 * max(drift["cls"]), drift
+
+
+def test_constraints_of_term_texts():
+    """Term texts are accepted as the rest of the API accepts them (an
+    AttributeError before)."""
+    from narx.steady import steady_state_constraints
+    from narx.terms import parse_terms
+    texts = ["y[k-1]", "u[k-1]", "u[k-2]", "Phi1(u[k-1],u[k-2])"]
+    a = steady_state_constraints(texts)
+    b = steady_state_constraints(parse_terms(texts))
+    np.testing.assert_array_equal(a.S, b.S)
+    assert a.labels == b.labels
