@@ -6,7 +6,7 @@ Typical use::
     cs = case_data(n=50_000, seed=0)
     row = score_model(model, cs)      # train/val MAPE, RMSE, hold drift, ss errors
 
-Data (DESIGN.md): training input a filtered pseudo-random signal spanning
+Data (the published case study, Abreu et al. 2020): training input a filtered pseudo-random signal spanning
 ±80 V with about 1 Hz bandwidth, N samples at 1 ms; validation
 u = 40 sin(2πt), 5 s; the held-input sine (input frozen for 1 s once while
 rising, once while falling) for steady-state checks; all passed through

@@ -7,7 +7,7 @@ Typical call::
     NARX_MS_KERNEL=0 python -m benchmarks.full_setup        # general MS kernel
     python -m benchmarks.full_setup --population 50 --generations 5   # a quick look
 
-Setup (DESIGN.md): the 50,000-sample piezo training record, population 500,
+Setup (the published one, Abreu et al. 2020): the 50,000-sample piezo training record, population 500,
 200 generations, crossover 0.8, mutation 0.2, max tree height 5, at most 15
 terms, elite 10 %, primitives {×, Φ1, Φ2, q⁻¹..q⁻³}, terminals {y[k-1],
 u[k-1]}, MS fitness (Δm = 100), ``MGGPRegressor(n_jobs=2)``. Recorded: wall

@@ -7,7 +7,8 @@ Typical use::
     python -m benchmarks.pem_vs_ms --out report --json report/study.json
     python -m benchmarks.pem_vs_ms --data-seed 3 --filter-order 1   # another record
 
-Identifies the Bouc-Wen piezo actuator of DESIGN.md by MGGP with
+Identifies the Bouc-Wen piezo actuator of the published case study
+(Abreu et al., Nonlinear Dynamics 2020) by MGGP with
 one-step-ahead (PEM) fitness and with multiple-shooting (MS) fitness, both
 estimated by LS, both searches with the free-run stability screen of
 :mod:`mggp.screen`, the MS structure chosen as the best whose CLS refit

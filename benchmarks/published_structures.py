@@ -9,7 +9,7 @@ Why: the publication gives its training input only as "filtered
 pseudo-random, ±80 V, about 1 Hz bandwidth", so our record cannot be theirs.
 How far the published figures can be reproduced on our record is measured
 here without any search: the reference model (19) and the MS model (33) of
-DESIGN.md keep their published structures and are refitted on our training
+the published case study keep their published structures and are refitted on our training
 record (LS, as the search fits a structure, and CLS under the derived
 steady-state constraints), then scored exactly as in
 :mod:`benchmarks.pem_vs_ms` (free-run range-normalised MAPE on the

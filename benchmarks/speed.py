@@ -6,7 +6,7 @@ Typical call::
     python -m benchmarks.speed --n 50000 --repeats 5 --json speed.json
     python -m benchmarks.speed --no-peers --no-cli  # ours, Python, floor only
 
-Model: the published MS model (33) of DESIGN.md, θ from
+Model: the published MS model (33) (Abreu et al. 2020), θ from
 ``narx.Model(terms).fit(u, y)`` on the piezo training record
 (``training_input(n)`` -> ``piezo_bouc_wen``). Timed side by side:
 
@@ -51,7 +51,7 @@ MAXLAG33 = 10
 
 
 def model33_loop(u, y, th, out):
-    """Free run of model (33) written out by hand (θ in DESIGN.md order).
+    """Free run of model (33) written out by hand (θ in the published order).
 
     Plain Python on lists for (b); the same source compiled by numba is the
     floor (d). ``y`` only supplies the first 10 samples.

@@ -45,17 +45,17 @@ def write_figures(folder, cs, rows, extras, peers):
     th = np.arange(cs.held.u.size) * 1e-3
     ax[0].plot(th, cs.held.u, "k")
     ax[0].set_ylabel("u (V)")
-    ax[1].plot(th, cs.yh, "k", lw=1.4, label="true system")
+    ax[1].plot(th, cs.yh, "k", lw=0.8, label="data", zorder=5)
     for n in _ORDER:
         r = _first(rows, n)
         if r is not None and _finite(r["y_held"]):
-            ax[1].plot(th, r["y_held"], lw=0.9, label=n)
+            ax[1].plot(th, r["y_held"], lw=1.0, ls="--", label=n)
     for a in ax:
         for sl in (cs.held.hold_rising, cs.held.hold_falling):
             a.axvspan(th[sl.start], th[sl.stop - 1], color="0.9")
     ax[1].set_ylabel("y (µm)")
     ax[1].set_xlabel("t (s)")
-    ax[1].legend(fontsize=8)
+    ax[1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     ax[0].set_title("Held-input sine: the input is frozen in the shaded intervals")
     path = os.path.join(folder, "held.png")
     fig.tight_layout()
@@ -82,7 +82,7 @@ def write_report(args, summary, peers, checks, figs, damper, table_md, seconds):
              f"{getattr(args, 'data_seed', 0)}), {args.jobs} jobs; "
              f"{seconds:.0f} s on "
              f"{os.cpu_count()} cores ({platform.processor() or platform.machine()}).",
-             "", "Free-run figures; MAPE is range-normalised (DESIGN.md). Drift is the "
+             "", "Free-run figures; MAPE is range-normalised, 100·mean|y − ŷ| / (max y − min y), the metric of the published table (Abreu et al., Nonlinear Dynamics 2020). Drift is the "
              "range of the simulated output over each 1 s hold after 100 settling samples; "
              "the steady-state error is |ŷ − y| at the end of the hold against the true "
              "system. With several seeds: median (min–max).", "", table_md, "",

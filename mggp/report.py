@@ -34,23 +34,52 @@ def _save(fig, path):
     return path
 
 
-def plot_freerun(path, t, y, sims: dict, title="Free-run simulation", ylabel="y"):
-    fig, ax = figure(figsize=(8, 3.6))
-    ax.plot(t, y, "k", lw=1.2, label="data")
+def _band(y):
+    """Plot limits: the data's range widened by half of it on each side, so a
+    diverging simulation cannot squeeze the data into a flat line."""
+    lo, hi = float(np.min(y)), float(np.max(y))
+    pad = 0.5 * (hi - lo) or 1.0
+    return lo - pad, hi + pad
+
+
+def _label(name, yh, lims):
+    out = not np.all(np.isfinite(yh)) or np.any((yh < lims[0]) | (yh > lims[1]))
+    return f"{name} (leaves the plot)" if out else name
+
+
+def plot_freerun(path, t, y, sims: dict, title="Free-run simulation", ylabel="y",
+                 xlabel="t (s)"):
+    """Data and free runs (top) and each simulation's error ŷ − y (bottom);
+    ``t=None`` plots against the sample index."""
+    fig, ax = figure(2, 1, figsize=(8, 5.2), sharex=True,
+                     gridspec_kw={"height_ratios": [2, 1]})
+    x = np.arange(len(y)) if t is None else t
+    lims = _band(y)
     for name, yh in sims.items():
-        ax.plot(t, yh, lw=0.9, label=name)
-    ax.set_xlabel("sample" if t is None else "t")
-    ax.set_ylabel(ylabel)
-    ax.set_title(title)
-    ax.legend(loc="best", fontsize=8)
+        ax[0].plot(x, yh, lw=1.0, ls="--", label=_label(name, yh, lims))
+        ax[1].plot(x, yh - y, lw=0.8, label=name)
+    ax[0].plot(x, y, "k", lw=0.8, label="data", zorder=5)
+    ax[0].set_ylim(*lims)
+    ax[0].set_ylabel(ylabel)
+    ax[0].set_title(title)
+    ax[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    err = np.concatenate([np.abs(yh - y)[np.isfinite(yh)] for yh in sims.values()]
+                         or [np.zeros(1)])
+    top = float(np.quantile(err, 0.999)) if err.size else 1.0
+    ax[1].set_ylim(-1.1 * top or -1, 1.1 * top or 1)
+    ax[1].axhline(0.0, color="k", lw=0.6)
+    ax[1].set_ylabel(f"error ŷ − {ylabel}")
+    ax[1].set_xlabel("sample" if t is None else xlabel)
     return _save(fig, path)
 
 
 def plot_loop(path, u, y, sims: dict, title="Input-output loop", xlabel="u", ylabel="y"):
-    fig, ax = figure(figsize=(5, 4.5))
-    ax.plot(u, y, "k", lw=1.2, label="data")
+    fig, ax = figure(figsize=(6.2, 4.5))
+    lims = _band(y)
     for name, yh in sims.items():
-        ax.plot(u, yh, lw=0.9, ls="--", label=name)
+        ax.plot(u, yh, lw=0.9, ls="--", label=_label(name, yh, lims))
+    ax.plot(u, y, "k", lw=0.8, label="data", zorder=5)
+    ax.set_ylim(*lims)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title)
@@ -59,19 +88,25 @@ def plot_loop(path, u, y, sims: dict, title="Input-output loop", xlabel="u", yla
 
 
 def plot_convergence(path, logbooks: dict, title="Convergence of the best fitness"):
-    fig, ax = figure(figsize=(6, 3.6))
-    for name, lb in logbooks.items():
-        gens = lb.select("gen")
+    """Best fitness by generation, one panel per search: fitness values of
+    different kinds (one-step against multiple-shooting MSE) are not on one
+    scale."""
+    names = list(logbooks)
+    fig, ax = figure(len(names), 1, figsize=(6, 2.4 + 1.6 * len(names)), sharex=True,
+                     squeeze=False)
+    for a, name in zip(ax[:, 0], names):
+        lb = logbooks[name]
+        gens = np.asarray(lb.select("gen"))
         best = np.asarray(lb.select("best"), dtype=float)
         ok = np.isfinite(best) & (best > 0)
         if ok.any():
-            ax.semilogy(np.asarray(gens)[ok], best[ok], label=name)
+            a.semilogy(gens[ok], best[ok], color="C0")
         else:
-            ax.plot(gens, best, label=name)
-    ax.set_xlabel("generation")
-    ax.set_ylabel("best fitness")
-    ax.set_title(title)
-    ax.legend(loc="best", fontsize=8)
+            a.plot(gens, best, color="C0")
+        a.set_ylabel(f"best {name}\nfitness")
+        a.grid(True, which="both", lw=0.3)
+    ax[0, 0].set_title(title)
+    ax[-1, 0].set_xlabel("generation")
     return _save(fig, path)
 
 
@@ -89,8 +124,7 @@ def write_fit_report(folder, est, data, data_name: str = "data",
         sims[name] = r.y_hat
         rows.append((name, r.rmse, r.mape, o.rmse, r.diverged))
     u0 = data.U[0]
-    t = np.arange(data.n)
-    figs = [plot_freerun(os.path.join(folder, "freerun.png"), t, data.y, sims,
+    figs = [plot_freerun(os.path.join(folder, "freerun.png"), None, data.y, sims,
                          ylabel=data.output),
             plot_loop(os.path.join(folder, "loop.png"), u0, data.y, sims,
                       xlabel=data.inputs[0], ylabel=data.output),

@@ -6,7 +6,7 @@ Typical use::
     r = simulate(terms, theta, data, mode="freerun")
     r.y_hat, r.valid, r.diverged, r.mse
 
-Modes (DESIGN.md):
+Modes:
 
 =============  ==============================================================
 ``osa``        every regressor from measured data (one-step-ahead, PEM)
@@ -88,7 +88,7 @@ class SimulationResult:
 
     @property
     def mape(self) -> float:
-        """Range-normalised MAPE in % (DESIGN.md)."""
+        """Range-normalised MAPE in %: ``100 mean|y - ŷ| / (max y - min y)``."""
         from .metrics import mape
         if self.diverged:
             return float("inf")
