@@ -46,6 +46,8 @@ residual of the model refitted with the *linear* lags y[k-1..4], u[k-1..4]
 added, and the linear tests the residual of the model refitted with the
 *static* terms y[k-1]², y[k-1]³, u[k-1]², u[k-1]³, y[k-1]u[k-1] added: each
 test then answers for what the other kind of term cannot repair.
+Both refits are column-scaled LS (:func:`narx.estimate.least_squares`), so
+the tests do not depend on the units of the input or the output.
 
 References
 ----------
@@ -201,9 +203,31 @@ def correlation_tests(eps, inputs: Dict[str, np.ndarray], max_lag: int = 20,
 
 
 def completed_residual(model, data, extra: List[str]):
-    """One-step residual of ``model``'s terms plus ``extra`` refitted by LS on
-    ``data``, and the sample indices it belongs to; None if it cannot be fitted."""
+    """One-step residual of ``model``'s terms plus ``extra`` refitted by LS.
+
+    The fit is :func:`narx.estimate.least_squares` (pivoted QR on columns
+    scaled to unit norm), so the residual scales with the output and does
+    not depend on the units of the input: regressors such as y[k-1]³ may be
+    many orders of magnitude larger than y[k-1], and an unscaled solver
+    would lose the small columns to rounding.
+
+    Parameters
+    ----------
+    model : narx.Model
+        The model whose terms are completed (its θ is not used).
+    data : narx.Data
+        The record to fit on.
+    extra : list of str
+        Terms to add (those already in the model are skipped).
+
+    Returns
+    -------
+    tuple (ndarray, ndarray) or None
+        The residual and the sample indices it belongs to; None if the
+        completed model cannot be fitted or its residual is not finite.
+    """
     from narx import Model
+    from narx.estimate import least_squares
     from narx.regressors import regressor_matrix
     sig = dict(inputs=data.inputs, output=data.output, registry=model.registry)
     have = set(model.term_texts)
@@ -211,7 +235,7 @@ def completed_residual(model, data, extra: List[str]):
     try:
         m = Model(terms, **sig)
         Psi, target, start = regressor_matrix(m.terms, data, registry=model.registry)
-        theta = np.linalg.lstsq(Psi, target, rcond=None)[0]
+        theta = least_squares(Psi, target).theta
     except (ValueError, np.linalg.LinAlgError):
         return None
     r = target - Psi @ theta
