@@ -12,6 +12,7 @@ from narx.data import Data
 from narx.systems import held_sine, piezo_bouc_wen, training_input
 
 from mggp.diagnose import Budget, diagnose
+from mggp.diagnose.holds import find_holds, hold_responses
 
 TINY = Budget(population=20, generations=2, shifts=19, bootstrap=39)
 P1, P2 = "Phi1(u[k-1],u[k-2])", "Phi2(u[k-1],u[k-2])"
@@ -50,3 +51,72 @@ def test_findings_do_not_depend_on_the_units(base_diagnosis, u_scale, y_scale):
         if np.isfinite(c0.threshold) and c0.threshold > 0:
             assert c.statistic / c.threshold == pytest.approx(
                 c0.statistic / c0.threshold, rel=1e-6, abs=1e-9), c.test
+
+
+# ------------------------------------------------------------------ holds
+def with_noise(u, sd=0.005, seed=1):
+    """``u`` as measured with white noise of ``sd`` (5 mV by default)."""
+    return u + sd * np.random.default_rng(seed).standard_normal(u.size)
+
+
+def test_a_held_input_with_noise_is_found_and_drift_named_as_without_noise():
+    from test_diagnose import SMALL, drifting_case
+    train, val, model, hs = drifting_case()
+    noisy = Data(with_noise(val.U[0]), val.y)             # 5 mV on ±60 V
+    held = [(hs.hold_rising.start, hs.hold_rising.stop),
+            (hs.hold_falling.start, hs.hold_falling.stop)]
+    assert find_holds(val, 20) == held
+    assert find_holds(noisy, 20) == held                  # was [] (rtol 1e-9 of the range)
+    clean = diagnose(train, val, model, budget=SMALL, seed=0)
+    dx = diagnose(train, noisy, model, budget=SMALL, seed=0)
+    drift = [[c.test for c in d.checks if c.effect == "steady-state-drift" and c.beats]
+             for d in (clean, dx)]
+    assert "steady-state-drift" in clean.effects and "steady-state-drift" in dx.effects
+    assert drift[0] == drift[1] == ["hold validation:562", "hold validation:1188"]
+    assert "drift check could not run" not in dx.summary()
+
+
+@pytest.mark.parametrize("u", [
+    40 * np.sin(2 * np.pi * 0.05 * np.arange(20_000) * 1e-3),
+    np.linspace(-40, 40, 40_001),
+    training_input(20_000, seed=3),
+], ids=["slow sine 0.05 Hz", "slow ramp 2 mV per sample", "training input 1 Hz"])
+def test_a_moving_input_with_the_same_noise_has_no_hold(u):
+    # over 20 samples these move less than a band of ±5 noise σ: only the
+    # slope and bend tests tell them from a hold
+    noisy = Data(with_noise(u), np.zeros(u.size))
+    assert find_holds(noisy, 20) == []
+    # the noisy held sine of the previous test, for contrast
+    hs = held_sine(amplitude=60, freq=2.0, hold=0.5)
+    assert len(find_holds(Data(with_noise(hs.u), np.zeros(hs.u.size)), 20)) == 2
+
+
+def test_a_model_with_a_continuum_of_steady_states_keeps_still_in_noisy_holds():
+    # noise on the measured input would drive the direction terms (|Δu| > 0)
+    # and move the model in the hold: the model sees the hold's level instead
+    u = training_input(3000, bandwidth=4.0, seed=0)
+    model = narx.Model(["y[k-1]", "u[k-1]", P1, f"y[k-1]*{P1}*{P2}",
+                        f"u[k-1]*{P1}*{P2}"]).fit(u, piezo_bouc_wen(u),
+                                                  constraints="steady-state")
+    hs = held_sine(amplitude=60, freq=2.0, hold=0.5)
+    noisy = Data(with_noise(hs.u), piezo_bouc_wen(hs.u))
+    resp = hold_responses(model, noisy, "validation", 20)
+    assert [r.start for r in resp] == [hs.hold_rising.start, hs.hold_falling.start]
+    for r in resp:
+        assert abs(r.model_move) < 1e-9 and abs(r.rate) < 1e-9
+        assert r.level == pytest.approx(hs.u[r.start], abs=0.005)
+
+
+def test_summary_says_when_no_held_input_segment_was_found(base_diagnosis):
+    from narx.systems import sine_input
+    train, _, model = piezo_case()
+    _, uv = sine_input(duration=1.0, freq=2.0, amplitude=60)
+    dx = diagnose(train, Data(uv, piezo_bouc_wen(uv)), model, budget=TINY, seed=0)
+    assert dx.evidence.holds == []
+    text = dx.summary()
+    assert ("not tested: " in text and "steady-state drift and rest levels (no held-input "
+            "segment of 20 samples or more in train or validation, so the drift check could "
+            "not run)" in text), text
+    # control: the held sine has holds, and the summary does not say so
+    assert base_diagnosis.evidence.holds
+    assert "drift check could not run" not in base_diagnosis.summary()

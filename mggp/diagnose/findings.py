@@ -55,7 +55,7 @@ probability is at most α times the number of its tests.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -133,6 +133,8 @@ class Evidence:
     hold responses carry their own record and use that record's floor
     (``hold_floors[record]``); holds whose inputs differ by at most
     ``input_tolerance`` count as holds at the same input.
+    ``holds_found`` counts the held-input segments of at least
+    ``hold_min_len`` samples found in each record (usable or not).
     """
 
     correlation: Sequence[CorrelationTest]
@@ -148,6 +150,8 @@ class Evidence:
     resolution: float
     output: str = "y"
     input_tolerance: float = 0.0
+    holds_found: Dict[str, int] = field(default_factory=dict)
+    hold_min_len: int = 0
 
 
 def _num(v):

@@ -8,11 +8,16 @@ Typical use::
     [(r.start, r.data_move, r.model_move, r.noise_se) for r in resp]
 
 A *hold* is a run of at least ``min_len`` samples in which every input
-stays constant (within ``rtol`` of its range). In a hold starting at
-sample a, the model is simulated free from the measured outputs before a
-(so drift is not confused with error accumulated earlier). After the
-model's largest lag L every Φ of inputs is 0, and from sample a + L + 1
-on the *movement* of a signal is
+stays within a few noise standard deviations of one level and does not
+move (:func:`find_holds`; the input's noise is estimated from its
+differences, :func:`input_noise`, so a measured input with noise on it
+is found held). In a hold starting at sample a, the model is simulated
+free from the measured outputs before a (so drift is not confused with
+error accumulated earlier), with the input at the hold's level (its
+median over the hold) from a on, so that noise on a measured input does
+not drive the model's Φ-terms. After the model's largest lag L every Φ
+of inputs is 0, and from sample a + L + 1 on the *movement* of a signal
+is
 
 .. math:: d = \\bar x_{\\text{last quarter}} - \\bar x_{\\text{first quarter}} .
 
@@ -38,6 +43,7 @@ hold that does not rest at levels as far apart cannot express it
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import List, Optional, Tuple
 
@@ -46,25 +52,143 @@ import numpy as np
 from narx import Model
 from narx.data import Data
 
-__all__ = ["find_holds", "HoldResponse", "hold_responses", "steady_rate",
+__all__ = ["find_holds", "input_noise", "HoldResponse", "hold_responses", "steady_rate",
            "continuum_violations", "probe_holds"]
 
 
-def find_holds(data: Data, min_len: int = 20, rtol: float = 1e-9) -> List[Tuple[int, int]]:
-    """Segments ``[start, stop)`` where every input is constant."""
+def input_noise(x) -> float:
+    """Robust standard deviation of white noise on a sampled signal.
+
+    For white noise of standard deviation σ the k-th difference has
+    standard deviation :math:`\\sigma\\sqrt{\\binom{2k}{k}}`, while a smooth
+    signal's share of it shrinks with every difference. The estimate is the
+    smallest over k = 2, 3, 4 of :math:`1.4826\\,\\mathrm{MAD}(\\Delta^k x) /
+    \\sqrt{\\binom{2k}{k}}` (MAD: median absolute deviation, unaffected by the
+    few large differences at steps of the signal).
+
+    Parameters
+    ----------
+    x : array_like (N,)
+        The signal.
+
+    Returns
+    -------
+    float
+        The estimate (0 for a noise-free piecewise-constant signal, or when
+        fewer than 6 samples are given).
+    """
+    x = np.asarray(x, dtype=float)
+    out = []
+    for k in (2, 3, 4):
+        d = np.diff(x, k)
+        if d.size < 2:
+            return 0.0
+        out.append(1.4826 * float(np.median(np.abs(d - np.median(d))))
+                   / math.sqrt(math.comb(2 * k, k)))
+    return min(out)
+
+
+def _extend(cols, a, b, half) -> int:
+    """First sample from ``b`` on at which some input strays more than
+    ``half[i]`` from the mean of its samples ``a``.. so far (or the end)."""
+    n = len(cols[0])
+    sums = [float(sum(c[a:b])) for c in cols]
+    while b < n:
+        count = b - a
+        if any(abs(c[b] - t / count) > h for c, t, h in zip(cols, sums, half)):
+            break
+        sums = [t + c[b] for c, t in zip(cols, sums)]
+        b += 1
+    return b
+
+
+def _runs(U, half, min_len):
+    """Runs, left to right, that start with ``min_len`` samples spanning at
+    most ``2 half[i]`` in every input ``i`` and go on while every new sample
+    stays within ``half[i]`` of the run's mean."""
+    n = U.shape[1]
+    if n < min_len:
+        return
+    flat = np.ones(n - min_len + 1, dtype=bool)
+    for row, h in zip(U, half):
+        w = np.lib.stride_tricks.sliding_window_view(row, min_len)
+        flat &= (w.max(axis=1) - w.min(axis=1)) <= 2.0 * h
+    starts = np.flatnonzero(flat)
+    cols = [row.tolist() for row in U]
+    a = 0
+    while True:
+        i = int(np.searchsorted(starts, a))
+        if i == starts.size:
+            return
+        a = int(starts[i])
+        b = _extend(cols, a, a + min_len, half)
+        yield a, b
+        a = b
+
+
+def find_holds(data: Data, min_len: int = 20, rtol: float = 1e-9, n_sigma: float = 5.0,
+               z: float = 3.5, max_rtol: float = 1e-2) -> List[Tuple[int, int]]:
+    """Segments ``[start, stop)`` in which every input is held.
+
+    Parameters
+    ----------
+    data : narx.Data
+        The record.
+    min_len : int
+        Shortest hold (samples).
+    rtol : float
+        Tolerance of a noise-free input, as a fraction of its range.
+    n_sigma : float
+        How many noise standard deviations (:func:`input_noise`) a held
+        input may stray from its level.
+    z : float
+        How many standard errors the slope or bend of a held input may
+        reach (the test that the input does not move).
+    max_rtol : float
+        Largest tolerance, as a fraction of the input's range (guards
+        against a noise estimate inflated by the signal itself).
+
+    Returns
+    -------
+    list of (int, int)
+        Disjoint segments in increasing order.
+
+    Notes
+    -----
+    Each input gets the half-width
+    :math:`h = \\min(\\max(n_\\sigma\\hat\\sigma,\\ \\mathrm{rtol}\\cdot R),\\
+    \\mathrm{max\\_rtol}\\cdot R)`, with :math:`\\hat\\sigma` its noise level and
+    R its range. Runs in which every input stays within ±h of one level
+    (max − min ≤ 2h) for at least ``min_len`` samples are found left to
+    right. A run is a hold only if no input moves in it: the slope and the
+    bend of the run (the coefficients of the orthogonal linear and quadratic
+    polynomials fitted to it) are within z standard errors of 0, computed
+    with the noise level :math:`\\max(\\hat\\sigma,\\ \\mathrm{rtol}\\cdot R)`. A
+    slow ramp, or the top of a slow sine, hidden in the noise fails this; a
+    held input with white noise on it does not (noise that is not white —
+    hum, a drifting source — can hide a hold). A run that fails is dropped.
+    """
     U = data.U
-    n = data.n
-    moving = np.zeros(n, dtype=bool)
-    for row in U:
-        tol = rtol * (float(np.ptp(row)) or 1.0)
-        moving[1:] |= np.abs(np.diff(row)) > tol
-    out, a = [], 0
-    for k in range(1, n + 1):
-        if k == n or moving[k]:
-            if k - a >= min_len:
-                out.append((a, k))
-            a = k
-    return out
+    ranges = [float(np.ptp(row)) or 1.0 for row in U]
+    sigma = [input_noise(row) for row in U]
+    half = [min(max(n_sigma * s, rtol * r), max_rtol * r) for s, r in zip(sigma, ranges)]
+    scale = [max(sd, rtol * r) for sd, r in zip(sigma, ranges)]
+    return [(a, b) for a, b in _runs(U, half, min_len)
+            if all(_level(row[a:b], sd, z) for row, sd in zip(U, scale))]
+
+
+def _level(x, sigma, z) -> bool:
+    """Whether ``x`` is a level with white noise of standard deviation
+    ``sigma``: neither its slope nor its bend (the coefficients of the
+    orthogonal linear and quadratic polynomials fitted to it) is more than
+    ``z`` standard errors from 0."""
+    t = np.arange(x.size, dtype=float)
+    t -= t.mean()
+    for p in (t, t * t - np.mean(t * t)):
+        norm = math.sqrt(float(p @ p))
+        if norm > 0 and abs(float(p @ x)) > z * sigma * norm:
+            return False
+    return True
 
 
 @dataclass(frozen=True)
@@ -80,7 +204,7 @@ class HoldResponse:
     compare_from : int
         First sample of the comparison (``start + L + 1``).
     level : float
-        Input value during the hold (first input).
+        Input level during the hold (first input; median over the hold).
     data_move, model_move : float
         Movement d of data and of the model started from measured data at
         ``start``.
@@ -167,7 +291,10 @@ def hold_responses(model: Model, data: Data, record: str = "data",
         c = a + L + 1
         if a < L or b - c < 8:
             continue
-        sub = Data(data.U[:, a - L:b].T, y[a - L:b], inputs=data.inputs, output=data.output)
+        level = np.median(data.U[:, a:b], axis=1)
+        U = data.U[:, a - L:b].copy()
+        U[:, L:] = level[:, None]            # the held input without its noise
+        sub = Data(U.T, y[a - L:b], inputs=data.inputs, output=data.output)
         r = model.simulate(sub, mode="freerun")
         yh = np.where(np.isfinite(r.y_hat), r.y_hat, np.nan)
         q = max(2, (b - c) // 4)
@@ -177,7 +304,7 @@ def hold_responses(model: Model, data: Data, record: str = "data",
         model_end = float(np.mean(seg_m[-q:])) if finite else np.inf
         y_bar = float(np.mean(seg_y[:q]))
         try:
-            rate = steady_rate(model, y_bar, data.U[:, a])
+            rate = steady_rate(model, y_bar, level)
         except (ValueError, FloatingPointError):
             rate = float("nan")
         pre = min(a, max(L, (b - a) // 4))
@@ -185,7 +312,7 @@ def hold_responses(model: Model, data: Data, record: str = "data",
         y_hat = np.full(t.size, np.nan)
         y_hat[pre:] = yh[L:]
         out.append(HoldResponse(record, a + offset, b + offset, c + offset,
-                                float(data.U[0, a]), _move(seg_y, q), model_move,
+                                float(level[0]), _move(seg_y, q), model_move,
                                 float(np.mean(seg_y[-q:])), model_end, _noise_se(seg_y, q),
                                 rate, t + offset, y[a - pre:b].copy(), y_hat))
     return out

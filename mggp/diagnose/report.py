@@ -47,7 +47,23 @@ def untested(ev) -> list:
         out.append("Φ-augmentation (its fits could not be made or simulated)")
     if ev.bias is None:
         out.append("prediction bias (no bootstrap possible)")
+    if not ev.holds:
+        out.append(_no_holds(ev))
     return out
+
+
+def _no_holds(ev) -> str:
+    """Why no hold response could be measured (drift, rest levels)."""
+    records = " or ".join(ev.holds_found) or "the data"
+    found = sum(ev.holds_found.values())
+    what = "steady-state drift and rest levels"
+    if not found:
+        size = f" of {ev.hold_min_len} samples or more" if ev.hold_min_len else ""
+        return (f"{what} (no held-input segment{size} in {records}, so the drift check "
+                f"could not run)")
+    return (f"{what} ({found} held-input segment{'s' if found > 1 else ''} found in "
+            f"{records}, but none starts late enough and lasts long enough after the "
+            f"model's largest lag to compare, so the drift check could not run)")
 
 
 def terminal_summary(dx) -> str:

@@ -206,13 +206,14 @@ def _evidence(model: Model, fit: Data, measure: Data, names, offset: int, budget
     bias = prediction_bias_test(model, fit, n_boot=budget.bootstrap, alpha=alpha,
                                 seed=seed + 7)
     min_len = max(20, 2 * model.max_lag + 12)
-    holds = hold_responses(model, fit, names[0], min_len)
-    meas_segs = find_holds(measure, min_len)
+    fit_segs, meas_segs = find_holds(fit, min_len), find_holds(measure, min_len)
+    holds = hold_responses(model, fit, names[0], min_len, fit_segs)
     holds += hold_responses(model, measure, names[1], min_len, meas_segs, offset)
     floors = {names[0]: resolution * _range(fit.y), names[1]: resolution * _range(measure.y)}
     ev = Evidence(corr, osa_rms, loops, aug, bias, holds, floors[names[0]], floors,
                   continuum_violations(model), alpha, resolution, fit.output,
-                  resolution * float(np.ptp(fit.U[0])))
+                  resolution * float(np.ptp(fit.U[0])),
+                  {names[0]: len(fit_segs), names[1]: len(meas_segs)}, min_len)
     return ev, meas_segs
 
 
