@@ -13,6 +13,7 @@ from narx.systems import held_sine, piezo_bouc_wen, training_input
 
 from mggp.diagnose import Budget, diagnose
 from mggp.diagnose.holds import find_holds, hold_responses
+from mggp.diagnose.report import write_report
 
 TINY = Budget(population=20, generations=2, shifts=19, bootstrap=39)
 P1, P2 = "Phi1(u[k-1],u[k-2])", "Phi2(u[k-1],u[k-2])"
@@ -120,3 +121,30 @@ def test_summary_says_when_no_held_input_segment_was_found(base_diagnosis):
     # control: the held sine has holds, and the summary does not say so
     assert base_diagnosis.evidence.holds
     assert "drift check could not run" not in base_diagnosis.summary()
+
+
+# ------------------------------------------------------- tests without power
+def test_a_correlation_test_that_cannot_fire_is_reported_as_without_power(base_diagnosis,
+                                                                         tmp_path):
+    # noise-free data: every one-step residual tested is below the resolution
+    # floor, so each correlation threshold is at least 1 and no correlation
+    # can beat it; the tests must say so instead of passing silently
+    corr = [c for c in base_diagnosis.checks if c.test.startswith("φ_")]
+    assert len(corr) == 4 and all(c.threshold >= 1 for c in corr)
+    assert not any(c.power for c in corr)
+    assert all(c.power for c in base_diagnosis.checks if c not in corr)
+    tests = {t["test"]: t for t in base_diagnosis.to_dict()["tests"]}
+    assert tests["φ_ue"]["power"] is False and "no power" in tests["φ_ue"]["detail"]
+    text = base_diagnosis.summary()
+    assert "not tested: " in text
+    assert "φ_ee, φ_ue: no power (the residual tested, RMS " in text
+    assert "φ_u²'e, φ_u²'e²: no power (" in text and "could not fire" in text
+    report = open(write_report(tmp_path / "r", base_diagnosis)).read()
+    assert "| φ_ue | unmodelled-dynamics |" in report and "| no power |" in report
+    # control: with noise on the output the residuals exceed the floor and
+    # the same tests have power
+    train, val, model = piezo_case()
+    noisy = Data(train.U[0], with_noise(train.y, sd=2.0))
+    dx = diagnose(noisy, val, model, budget=TINY, seed=0)
+    assert all(c.power and c.threshold < 1 for c in dx.checks if c.test.startswith("φ_"))
+    assert "no power" not in dx.summary()

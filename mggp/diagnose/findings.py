@@ -48,7 +48,9 @@ excess of ``prediction-bias`` must also reach the free-run RMSE that the
 noise alone causes (the free run at least √2 times worse than the noise
 explains), so that noisy data do not turn a small misfit into a finding.
 Thresholds are in the statistic's units; a finding is named only when its
-statistic is strictly above its threshold. An effect with several tests
+statistic is strictly above its threshold. A correlation test whose
+threshold is 1 or more has *no power* (:attr:`Check.power` is False): no
+correlation can beat it, so it measured nothing, and reports say so. An effect with several tests
 (``hysteresis``: two; the correlation effects: one per function and input)
 is named when any of them beats its threshold, so its false-alarm
 probability is at most α times the number of its tests.
@@ -107,22 +109,35 @@ class Finding:
 
 @dataclass(frozen=True)
 class Check:
-    """One statistic against its threshold, named or not (for reports)."""
+    """One statistic against its threshold, named or not (for reports).
+
+    ``ceiling`` is the largest value the statistic can take (1 for a
+    correlation); a check whose threshold reaches it has no power: it
+    could not fire whatever the data, so it measured nothing. ``why`` says
+    what made the threshold that high.
+    """
 
     test: str
     effect: str
     statistic: float
     threshold: float
     detail: str
+    ceiling: float = float("inf")
+    why: str = ""
 
     @property
     def beats(self) -> bool:
         return bool(np.isfinite(self.threshold) and self.statistic > self.threshold)
 
+    @property
+    def power(self) -> bool:
+        """False when the threshold is at or above the statistic's ceiling."""
+        return bool(self.threshold < self.ceiling)
+
     def to_dict(self) -> dict:
         return {"test": self.test, "effect": self.effect, "statistic": _num(self.statistic),
                 "threshold": _num(self.threshold), "beats_threshold": self.beats,
-                "detail": self.detail}
+                "power": self.power, "detail": self.detail}
 
 
 @dataclass(frozen=True)
@@ -281,7 +296,14 @@ def _correlation_checks(ev: Evidence) -> List[Check]:
         thr = max(t.band, floor_r)
         detail = (t.describe() + f"; resolution floor {_g(floor_r)} in correlation units "
                   f"(floor {_g(ev.floor)} / RMS {_g(r_rms)} of the residual tested)")
-        out.append(Check(t.label, _CORR_EFFECT[t.key], t.max_abs, thr, detail))
+        why = ""
+        if thr >= 1.0:
+            why = (f"the residual tested, RMS {_g(r_rms)}, is no larger than the resolution "
+                   f"floor {_g(ev.floor)}" if floor_r >= 1.0 else
+                   f"the Bonferroni band of {t.n} samples is that wide")
+            detail += (f"; no power: the threshold {_g(thr)} is at least 1, the largest "
+                       f"correlation there is, because {why}: this test could not fire")
+        out.append(Check(t.label, _CORR_EFFECT[t.key], t.max_abs, thr, detail, 1.0, why))
     return out
 
 

@@ -36,8 +36,9 @@ def _g(v) -> str:
     return "inf" if v is None or not np.isfinite(v) else f"{v:.4g}"
 
 
-def untested(ev) -> list:
-    """The kinds of evidence that could not be measured on this record."""
+def untested(ev, checks=()) -> list:
+    """The kinds of evidence that could not be measured on this record
+    (``checks``: the diagnosis's checks, for the tests without power)."""
     out = []
     if not ev.correlation:
         out.append("correlation tests (fewer than 21 one-step residuals)")
@@ -49,6 +50,14 @@ def untested(ev) -> list:
         out.append("prediction bias (no bootstrap possible)")
     if not ev.holds:
         out.append(_no_holds(ev))
+    weak = {}
+    for c in checks:
+        if not c.power:
+            weak.setdefault(c.why, []).append(c.test)
+    for why, tests in weak.items():
+        out.append(f"{', '.join(tests)}: no power ({why or 'its bound is that wide'}, so "
+                   f"the threshold is at least 1, the largest correlation there is, and "
+                   f"{'these tests' if len(tests) > 1 else 'this test'} could not fire)")
     return out
 
 
@@ -77,7 +86,7 @@ def terminal_summary(dx) -> str:
             lines.append(f"  {f.effect:<24s} {_g(f.statistic)} > threshold {_g(f.threshold)}")
     else:
         lines.append("findings: none (no statistic beat its threshold)")
-    missing = untested(dx.evidence)
+    missing = untested(dx.evidence, dx.checks)
     if missing:
         lines.append("not tested: " + "; ".join(missing))
     if dx.findings:
@@ -144,13 +153,14 @@ def _plot_correlation(path, dx):
     axes = np.atleast_1d(axes)
     for ax, t in zip(axes, tests):
         ax.bar(t.lags, t.r, width=0.6, color="tab:gray")
-        floor = dx.evidence.floor / dx.evidence.osa_rms if dx.evidence.osa_rms > 0 else 2.0
+        rms = dx.evidence.osa_rms if t.rms is None else t.rms     # of the residual tested
+        floor = dx.evidence.floor / rms if rms > 0 else 2.0
         for v, ls, lab in ((t.band95, "-", "±1.96/√N"), (t.band, "--", "Bonferroni"),
                            (floor, ":", "resolution floor")):
             if v <= 1.0:
                 ax.axhline(v, color="tab:blue", ls=ls, lw=0.8, label=lab)
                 ax.axhline(-v, color="tab:blue", ls=ls, lw=0.8)
-        ax.set_title(t.label)
+        ax.set_title(t.label + (" (no power)" if max(t.band, floor) >= 1.0 else ""))
         ax.set_xlabel("τ")
         ax.set_ylim(-1.05, 1.05)
     axes[0].legend(loc="upper right", fontsize=7)
@@ -227,17 +237,20 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data")
                      for f in dx.findings], ["effect", "statistic", "threshold", "evidence"])
     else:
         L.append("None: no statistic beat its threshold, so nothing was changed.")
-    if untested(dx.evidence):
+    if untested(dx.evidence, dx.checks):
         L += ["", "Not tested (a finding of these kinds could not be made): "
-              + "; ".join(untested(dx.evidence)) + "."]
+              + "; ".join(untested(dx.evidence, dx.checks)) + "."]
     L += ["", "## Every test", "", f"False-alarm probability α = {dx.evidence.alpha:g} per "
           f"test; resolution floor {dx.evidence.resolution:g} × output range. A finding is "
           f"named when a statistic is above its threshold.", ""]
     L += _table([[c.test, c.effect, _g(c.statistic), _g(c.threshold),
-                  "**yes**" if c.beats else "no"] for c in dx.checks],
+                  "**yes**" if c.beats else "no" if c.power else "no power"]
+                 for c in dx.checks],
                 ["test", "effect", "statistic", "threshold", "beats"])
-    L += ["", "Correlation thresholds above 1 mean the one-step residual is smaller than "
-          "the resolution floor: no correlation of it can matter.", ""]
+    L += ["", "A correlation test whose threshold is 1 or more has no power (\"no power\" "
+          "above): no correlation can exceed it (the residual tested is no larger than the "
+          "resolution floor, or the record is too short for the band), so the test measured "
+          "nothing.", ""]
     L += ["", "## Models", ""]
     L += _model_lines(dx.baseline, "Baseline")
     L += _model_lines(dx.extended, "Extended")
