@@ -148,3 +148,29 @@ def test_a_correlation_test_that_cannot_fire_is_reported_as_without_power(base_d
     dx = diagnose(noisy, val, model, budget=TINY, seed=0)
     assert all(c.power and c.threshold < 1 for c in dx.checks if c.test.startswith("φ_"))
     assert "no power" not in dx.summary()
+
+
+# ------------------------------------------------- an extension that does not help
+def test_an_extension_worse_than_the_baseline_is_not_recommended(base_diagnosis, tmp_path):
+    from dataclasses import replace
+
+    from mggp.diagnose import Gain
+    dx = base_diagnosis
+    assert dx.findings and dx.gain.ratio < 1          # the tiny search made it worse
+    text = dx.summary()
+    assert ("recommended: the baseline, which is kept: the extension did not help (in free "
+            "run on the measuring samples the extended model is worse: RMSE "
+            f"{dx.gain.extended:.4g} against RMSE {dx.gain.baseline:.4g} for the baseline)"
+            in text), text
+    assert dx.to_dict()["gain"]["recommended"] == "baseline"
+    report = open(write_report(tmp_path / "r", dx)).read()
+    assert "Recommended: the baseline, which is kept: the extension did not help" in report
+    # an extension that diverges is not recommended either
+    div = replace(dx, gain=Gain(dx.gain.baseline, float("inf")))
+    assert "the extended model is worse: diverges against RMSE" in div.summary()
+    # control: the same diagnosis with a better extension recommends it
+    better = replace(dx, gain=Gain(dx.gain.baseline, dx.gain.baseline / 4))
+    assert "recommended: the extended model (on the measuring samples its free-run RMSE " \
+           "is 4 times lower than the baseline's)" in better.summary()
+    assert better.to_dict()["gain"]["recommended"] == "extended"
+    assert "did not help" not in better.summary()

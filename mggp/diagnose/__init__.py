@@ -27,13 +27,15 @@ JSON document (``Diagnosis.to_dict``)::
     {"findings": [{"effect", "evidence", "statistic", "threshold"}],
      "baseline": {"terms", "theta", "validation": {"rmse", "mape"}},
      "extended": {"terms", "theta", "validation": {"rmse", "mape"}, "changes"},
-     "gain": {"metric": "rmse", "baseline", "extended", "ratio"},
+     "gain": {"metric": "rmse", "baseline", "extended", "ratio", "recommended"},
      "samples": {"fit": {...}, "measure": {...}}, "tests": [...], "settings": {...}}
 
 ``validation`` holds the free-run errors on the measuring samples (the
 validation record, or the training tail); ``ratio`` = baseline / extended
-RMSE (> 1: the extension is better); ``null`` stands for a diverged
-simulation (an infinite error).
+RMSE (> 1: the extension is better); ``recommended`` is ``"extended"``
+only when the ratio is above 1, else ``"baseline"`` (an extension that did
+not help is not recommended, and the summary says so); ``null`` stands for
+a diverged simulation (an infinite error).
 """
 from .extend import Budget
 from .findings import EXTENSIONS, VOCABULARY, Check, Finding

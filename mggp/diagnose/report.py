@@ -29,7 +29,7 @@ from .evidence import direction_of_change, simulation_residual
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
 
-__all__ = ["terminal_summary", "write_report"]
+__all__ = ["terminal_summary", "write_report", "verdict"]
 
 
 def _g(v) -> str:
@@ -94,7 +94,29 @@ def terminal_summary(dx) -> str:
         lines += [f"  {c}" for c in dx.changes]
     lines.append(f"gain: free-run RMSE {_g(g.baseline)} (baseline) -> {_g(g.extended)} "
                  f"(extended), ratio {_g(g.ratio)}; MAPE {_g(b.mape)} % -> {_g(e.mape)} %")
+    lines.append(f"recommended: {verdict(dx)}")
     return "\n".join(lines)
+
+
+def _rmse(v) -> str:
+    return "diverges" if v is None or not np.isfinite(v) else f"RMSE {v:.4g}"
+
+
+def verdict(dx) -> str:
+    """Which model to use, and why, in one sentence (``dx.gain.recommended``)."""
+    g = dx.gain
+    if not dx.findings:
+        return "the baseline (no finding, so nothing was changed)"
+    if g.recommended == "extended":
+        return (f"the extended model (on the measuring samples its free-run RMSE is "
+                f"{_g(g.ratio)} times lower than the baseline's)")
+    if not (np.isfinite(g.baseline) or np.isfinite(g.extended)):
+        how = "both models diverge"
+    else:
+        how = (f"the extended model {'is no better' if g.ratio == 1 else 'is worse'}: "
+               f"{_rmse(g.extended)} against {_rmse(g.baseline)} for the baseline")
+    return (f"the baseline, which is kept: the extension did not help (in free run on the "
+            f"measuring samples {how})")
 
 
 def _plot_models(path, dx):
@@ -265,7 +287,8 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data")
         L.append("")
     g = dx.gain
     L += ["## Gain", "", f"Free-run RMSE on the measuring samples: baseline {_g(g.baseline)}, "
-          f"extended {_g(g.extended)}, ratio baseline/extended {_g(g.ratio)}.", ""]
+          f"extended {_g(g.extended)}, ratio baseline/extended {_g(g.ratio)}.", "",
+          f"Recommended: {verdict(dx)}.", ""]
     L += ["## Figures", ""]
     for cap, path in figs:
         L += [f"**{cap}**", "", f"![{cap}]({os.path.basename(path)})" if path else

@@ -93,7 +93,8 @@ class Scored:
 @dataclass(frozen=True)
 class Gain:
     """RMSE of both models on the measuring samples; ratio = baseline / extended
-    (> 1: the extension is better)."""
+    (> 1: the extension is better). ``recommended`` is ``'extended'`` only
+    when the ratio is above 1; otherwise the baseline is kept."""
 
     baseline: float
     extended: float
@@ -105,9 +106,15 @@ class Gain:
             return 1.0 if self.baseline == 0 else float("inf")
         return self.baseline / self.extended
 
+    @property
+    def recommended(self) -> str:
+        """``'extended'`` if the extension lowered the RMSE, else ``'baseline'``."""
+        return "extended" if self.ratio > 1 else "baseline"
+
     def to_dict(self) -> dict:
         return {"metric": self.metric, "baseline": _num(self.baseline),
-                "extended": _num(self.extended), "ratio": _num(self.ratio)}
+                "extended": _num(self.extended), "ratio": _num(self.ratio),
+                "recommended": self.recommended}
 
 
 def _num(v):
