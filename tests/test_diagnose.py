@@ -273,7 +273,7 @@ def one_error_line(err):
 @pytest.mark.parametrize("extra, needle", [
     (["--holdout", "1.5"], "--holdout must be a fraction between 0 and 1, got 1.5"),
     (["--jobs", "0"], "--jobs must be >= 1 or -1, got 0"),
-    (["--population", "0"], "--population must be >= 1, got 0"),
+    (["--population", "0"], "--population must be >= 2, got 0"),
     (["--alpha", "0.7"], "--alpha must be between 0 and 0.5, got 0.7"),
     (["--input", "x"], "no column 'x'"),
     (["--validation", "missing.csv"], "missing.csv: cannot read file"),

@@ -174,3 +174,21 @@ def test_an_extension_worse_than_the_baseline_is_not_recommended(base_diagnosis,
            "is 4 times lower than the baseline's)" in better.summary()
     assert better.to_dict()["gain"]["recommended"] == "extended"
     assert "did not help" not in better.summary()
+
+
+def test_diverging_baseline_gives_an_undefined_ratio_and_a_warning(base_diagnosis, tmp_path):
+    """Both models diverging: the ratio is undefined (it printed 'ratio inf')
+    and the summary says the baseline diverges; '|' in a table cell is
+    escaped so the Markdown table keeps its columns."""
+    from dataclasses import replace
+
+    from mggp.diagnose import Gain
+    from mggp.diagnose.report import _table
+    dx = replace(base_diagnosis, gain=Gain(float("inf"), float("inf")))
+    assert np.isnan(dx.gain.ratio)
+    text = dx.summary()
+    assert "ratio undefined" in text and "RMSE diverges (baseline)" in text
+    assert "warning: the baseline's free run diverges on the measuring samples" in text
+    assert dx.gain.recommended == "baseline"
+    row = _table([["hysteresis", "corr(|Δu|, e) = 0.3"]], ["finding", "evidence"])[2]
+    assert row.count("|") - row.count("\\|") == 3

@@ -33,7 +33,14 @@ __all__ = ["terminal_summary", "write_report", "verdict"]
 
 
 def _g(v) -> str:
-    return "inf" if v is None or not np.isfinite(v) else f"{v:.4g}"
+    if v is None or np.isnan(v):
+        return "undefined"
+    return "inf" if not np.isfinite(v) else f"{v:.4g}"
+
+
+def _rm(v) -> str:
+    """An RMSE, or 'diverges'."""
+    return "diverges" if v is None or not np.isfinite(v) else f"{v:.4g}"
 
 
 def untested(ev, checks=()) -> list:
@@ -92,8 +99,11 @@ def terminal_summary(dx) -> str:
     if dx.findings:
         lines.append(f"extension ({dx.extension.chosen}, {e.model.n_terms} terms):")
         lines += [f"  {c}" for c in dx.changes]
-    lines.append(f"gain: free-run RMSE {_g(g.baseline)} (baseline) -> {_g(g.extended)} "
-                 f"(extended), ratio {_g(g.ratio)}; MAPE {_g(b.mape)} % -> {_g(e.mape)} %")
+    if not np.isfinite(g.baseline):
+        lines.append("warning: the baseline's free run diverges on the measuring samples, "
+                     "so no gain can be measured against it")
+    lines.append(f"gain: free-run RMSE {_rm(g.baseline)} (baseline) -> {_rm(g.extended)} "
+                 f"(extended), ratio {_g(g.ratio)}; MAPE {_rm(b.mape)} % -> {_rm(e.mape)} %")
     lines.append(f"recommended: {verdict(dx)}")
     return "\n".join(lines)
 
@@ -220,7 +230,7 @@ def _plot_holds(path, dx) -> Optional[str]:
 
 def _table(rows: List[List[str]], header: List[str]) -> List[str]:
     out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
+    out += ["| " + " | ".join(c.replace("|", "\\|") for c in r) + " |" for r in rows]
     return out
 
 

@@ -102,9 +102,13 @@ class Gain:
 
     @property
     def ratio(self) -> float:
-        if self.extended == 0:
-            return 1.0 if self.baseline == 0 else float("inf")
-        return self.baseline / self.extended
+        """baseline / extended; NaN when both diverge (undefined)."""
+        b, e = float(self.baseline), float(self.extended)
+        if not (np.isfinite(b) or np.isfinite(e)):
+            return float("nan")
+        if e == 0:
+            return 1.0 if b == 0 else float("inf")
+        return b / e
 
     @property
     def recommended(self) -> str:
