@@ -27,7 +27,12 @@ def versions() -> dict:
     import deap
     import numpy
     import scipy
-    v = {"mggp": __version__, "deap": deap.__version__, "numpy": numpy.__version__,
+    try:                                    # deap.__version__ says "1.4" for 1.4.4
+        from importlib.metadata import version
+        deap_version = version("deap")
+    except Exception:                       # pragma: no cover
+        deap_version = deap.__version__
+    v = {"mggp": __version__, "deap": deap_version, "numpy": numpy.__version__,
          "scipy": scipy.__version__}
     try:
         import numba

@@ -117,8 +117,11 @@ def _cmd_simulate(args) -> int:
                        f"diverged (output beyond 1e4 times the data's magnitude)")
     if args.out:
         write_with_column(args.data, args.out, "y_hat", res.y_hat)
+    scored = int(res.valid.sum())
+    why = ("initial conditions" if args.mode != "ksa" else
+           f"initial conditions and the first {kw['k']}-step horizon")
     print(f"{args.mode}: RMSE {fmt(res.rmse)}  MAPE {fmt(res.mape)} %  "
-          f"({int(res.valid.sum())} samples; the first {res.start} are initial conditions)")
+          f"({scored} samples scored; the first {d.n - scored} are not: {why})")
     if args.out:
         print(f"prediction written to {args.out}")
     return 0

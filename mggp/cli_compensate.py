@@ -124,13 +124,15 @@ def _cmd_compensate(args) -> int:
               f"fallbacks {res.fallbacks} ({100 * res.fallback_rate:.2f} %), "
               f"{res.saturated} whose exact root lay outside the input range or "
               f"beyond --max-step (the target was not reachable in one step); "
-              f"max |y_model - target| at the other steps {fmt(float(err.max()) if err.size else 0.0)}")
+              + (f"max |y_model - target| at the other steps {fmt(float(err.max()))}"
+                 if err.size else "no step had an admissible root"))
         if res.fallback_rate > 0.05:
             warnings.warn(f"{100 * res.fallback_rate:.0f} % of the steps had no admissible "
-                          f"root: the reference asks for changes the model cannot follow in "
-                          f"one step (steps or jumps?); the tracking may be worse than with "
-                          f"no compensation (benchmarks/RESULTS.md, compensation --more); "
-                          f"smooth the reference or use a PI loop")
+                          f"root: the model cannot reach the reference there in one step "
+                          f"(the reference jumps, leaves the model's range, or the model "
+                          f"itself cannot be inverted there); the tracking may be worse "
+                          f"than with no compensation (benchmarks/RESULTS.md, compensation "
+                          f"--more); check the model, smooth the reference, or use a PI loop")
     if name in (args.column, "y_model", "fallback"):
         name = name + "_input"
     print(f"actuator input spans {fmt(float(res.m.min()))} .. {fmt(float(res.m.max()))}")

@@ -128,6 +128,9 @@ def _cmd_fit(args) -> int:
         raise CLIError(f"--jobs must be >= 1 or -1, got {args.jobs}")
     if args.resume and not args.checkpoint:
         raise CLIError("--resume needs --checkpoint FILE")
+    if args.resume and not os.path.exists(args.checkpoint):
+        print(f"note: no checkpoint at {args.checkpoint} yet: a new run starts (it is "
+              f"written there every generation)", file=sys.stderr)
     if args.backend == "dask" and not args.scheduler:
         raise CLIError("--backend dask needs --scheduler ADDRESS")
     if args.scheduler and args.backend != "dask":

@@ -212,3 +212,11 @@ def test_evaluator_scores_without_a_start():
     finally:
         ev.close()
     assert np.all(np.isfinite(values)) and values[0] < 1e-20 < values[1]
+
+
+def test_resume_without_a_checkpoint_file_says_a_new_run_starts(capsys, tmp_path):
+    ck = tmp_path / "typo.json"
+    code, _, err = run(capsys, "fit", csv(tmp_path), "--population", "10", "--generations",
+                       "1", "--seed", "0", "--quiet", "--checkpoint", ck, "--resume")
+    assert code == 0 and f"note: no checkpoint at {ck} yet: a new run starts" in err
+    assert ck.exists()
