@@ -3,10 +3,10 @@
 Typical use::
 
     from mggp import MGGPRegressor
-    est = MGGPRegressor(fitness="ms", window=100, population=200,
-                        generations=50, random_state=0, n_jobs=2).fit(u, y)
+    est = MGGPRegressor(fitness="ms", window=100, population=200, generations=50,
+                        constraints="steady-state", random_state=0, n_jobs=2).fit(u, y)
     est.model_                      # narx.Model, θ by LS (QR) on all data
-    est.model_cls_                  # CLS refit (constraints='steady-state')
+    est.model_cls_                  # its CLS refit (continuum of steady states)
     print(est.pareto_front_)        # complexity, loss, score, equation (mggp.pareto)
     est.simulate(u_val, y_val, mode="freerun").mape
 

@@ -3,7 +3,7 @@
 Typical use::
 
     est = MGGPRegressor(...).fit(u, y)
-    print(est.pareto_front_)                 # complexity, loss, equation
+    print(est.pareto_front_)                 # complexity, loss, score, equation
     m = est.pareto_front_.get_best()         # lowest loss, as a narx.Model
     m = est.pareto_front_.get_best("score")  # best loss drop per term, loss within 2x the best
     est.pareto_front_.to_latex(2)            # row 2 as LaTeX

@@ -3,7 +3,7 @@
 Typical use::
 
     model.to_sympy()      # 1.0*y[k-1] - 0.231*Phi1(u[k-2], u[k-3]) + ...
-    model.to_latex()      # 'y_{k} = 1.0000\\, y_{k-1} - 0.2310\\, \\Phi_{1}(...)'
+    model.to_latex()      # 'y_{k} = 1\\, y_{k-1} - 0.231\\, \\Phi_{1}(...)'
 
 Lagged signals become sympy symbols named like the term text (``y[k-1]``);
 Φ-functions become undefined sympy functions of those symbols.
