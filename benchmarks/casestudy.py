@@ -16,7 +16,9 @@ Hold metrics, for each hold: *drift* = max − min of the simulated output
 over the hold after a settling time of ``settle`` samples (the model's
 regressors need up to its largest lag to see the frozen input, and its
 linear output dynamics a few more samples to settle); *steady-state error*
-= |ŷ − y| at the end of the hold, against the true system.
+= |ŷ − y| at the end of the hold, against the true system; and over both
+holds the *edge error*, the largest |ŷ − y| within 20 samples after the
+input stops or starts again (:func:`edge_error`).
 """
 from __future__ import annotations
 
@@ -125,6 +127,20 @@ def hold_metrics(y_hat, y_true, hold: slice, settle: int) -> Dict[str, float]:
             "ss_error": float(abs(seg[-1] - y_true[hold][-1]))}
 
 
+def edge_error(y_hat, y_true, holds, width: int = 20) -> float:
+    """Largest |ŷ − y| within ``width`` samples after each hold's start and
+    end: the transient when the input stops or starts again, which the drift
+    (after settling) and the end-of-hold error do not see."""
+    worst = 0.0
+    for sl in holds:
+        for e in (sl.start, sl.stop):
+            seg = np.abs(y_hat[e:e + width] - y_true[e:e + width])
+            if seg.size:
+                worst = max(worst, float(np.max(seg)) if np.all(np.isfinite(seg))
+                            else float("inf"))
+    return worst
+
+
 def score_model(model: Model, cs: CaseData, settle: Optional[int] = None) -> dict:
     """Free-run figures of a model on the case-study records."""
     settle = 100 if settle is None else settle
@@ -138,6 +154,8 @@ def score_model(model: Model, cs: CaseData, settle: Optional[int] = None) -> dic
            "theta": [float(v) for v in model.theta],
            "y_val": rv.y_hat, "y_held": rh.y_hat}
     yr = float(np.ptp(cs.yh))
+    out["hold_edge_error"] = edge_error(rh.y_hat, cs.yh, (cs.held.hold_rising,
+                                                         cs.held.hold_falling))
     for name, sl in (("loading", cs.held.hold_rising), ("unloading", cs.held.hold_falling)):
         if rh.diverged:
             out[f"drift_{name}"] = out[f"ss_{name}"] = float("inf")

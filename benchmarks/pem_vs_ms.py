@@ -43,7 +43,7 @@ from .casestudy import (MODEL19, PUBLISHED, TRAINING_FILTER_ORDER, case_data, mo
 QUICK = dict(n=50_000, population=300, generations=60, seeds=[1], window=1000)
 FULL = dict(n=50_000, population=500, generations=200, seeds=[1, 2, 3, 4, 5], window=1000)
 COLS = ("train_mape", "val_mape", "val_rmse", "n_terms", "drift_loading", "drift_unloading",
-        "ss_loading", "ss_unloading", "fit_time")
+        "ss_loading", "ss_unloading", "hold_edge_error", "fit_time")
 
 
 def _search(fitness, cs, args, seed, constraints=None):

@@ -70,7 +70,6 @@ def write_figures(folder, cs, rows, extras, peers):
 
 
 def write_report(args, summary, peers, checks, figs, damper, table_md, seconds):
-    import deap
     import numba
     import scipy
     mode = "full (published setup)" if args.full else "quick"
@@ -85,8 +84,16 @@ def write_report(args, summary, peers, checks, figs, damper, table_md, seconds):
              "", "Free-run figures; MAPE is range-normalised, 100·mean|y − ŷ| / (max y − min y), the metric of the published table (Abreu et al., Nonlinear Dynamics 2020). Drift is the "
              "range of the simulated output over each 1 s hold after 100 settling samples; "
              "the steady-state error is |ŷ − y| at the end of the hold against the true "
-             "system. With several seeds: median (min–max).", "", table_md, "",
-             "## Goals", ""]
+             "system. With several seeds: median (min–max).", "", table_md, ""]
+    edges = [(s["name"], s.get("hold_edge_error")) for s in summary
+             if s.get("hold_edge_error") is not None and np.isfinite(s["hold_edge_error"])]
+    if edges:
+        lines += ["Transients where the input stops or starts again (largest |ŷ − y| "
+                  "within 20 samples after each hold edge of the held sine, µm; the "
+                  "drift and end-of-hold error above do not see them, the spikes of "
+                  "held.png are these): " + ", ".join(f"{n} {v:.3g}" for n, v in edges)
+                  + ".", ""]
+    lines += ["## Goals", ""]
     lines += [f"- [{'x' if ok else ' '}] {t}: {v:.4g}" + ("" if ok else " (short)")
               for t, ok, v in checks]
     lines += ["", "## Models", ""]
@@ -112,7 +119,8 @@ def write_report(args, summary, peers, checks, figs, damper, table_md, seconds):
         lines += ["", "## Second study: MR damper (shared data)", "", damper["markdown"]]
     lines += ["", "## Figures", ""] + [f"![{os.path.basename(f)}]({os.path.basename(f)})"
                                        for f in figs]
-    lines += ["", f"Versions: deap {deap.__version__}, numba {numba.__version__}, "
+    from importlib.metadata import version
+    lines += ["", f"Versions: deap {version('deap')}, numba {numba.__version__}, "
               f"numpy {np.__version__}, scipy {scipy.__version__}."]
     from narx.atomic import atomic_write_text
     atomic_write_text(os.path.join(args.out, "report.md"), "\n".join(lines) + "\n")
