@@ -10,8 +10,8 @@ of :mod:`benchmarks.evals` once (a generation 0: every column, Gram entry
 and window-major copy is built on first sight), best of ``--repeats``
 passes. The scorer's phases are timed by wrapping them:
 
-* ``Gram dot products``: ``fixed_dot`` (one 4-lane fixed-order dot product
-  per new pair of columns, and per column with y);
+* ``Gram entries``: ``_fill_gram`` (one compiled pass: a 4-lane
+  fixed-order dot product per new pair of columns, and per column with y);
 * ``MS kernel``: the window-major multiple-shooting kernel ``_ms_sse``;
 * ``columns``: building the regressor columns and input parts on first
   sight (``ColumnStore.get``, numpy);
@@ -30,7 +30,7 @@ from .evals import START, random_term_sets
 from .speed import piezo_record
 
 #: (phase, owner, attribute); owners are resolved in :func:`run`
-PHASES = (("Gram dot products", "fitness", "fixed_dot"),
+PHASES = (("Gram entries", "fitness", "_fill_gram"),
           ("MS kernel", "ms_kernel", "_ms_sse"),
           ("LS solve", "fitness", "_solve_gelsy"),
           ("columns", "ColumnStore", "get"),
