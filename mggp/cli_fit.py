@@ -74,8 +74,11 @@ def register(sub):
                    help="reject each generation's leaders whose free run over the "
                         "record leaves the output band ('hold': or whose CLS refit "
                         "does not hold its output on a held input)")
-    p.add_argument("--out", metavar="MODEL.json", help="write the model (the CLS fit "
-                                                      "with --constraints)")
+    p.add_argument("--out", metavar="MODEL.json",
+                   help="write the model: with --constraints the CLS fit, unless its free "
+                        "run diverges on the training record or (without --select/--screen "
+                        "hold) its RMSE there is over twice the LS fit's: then the LS fit, "
+                        "with a warning")
     p.add_argument("--report", metavar="DIR", help="write figures and a Markdown summary")
     p.add_argument("--checkpoint", metavar="FILE", help="save the state every generation")
     p.add_argument("--resume", action="store_true",
@@ -171,7 +174,9 @@ def _cmd_fit(args) -> int:
     final = m
     fr_ls = m.simulate(data, mode="freerun")
     lines = [f"seed {est.seed_}; {est.n_evaluations_} structures evaluated in "
-             f"{est.fit_time_:.1f} s; best {args.fitness} fitness {fmt(est.fitness_)}",
+             f"{est.fit_time_:.1f} s; best {args.fitness} fitness {fmt(est.fitness_)}"
+             + ("" if args.criterion == "mse" else
+                f" ({args.criterion.upper()} of the {args.fitness} MSE)"),
              "LS:  " + m.equation(), _freerun_line(fr_ls)]
     if m.meta.get("estimation") == "ls-search":
         lines.append(f"     θ from the search's fit: the QR refit of these terms simulates "
@@ -184,7 +189,9 @@ def _cmd_fit(args) -> int:
             fr = c.simulate(data, mode="freerun")
             lines += ["CLS: " + c.equation(), _freerun_line(fr)]
             worse = fr_ls.rmse > 0 and fr.rmse > CLS_WORSE * fr_ls.rmse
-            if fr.diverged or (worse and not fr_ls.diverged):
+            # with 'hold' the structure was chosen for its CLS refit's holding
+            held = "hold" in (args.select, args.screen)
+            if fr.diverged or (worse and not fr_ls.diverged and not held):
                 why = ("diverges on the training record" if fr.diverged else
                        f"is {fr.rmse / fr_ls.rmse:.3g} times the LS fit's free-run RMSE")
                 print(f"warning: the CLS refit {why}; the LS model is written instead "

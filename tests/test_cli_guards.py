@@ -220,3 +220,24 @@ def test_resume_without_a_checkpoint_file_says_a_new_run_starts(capsys, tmp_path
                        "1", "--seed", "0", "--quiet", "--checkpoint", ck, "--resume")
     assert code == 0 and f"note: no checkpoint at {ck} yet: a new run starts" in err
     assert ck.exists()
+
+
+def test_fit_keeps_the_cls_model_when_hold_chose_it(capsys, tmp_path, monkeypatch):
+    """With --select hold the structure was chosen for its CLS refit, so a
+    CLS fit that is only worse in free-run RMSE is still written."""
+    import mggp.estimator as E
+    real = E.MGGPRegressor.fit
+
+    def fit(self, *a, **k):
+        real(self, *a, **k)
+        self.model_cls_ = Model(["y[k-1]", "u[k-1]"], [0.5, 0.5])   # stable, worse
+        return self
+    monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
+    out = tmp_path / "m.json"
+    code, stdout, err = run(capsys, "fit", csv(tmp_path), "--population", "20",
+                            "--generations", "2", "--seed", "0", "--quiet", "--select", "hold",
+                            "--constraints", "steady-state", "--criterion", "bic",
+                            "--out", out)
+    assert code == 0, err
+    assert "LS model is written" not in err and "(CLS fit)" in stdout
+    assert "(BIC of the ms MSE)" in stdout
