@@ -13,7 +13,11 @@ in free run. REFERENCE.csv has a header row and the desired output in column
 model's input name (the actuator input to apply), ``y_model`` (the model's
 output under it; empty for a data-driven compensator) and ``fallback`` (1
 where no root was admissible). Errors: one ``error:`` line, exit code 2; the
-output is written atomically, after every check.
+output is written atomically, after every check. A model-based input of
+which more than half of the steps fell back is refused unless
+``--allow-fallbacks``; a non-minimum-phase model (a zero of its linear input
+part outside the unit circle, :func:`narx.inverse_check.inverse_stability`)
+is named in one ``warning:`` line (or in the error).
 """
 from __future__ import annotations
 
@@ -49,12 +53,16 @@ def register(sub):
     p.add_argument("--y-past", type=float, default=None,
                    help="model output before the record (default: the reference's first "
                         "value, at rest on it)")
+    p.add_argument("--allow-fallbacks", action="store_true",
+                   help="write the input even when more than half of the steps fall back "
+                        "(refused by default: the tracking is then usually worse than with "
+                        "no compensation)")
     p.set_defaults(func=_cmd_compensate)
 
 
 def _cmd_compensate(args) -> int:
     from narx import load_model
-    from narx.compensate import RootCompensator
+    from narx.compensate import NonMinimumPhaseWarning, RootCompensator
     from narx.csvdata import read_columns
     from narx.atomic import atomic_writer
     from .compensate import INVERSE_KIND, InverseCompensator
@@ -102,20 +110,26 @@ def _cmd_compensate(args) -> int:
         print(f"data-driven compensator, lead {comp.lead}: {r.size} samples{clip}")
     else:
         try:
-            comp = RootCompensator(model, input_range=args.input_range, lead=args.lead,
-                                   fallback=args.fallback, max_step=args.max_step,
-                                   u_past=args.u_past,
-                                   y_past=args.y_past)
+            with warnings.catch_warnings():      # said below, once, with the outcome
+                warnings.simplefilter("ignore", NonMinimumPhaseWarning)
+                comp = RootCompensator(model, input_range=args.input_range, lead=args.lead,
+                                       fallback=args.fallback, max_step=args.max_step,
+                                       u_past=args.u_past, y_past=args.y_past)
         except ValueError as exc:
             raise CLIError(f"{args.model}: {exc}") from None
+        chk = comp.inverse_check
+        nmp = ("" if chk.minimum_phase else
+               f"{chk.describe()}; use a data-driven compensator "
+               f"(mggp.compensate.identify_inverse) or a PI loop (mggp.compensate.pi_loop)")
         res = comp.run(r)
         if res.diverged:
             raise CLIError(f"the inverse of {args.model} diverges on {args.reference} at "
                            f"sample {res.diverged_at} (input or model output beyond 1e4 times "
                            f"the signals' magnitude): the model cannot be inverted "
-                           f"stably there; give --input-range LOW HIGH, --max-step, the "
+                           f"stably there; " + (nmp or
+                           f"give --input-range LOW HIGH, --max-step, the "
                            f"state before the record (--u-past, --y-past), or a model "
-                           f"whose inverse is stable")
+                           f"whose inverse is stable"))
         name = model.inputs[0]
         d, n = res.delay, r.size
         hit = ~res.fallback[: max(0, n - d)]        # y_model[j + d] answers target[j]
@@ -126,13 +140,7 @@ def _cmd_compensate(args) -> int:
               f"beyond --max-step (the target was not reachable in one step); "
               + (f"max |y_model - target| at the other steps {fmt(float(err.max()))}"
                  if err.size else "no step had an admissible root"))
-        if res.fallback_rate > 0.05:
-            warnings.warn(f"{100 * res.fallback_rate:.0f} % of the steps had no admissible "
-                          f"root: the model cannot reach the reference there in one step "
-                          f"(the reference jumps, leaves the model's range, or the model "
-                          f"itself cannot be inverted there); the tracking may be worse "
-                          f"than with no compensation (benchmarks/RESULTS.md, compensation "
-                          f"--more); check the model, smooth the reference, or use a PI loop")
+        _fallback_verdict(res.fallback_rate, nmp, args.allow_fallbacks)
     if name in (args.column, "y_model", "fallback"):
         name = name + "_input"
     print(f"actuator input spans {fmt(float(res.m.min()))} .. {fmt(float(res.m.max()))}")
@@ -147,3 +155,33 @@ def _cmd_compensate(args) -> int:
                             int(res.fallback[j])])
         print(f"input written to {args.out}")
     return 0
+
+
+def _fallback_verdict(rate, nmp, allow):
+    """Refuse when more than half of the steps fell back (unless ``allow``), else
+    warn in one line: about the fallbacks (> 5 %) and the non-minimum-phase
+    model ``nmp`` (its description, or '' when minimum-phase).
+
+    Parameters
+    ----------
+    rate : float
+        Fraction of the steps that fell back.
+    nmp : str
+        Why the model's inverse is unstable, or '' when it is minimum-phase.
+    allow : bool
+        ``--allow-fallbacks``: warn instead of refusing.
+    """
+    fb = f"{100 * rate:.0f} % of the steps had no admissible root: " + (
+        nmp or "the model cannot reach the reference there in one step (the reference "
+               "jumps, leaves the model's range, or the model itself cannot be inverted "
+               "there)")
+    if rate > 0.5 and not allow:
+        raise CLIError(f"{fb}; the tracking would likely be worse than with no compensation: "
+                       f"nothing written (--allow-fallbacks writes it anyway)")
+    if rate > 0.05:
+        warnings.warn(f"{fb}; the tracking may be worse than with no compensation "
+                      f"(benchmarks/RESULTS.md, compensation --more)"
+                      + ("" if nmp else "; check the model, smooth the reference, or use a "
+                                        "PI loop"))
+    elif nmp:
+        warnings.warn(nmp)

@@ -62,16 +62,20 @@ References
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
 
 from .compensate_args import check_count, check_range, check_reference, past_values
+from .inverse_check import (NonMinimumPhaseWarning, active_terms, input_lags,
+                            inverse_stability, uninvertible_reason)
 from .terms import Lag
 
 __all__ = ["CompensationResult", "RootCompensator", "TermPlan", "compensate",
-           "check_range", "check_reference", "check_count", "past_values"]
+           "check_range", "check_reference", "check_count", "past_values",
+           "inverse_stability", "NonMinimumPhaseWarning"]
 
 FALLBACKS = ("minimise", "hold")
 
@@ -262,19 +266,30 @@ class RootCompensator:
     rtol : float
         Relative tolerance of the equal-input (breakpoint) case and of
         snapping a root onto a remembered input.
+
+    Attributes
+    ----------
+    inverse_check : narx.inverse_check.InverseStability
+        Zeros of the model's linear input part; when one lies outside the
+        unit circle (``not inverse_check.minimum_phase``) the exact inverse
+        is unstable and a :class:`NonMinimumPhaseWarning` is issued.
     """
 
     def __init__(self, model, *, input_range=None, lead=None, fallback="minimise",
                  max_step=None, u_past=0.0, y_past=0.0, rtol=1e-9):
-        lags = [a.lag for t in model.terms for f in t.factors
-                for a in ((f,) if isinstance(f, Lag) else f.args) if a.role == "u"]
+        lags = [la for t, _ in active_terms(model) for la in input_lags(t)]
         if not lags:
-            raise ValueError("the model has no input term: there is nothing to invert")
+            raise ValueError("the model has no input term with a nonzero parameter: there "
+                             "is nothing to invert")
         self.delay = int(min(lags))
         self.plan = TermPlan(model, self.delay)
         if not any(r[2] or r[3] for r in self.plan.rows):
-            raise ValueError(f"no term of the model depends on u[k-{self.delay}] with a "
-                             f"nonzero parameter: there is nothing to invert")
+            raise ValueError(uninvertible_reason(model, self.delay))
+        self.inverse_check = inverse_stability(model)
+        if not self.inverse_check.minimum_phase:
+            warnings.warn(f"{self.inverse_check.describe()}; use a data-driven compensator "
+                          f"(mggp.compensate.identify_inverse) or a PI loop",
+                          NonMinimumPhaseWarning, stacklevel=2)
         self.model = model
         self.input_range = check_range(input_range)
         if max_step is not None and not (isinstance(max_step, (int, float)) and

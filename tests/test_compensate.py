@@ -315,7 +315,9 @@ def test_an_unstable_inverse_is_detected_and_the_cli_writes_nothing(tmp_path, ca
     assert not m.simulate(u, prandtl_ishlinskii(u), mode="freerun").diverged
     t = np.arange(3000) * 1e-3
     r = 36 * np.sin(2 * np.pi * 0.5 * t)
-    res = compensate(m, r)
+    from narx.compensate import NonMinimumPhaseWarning
+    with pytest.warns(NonMinimumPhaseWarning, match="non-minimum-phase"):
+        res = compensate(m, r)
     assert res.diverged and 0 <= res.diverged_at < r.size
     assert np.all(np.isnan(res.m[res.diverged_at:]))
     assert np.all(np.isfinite(res.m[:res.diverged_at]))
@@ -328,7 +330,9 @@ def test_an_unstable_inverse_is_detected_and_the_cli_writes_nothing(tmp_path, ca
     out.write_text("KEEP")
     assert main(["compensate", str(mp), str(ref), "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "diverges on" in err and "--input-range" in err
+    # the reason is named: its linear input part has a zero outside the unit circle
+    assert err.count("\n") == 1 and "diverges on" in err and "non-minimum-phase" in err
+    assert "identify_inverse" in err and "|z| = " in err
     assert out.read_text() == "KEEP"
 
 
@@ -389,3 +393,77 @@ def test_cli_compensates_in_any_units_and_offsets(capsys, tmp_path, u_scale, u_o
     assert main(["compensate", str(mp), str(ref), "--out", str(out)]) == 0, \
         capsys.readouterr().err
     assert "fallbacks 0 " in capsys.readouterr().out
+
+
+# ------------------------------------------ inverse stability (non-minimum-phase)
+def test_a_non_minimum_phase_model_is_reported_with_its_zeros():
+    """y[k] = 0.5 y[k-1] + u[k-1] - 2 u[k-2]: B(q⁻¹) = q⁻¹ - 2q⁻² has the zero
+    z = 2, so the exact inverse u[k-1] = y[k] - 0.5 y[k-1] + 2 u[k-2] doubles
+    any error every step; the compensator says so (it used to say nothing)."""
+    import warnings
+    from narx.compensate import NonMinimumPhaseWarning, inverse_stability
+    nmp = narx.Model(["y[k-1]", "u[k-1]", "u[k-2]"], theta=[0.5, 1.0, -2.0])
+    chk = inverse_stability(nmp)
+    assert not chk.minimum_phase and not chk.linearised
+    assert chk.coefficients == {1: 1.0, 2: -2.0}
+    np.testing.assert_allclose(chk.unstable_zeros, [2.0])
+    assert "non-minimum-phase" in chk.describe() and "z = 2" in chk.describe()
+    with pytest.warns(NonMinimumPhaseWarning, match="z = 2"):
+        comp = RootCompensator(nmp)
+    assert not comp.inverse_check.minimum_phase
+    # Phi1 of input lags is linear: u[k-1] + 3 Phi1(u[k-2],u[k-3]) gives
+    # q⁻¹ + 3q⁻² - 3q⁻³, zeros (-3 ± √21)/2; a cubic term makes it "linearised"
+    phi = narx.Model(["y[k-1]", "u[k-1]", "Phi1(u[k-2],u[k-3])", "u[k-1]*u[k-1]*y[k-1]"],
+                     theta=[0.5, 1.0, 3.0, 0.01])
+    chk = inverse_stability(phi)
+    assert chk.coefficients == {1: 1.0, 2: 3.0, 3: -3.0} and chk.linearised
+    np.testing.assert_allclose(chk.unstable_zeros, [(-3 - 21 ** 0.5) / 2])
+    assert "linearised" in chk.describe()
+    # controls: minimum-phase (zero 0.5), the published model (19) (zeros on
+    # or inside the unit circle: Phi1 gives z = 1) construct without a warning
+    for ok in (narx.Model(["y[k-1]", "u[k-1]", "u[k-2]"], theta=[0.5, 1.0, -0.5]),
+               narx.Model(list(MODEL19_TERMS), theta=list(MODEL19_THETA))):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            comp = RootCompensator(ok)
+        assert comp.inverse_check.minimum_phase and comp.inverse_check.zeros.size
+        assert "minimum-phase" in comp.inverse_check.describe()
+
+
+def test_cli_refuses_when_most_steps_fall_back_unless_allowed(tmp_path, capsys):
+    mp, ref, out = tmp_path / "nmp.json", tmp_path / "r.csv", tmp_path / "o.csv"
+    narx.Model(["y[k-1]", "u[k-1]", "u[k-2]"], theta=[0.5, 1.0, -2.0]).save(mp)
+    r = np.sin(2 * np.pi * np.arange(1000) / 250)
+    ref.write_text("r\n" + "\n".join(repr(float(v)) for v in r) + "\n")
+    out.write_text("KEEP")
+    args = ["compensate", str(mp), str(ref), "--out", str(out), "--input-range", "-5", "5"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: "), err
+    assert "non-minimum-phase" in err and "z = 2" in err and "identify_inverse" in err
+    assert "--allow-fallbacks" in err and "reference jumps" not in err
+    assert out.read_text() == "KEEP"
+    assert main(args + ["--allow-fallbacks"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("warning: "), err
+    assert "non-minimum-phase" in err and "z = 2" in err and "reference jumps" not in err
+    assert np.genfromtxt(out, delimiter=",", names=True)["fallback"].mean() > 0.5
+
+
+def test_an_input_lag_entering_only_through_a_sign_is_named():
+    """u[k-1] enters only through Phi2 (a sign): it cannot be inverted, and
+    the message says so (it used to say no term depends on u[k-1])."""
+    m = narx.Model(["y[k-1]", "Phi2(u[k-3],u[k-1])", "Phi1(u[k-4],u[k-2])", "u[k-5]"],
+                   theta=[0.5, -0.003, 1.0, 0.2])
+    with pytest.raises(ValueError) as exc:
+        RootCompensator(m)
+    msg = str(exc.value)
+    assert "u[k-1]" in msg and "only through a sign" in msg and "Phi2(u[k-3],u[k-1])" in msg
+    assert "first input lag that enters polynomially is u[k-2]" in msg
+    assert "no term" not in msg
+    only = narx.Model(["y[k-1]", "Phi2(u[k-2],u[k-1])"], theta=[0.5, 1.0])
+    with pytest.raises(ValueError, match="no input lag enters polynomially"):
+        RootCompensator(only)
+    # a term with θ = 0 does not act: the delay is that of the terms that do
+    zero = narx.Model(["y[k-1]", "u[k-1]", "u[k-2]"], theta=[0.5, 0.0, 1.0])
+    assert RootCompensator(zero).delay == 2
