@@ -467,3 +467,25 @@ def test_an_input_lag_entering_only_through_a_sign_is_named():
     # a term with θ = 0 does not act: the delay is that of the terms that do
     zero = narx.Model(["y[k-1]", "u[k-1]", "u[k-2]"], theta=[0.5, 0.0, 1.0])
     assert RootCompensator(zero).delay == 2
+
+
+def test_cli_fallback_verdict_blames_the_reference_only_for_a_minimum_phase_model():
+    import warnings
+    from mggp.cli import CLIError
+    from mggp.cli_compensate import _fallback_verdict
+    nmp = "the model is non-minimum-phase: ... z = 2 (|z| = 2) ..."
+    for rate, text, expect in ((0.0, "", None), (0.0, nmp, "z = 2"),
+                               (0.1, nmp, "z = 2"), (0.1, "", "the reference jumps"),
+                               (0.9, nmp, "z = 2")):
+        with warnings.catch_warnings(record=True) as got:
+            warnings.simplefilter("always")
+            _fallback_verdict(rate, text, allow=True)
+        assert len(got) == (expect is not None)
+        if got:
+            msg = str(got[0].message)
+            assert expect in msg and ("reference jumps" in msg) == (not text)
+    with pytest.raises(CLIError, match="--allow-fallbacks"):
+        _fallback_verdict(0.51, "", allow=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _fallback_verdict(0.5, "", allow=False)             # half: still written
