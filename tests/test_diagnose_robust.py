@@ -73,7 +73,9 @@ def test_a_held_input_with_noise_is_found_and_drift_named_as_without_noise():
     drift = [[c.test for c in d.checks if c.effect == "steady-state-drift" and c.beats]
              for d in (clean, dx)]
     assert "steady-state-drift" in clean.effects and "steady-state-drift" in dx.effects
-    assert drift[0] == drift[1] == ["hold validation:562", "hold validation:1188"]
+    # the drifting model also rests at the wrong level in both holds (rest error)
+    assert drift[0] == drift[1] == ["hold validation:562", "rest error validation:562",
+                                    "hold validation:1188", "rest error validation:1188"]
     assert "drift check could not run" not in dx.summary()
 
 
@@ -155,8 +157,11 @@ def test_an_extension_worse_than_the_baseline_is_not_recommended(base_diagnosis,
     from dataclasses import replace
 
     from mggp.diagnose import Gain
-    dx = base_diagnosis
-    assert dx.findings and dx.gain.ratio < 1          # the tiny search made it worse
+    # an extension 1.5 times worse than the baseline (the tiny search used to
+    # make one; with the rest-error check naming drift its CLS extension helps)
+    dx = replace(base_diagnosis, gain=Gain(base_diagnosis.gain.baseline,
+                                           1.5 * base_diagnosis.gain.baseline))
+    assert dx.findings and dx.gain.ratio < 1
     text = dx.summary()
     assert ("recommended: the baseline, which is kept: the extension did not help (in free "
             "run on the measuring samples the extended model is worse: RMSE "
@@ -192,3 +197,58 @@ def test_diverging_baseline_gives_an_undefined_ratio_and_a_warning(base_diagnosi
     assert dx.gain.recommended == "baseline"
     row = _table([["hysteresis", "corr(|Δu|, e) = 0.3"]], ["finding", "evidence"])[2]
     assert row.count("|") - row.count("\\|") == 3
+
+
+# --------------------------------------------- a model that rests at a wrong level
+def ramps_and_holds(n=3000, seed=0, hold=150):
+    """Input ramping at a random slope to a random level, then held."""
+    r = np.random.default_rng(seed)
+    u, level = [0.0], 0.0
+    while len(u) < n:
+        new = float(r.uniform(-1, 1))
+        steps = int(r.integers(20, 60))
+        u += list(np.linspace(level, new, steps + 1)[1:]) + [new] * hold
+        level = new
+    return np.array(u[:n])
+
+
+def memoryless_record(seed):
+    """y[k] = u[k-1], noise-free: the system rests where its input stops."""
+    u = ramps_and_holds(seed=seed)
+    return Data(u, np.r_[0.0, u[:-1]])
+
+
+def jumping_model(beta):
+    """y[k] = y[k-1] + Δu[k-1] + β (Δu[k-1] - Δu[k-2]): exact while the input
+    ramps at a constant slope s, still in every hold (a continuum of steady
+    states), but two samples after the input stops it jumps by -β s and
+    rests there. β = 0 is the exact model."""
+    return narx.Model(["y[k-1]", "u[k-1]", "u[k-2]", "u[k-3]"],
+                      theta=[1.0, 1.0 + beta, -(1.0 + 2.0 * beta), beta])
+
+
+def test_a_model_that_lands_at_a_wrong_level_when_the_input_stops_is_named():
+    # the hold test compared each signal's movement with itself from
+    # start + L + 1 on, after the jump: a model resting still at the wrong
+    # level passed it and the diagnosis printed 'findings: none'
+    train, val = memoryless_record(1), memoryless_record(2)
+    bad = jumping_model(20.0)
+    dx = diagnose(train, val, bad, budget=TINY, seed=0)
+    assert "steady-state-drift" in dx.effects, [(c.test, c.statistic) for c in dx.checks]
+    resp = hold_responses(bad, val, "validation", 20)
+    assert resp and all(abs(r.model_move) < 1e-9 for r in resp)      # keeps still ...
+    assert max(r.rest_error for r in resp) > 0.2                      # ... at a wrong level
+    hits = [c for c in dx.checks if c.test.startswith("rest error") and c.beats]
+    assert hits and all(c.effect == "steady-state-drift" for c in hits)
+    assert "error at rest" in hits[0].detail and "resolution floor" in hits[0].detail
+    f = next(f for f in dx.findings if f.effect == "steady-state-drift")
+    assert f.statistic > f.threshold and "error at rest" in f.evidence
+    tests = {t["test"]: t for t in dx.to_dict()["tests"]}
+    assert tests[hits[0].test]["beats_threshold"] is True
+    # control: the exact model rests at the data's level and nothing is named
+    good = jumping_model(0.0)
+    assert all(r.rest_error < 1e-9 for r in hold_responses(good, val, "validation", 20))
+    dx = diagnose(train, val, good, budget=TINY, seed=0)
+    rest = [c for c in dx.checks if c.test.startswith("rest error")]
+    assert rest and not any(c.beats for c in rest)
+    assert "steady-state-drift" not in dx.effects, dx.effects

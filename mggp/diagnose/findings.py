@@ -24,7 +24,9 @@ effect                       meaning, and the evidence that names it            
                              input where the system does: movement in a         continuum constraints
                              held-input segment of the data (hold test),        (``constraints=
                              explained by cluster sums that break Σ_y = 1,      'steady-state'``)
-                             Σ_other = 0
+                             Σ_other = 0, or, started when the input stops,
+                             the model rests at another level than the data
+                             (rest-error test)
 ``prediction-bias``          one-step fit good, free run poor: the free-run     multiple-shooting
                              error exceeds what the model's own one-step        fitness (longer windows
                              residuals cause when propagated (bootstrap)        if already used)
@@ -73,7 +75,7 @@ VOCABULARY: Dict[str, str] = {
     "hysteresis": "the output depends on the direction or history of the input beyond "
                   "what the model's terms express",
     "steady-state-drift": "the model does not hold its output at a constant input where "
-                          "the system does",
+                          "the system does (it moves, or rests at another level)",
     "prediction-bias": "one-step fit good, free run poor (a structure chosen for "
                        "one-step prediction)",
     "unmodelled-nonlinearity": "the one-step residual depends on a nonlinear function of "
@@ -250,7 +252,52 @@ def _hold_checks(ev: Evidence) -> List[Check]:
                   f"level; cluster sums off the continuum: {viol}")
         out.append(Check(f"hold {h.record}:{h.start}", "steady-state-drift", h.excess,
                          bound, detail))
+        out.append(_rest_error_check(ev, h, z, viol))
     return out
+
+
+def _rest_error_check(ev: Evidence, h: HoldResponse, z: float, viol: str) -> Check:
+    """Does the model, started when the input stops, rest at the data's level?
+
+    The movement test compares each signal with itself, so a model that
+    jumps to a wrong level just after the input stops and keeps still
+    there passes it; this check compares the model's level with the
+    data's, just after its transient and at the hold's end
+    (:attr:`HoldResponse.rest_error`), against max(z·se, resolution floor).
+
+    Parameters
+    ----------
+    ev : Evidence
+        The evidence (resolution floors).
+    h : HoldResponse
+        A hold in which the data keep still.
+    z : float
+        Bonferroni z of the hold tests.
+    viol : str
+        The model's cluster sums off the continuum, in words.
+
+    Returns
+    -------
+    Check
+        Test ``rest error <record>:<start>`` of ``steady-state-drift``.
+    """
+    floor = ev.hold_floors.get(h.record, ev.floor)
+    bound = max(z * h.level_se, floor)
+    if np.isfinite(h.rest_error):
+        rests = (f"lands at {_g(h.model_settled)} once the input's last move has passed "
+                 f"through its lags (samples {h.compare_from}-) and rests at "
+                 f"{_g(h.model_end)} at the end")
+    else:
+        rests = "diverges"
+    detail = (f"input held at {h.level:.4g} in {h.record} samples {h.start}-{h.stop - 1}: "
+              f"the model, started from the measured state when the input stops (sample "
+              f"{h.start}), {rests}; the data rest at {_g(h.data_settled)} and "
+              f"{_g(h.data_end)}: error at rest {_g(h.rest_error)}; bound max(z·se = "
+              f"{_g(z * h.level_se)}, resolution floor {_g(floor)}); the model's "
+              f"steady-state equation moves {_g(h.rate)} per sample at this level; cluster "
+              f"sums off the continuum: {viol}")
+    return Check(f"rest error {h.record}:{h.start}", "steady-state-drift", h.rest_error,
+                 bound, detail)
 
 
 def _rest_level_checks(ev: Evidence) -> List[Check]:

@@ -211,8 +211,18 @@ class HoldResponse:
     data_end, model_end : float
         Their mean over the last quarter of the comparison (the level they
         rest at).
+    data_settled, model_settled : float
+        Their mean over the first quarter of the comparison (the level they
+        land at once every Φ of inputs is 0, i.e. just after the input stops
+        and the model's transient from the last move is over).
     noise_se : float
         Standard error of ``data_move``.
+    level_se : float
+        Standard error of the model's error at rest (``model_end -
+        data_end`` or ``model_settled - data_settled``) caused by noise:
+        :math:`\\hat\\sigma\\sqrt{1 + 1/q}` (the noise of the measured
+        output the model starts from, which a model with a continuum of
+        steady states keeps, and of the data's mean over q samples).
     rate : float
         r(ȳ, ū): per-sample move of the model's steady-state equation at the
         hold's level.
@@ -235,22 +245,43 @@ class HoldResponse:
     t: np.ndarray
     y: np.ndarray
     y_hat: np.ndarray
+    data_settled: float = float("nan")
+    model_settled: float = float("nan")
+    level_se: float = 0.0
 
     @property
     def excess(self) -> float:
         return abs(self.model_move - self.data_move)
+
+    @property
+    def rest_error(self) -> float:
+        """Error of the model's resting level against the data's:
+        ``max(|model_settled - data_settled|, |model_end - data_end|)``, the
+        larger of the errors just after the input stops (once the model's
+        transient is over) and at the hold's end (``inf`` if the model
+        diverges)."""
+        pairs = [(self.model_end, self.data_end)]
+        if not np.isnan(self.model_settled):            # NaN: not measured
+            pairs.append((self.model_settled, self.data_settled))
+        if not all(np.isfinite(m) for m, _ in pairs):
+            return float("inf")
+        return max(abs(m - d) for m, d in pairs)
 
 
 def _move(x, q):
     return float(np.mean(x[-q:]) - np.mean(x[:q]))
 
 
-def _noise_se(y, q):
+def _noise_sd(y) -> float:
+    """Robust noise standard deviation of ``y`` from its first differences."""
     d = np.diff(y)
     if d.size < 2:
         return 0.0
-    sd = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
-    return sd * np.sqrt(2.0 / q)
+    return 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
+
+
+def _noise_se(y, q):
+    return _noise_sd(y) * np.sqrt(2.0 / q)
 
 
 def steady_rate(model: Model, y_bar: float, u_bar) -> float:
@@ -302,6 +333,7 @@ def hold_responses(model: Model, data: Data, record: str = "data",
         finite = bool(np.all(np.isfinite(seg_m)))
         model_move = _move(seg_m, q) if finite else np.inf
         model_end = float(np.mean(seg_m[-q:])) if finite else np.inf
+        model_settled = float(np.mean(seg_m[:q])) if finite else np.inf
         y_bar = float(np.mean(seg_y[:q]))
         try:
             rate = steady_rate(model, y_bar, level)
@@ -313,8 +345,10 @@ def hold_responses(model: Model, data: Data, record: str = "data",
         y_hat[pre:] = yh[L:]
         out.append(HoldResponse(record, a + offset, b + offset, c + offset,
                                 float(level[0]), _move(seg_y, q), model_move,
-                                float(np.mean(seg_y[-q:])), model_end, _noise_se(seg_y, q),
-                                rate, t + offset, y[a - pre:b].copy(), y_hat))
+                                                float(np.mean(seg_y[-q:])), model_end, _noise_se(seg_y, q),
+                                rate, t + offset, y[a - pre:b].copy(), y_hat,
+                                y_bar, model_settled,
+                                _noise_sd(seg_y) * float(np.sqrt(1.0 + 1.0 / q))))
     return out
 
 
