@@ -252,3 +252,27 @@ def test_a_model_that_lands_at_a_wrong_level_when_the_input_stops_is_named():
     rest = [c for c in dx.checks if c.test.startswith("rest error")]
     assert rest and not any(c.beats for c in rest)
     assert "steady-state-drift" not in dx.effects, dx.effects
+
+
+def test_a_hold_test_that_could_not_run_says_why_not_no_power(tmp_path):
+    # a slow system keeps moving while its input is held: the hold tests
+    # cannot run, and the summary said 'no power (its bound is that wide,
+    # so the threshold is at least 1, the largest correlation ...)' for them
+    u = ramps_and_holds(seed=3)
+    y = np.zeros(u.size)
+    for k in range(1, u.size):
+        y[k] = 0.99 * y[k - 1] + 0.01 * u[k - 1]
+    train, val = Data(u[:1500], y[:1500]), Data(u[1500:], y[1500:])
+    model = narx.Model(["y[k-1]", "u[k-1]"], theta=[0.99, 0.01])
+    dx = diagnose(train, val, model, budget=TINY, seed=0)
+    idle = [c for c in dx.checks if c.test.startswith("hold") and not c.power]
+    assert idle, [(c.test, c.detail) for c in dx.checks]
+    text = dx.summary()
+    for c in idle:
+        assert f"{c.test}: could not run (the data do not hold (move " in text, text
+        assert f"{c.test}: no power" not in text and f"{c.test}, " not in text
+    assert "its bound is that wide" not in text
+    report = open(write_report(tmp_path / "r", dx)).read()
+    assert f"| {idle[0].test} | steady-state-drift | 0 | inf | could not run |" in report
+    # control: correlation tests without power keep their own wording
+    assert "φ_ee, φ_ue: no power (the residual tested, RMS " in text

@@ -237,10 +237,11 @@ def _hold_checks(ev: Evidence) -> List[Check]:
                      for lab, v, c in ev.cluster_violations) or "none"
     for h, bound, z, still in _held(ev):
         if not still:
-            detail = (f"{h.record} samples {h.start}-{h.stop - 1}: the data do not hold "
-                      f"(move {_g(h.data_move)}), so this segment says nothing about drift")
+            why = (f"the data do not hold (move {_g(h.data_move)}, bound {_g(bound)}), so "
+                   f"this segment says nothing about drift or the level at rest")
+            detail = f"{h.record} samples {h.start}-{h.stop - 1}: {why}"
             out.append(Check(f"hold {h.record}:{h.start}", "steady-state-drift", 0.0,
-                             float("inf"), detail))
+                             float("inf"), detail, why=why))
             continue
         moves = (f"moves {_g(h.model_move)}" if np.isfinite(h.model_move) else "diverges")
         detail = (f"input held at {h.level:.4g} in {h.record} samples {h.start}-{h.stop - 1}: "

@@ -44,8 +44,24 @@ def _rm(v) -> str:
 
 
 def untested(ev, checks=()) -> list:
-    """The kinds of evidence that could not be measured on this record
-    (``checks``: the diagnosis's checks, for the tests without power)."""
+    """The kinds of evidence that could not be measured on this record.
+
+    Parameters
+    ----------
+    ev : Evidence
+        The evidence of the diagnosis.
+    checks : sequence of Check
+        The diagnosis's checks. A correlation test without power (its
+        threshold at least 1, its ceiling) is listed with what made its
+        threshold that wide; any other check without power could not run
+        (e.g. a hold in which the data do not hold) and is listed with its
+        own reason (:attr:`Check.why`, else its detail).
+
+    Returns
+    -------
+    list of str
+        One phrase per kind of evidence not measured.
+    """
     out = []
     if not ev.correlation:
         out.append("correlation tests (fewer than 21 one-step residuals)")
@@ -59,8 +75,12 @@ def untested(ev, checks=()) -> list:
         out.append(_no_holds(ev))
     weak = {}
     for c in checks:
-        if not c.power:
+        if c.power:
+            continue
+        if np.isfinite(c.ceiling):          # a correlation test: its threshold is too wide
             weak.setdefault(c.why, []).append(c.test)
+        else:                               # a test that could not run: its own reason
+            out.append(f"{c.test}: could not run ({c.why or c.detail})")
     for why, tests in weak.items():
         out.append(f"{', '.join(tests)}: no power ({why or 'its bound is that wide'}, so "
                    f"the threshold is at least 1, the largest correlation there is, and "
@@ -276,7 +296,8 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data")
           f"test; resolution floor {dx.evidence.resolution:g} × output range. A finding is "
           f"named when a statistic is above its threshold.", ""]
     L += _table([[c.test, c.effect, _g(c.statistic), _g(c.threshold),
-                  "**yes**" if c.beats else "no" if c.power else "no power"]
+                  "**yes**" if c.beats else "no" if c.power else
+                  "no power" if np.isfinite(c.ceiling) else "could not run"]
                  for c in dx.checks],
                 ["test", "effect", "statistic", "threshold", "beats"])
     L += ["", "A correlation test whose threshold is 1 or more has no power (\"no power\" "
