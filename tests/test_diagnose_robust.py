@@ -276,3 +276,27 @@ def test_a_hold_test_that_could_not_run_says_why_not_no_power(tmp_path):
     assert f"| {idle[0].test} | steady-state-drift | 0 | inf | could not run |" in report
     # control: correlation tests without power keep their own wording
     assert "φ_ee, φ_ue: no power (the residual tested, RMS " in text
+
+
+def test_the_summary_describes_the_extension_that_was_chosen(base_diagnosis):
+    # the summary printed the plan's search ('new search with up to 8 terms')
+    # under 'extension (baseline + direction terms, ...)': the changes must be
+    # those of the candidate chosen, the search named only as not chosen
+    dx = base_diagnosis
+    assert dx.extension.chosen == "baseline + direction terms"
+    text = dx.summary()
+    block = text.split(f"extension ({dx.extension.chosen}, ")[1].split("\ngain:")[0]
+    lines = block.splitlines()[1:]
+    assert lines[0].strip().startswith("hysteresis: the Bouc–Wen direction terms "
+                                       "|Δu|, y[k-1]|Δu|, u[k-1]|Δu| added to the "
+                                       "baseline's terms"), block
+    for line in lines:
+        assert "new search" not in line or line.strip().startswith("not chosen:"), block
+    assert dx.to_dict()["extended"]["changes"] == list(dx.changes)
+    assert dx.extended.model.meta["changes"] == list(dx.changes)
+    assert dx.extended.source.startswith(f"{dx.extension.chosen}: hysteresis: the Bouc–Wen")
+    # control: a candidate from the search keeps the plan's changes
+    from mggp.diagnose.extend import candidate_changes
+    plan = dx.extension.plan
+    assert candidate_changes("search", plan)[:-1] == plan.changes
+    assert candidate_changes("search", plan)[-1] == "chosen candidate: the search's terms"

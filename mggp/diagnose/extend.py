@@ -57,7 +57,7 @@ from .holds import probe_holds
 from .hysteresis import direction_terms
 
 __all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search",
-           "user_setting", "plan_extension", "fit_extension"]
+           "user_setting", "plan_extension", "fit_extension", "candidate_changes"]
 
 _SPECIFIC = ("hysteresis", "prediction-bias", "steady-state-drift")
 
@@ -117,13 +117,17 @@ class ExtensionPlan:
 @dataclass(frozen=True)
 class Extension:
     """The fitted extension: the chosen model, its name among the
-    candidates, and every candidate as (name, terms, free-run RMSE on the
-    fitting samples, movement in probe holds — NaN when not checked)."""
+    candidates, every candidate as (name, terms, free-run RMSE on the
+    fitting samples, movement in probe holds — NaN when not checked), the
+    plan, and ``changes``: what the *chosen* candidate changed, in words
+    (:func:`candidate_changes`; the plan's changes describe the search,
+    which the chosen candidate may not come from)."""
 
     model: Model
     chosen: str
     candidates: Tuple[Tuple[str, int, float, float], ...]
     plan: ExtensionPlan
+    changes: Tuple[str, ...] = ()
 
 
 def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data):
@@ -220,6 +224,58 @@ def plan_extension(effects: Sequence[str], base: Setting, budget: Budget,
     return ExtensionPlan(s, search, refit, "hysteresis" in effects, tuple(changes))
 
 
+_DRIFT = "steady-state-drift:"
+_DIRECTION = "the Bouc–Wen direction terms |Δu|, y[k-1]|Δu|, u[k-1]|Δu|"
+
+
+def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
+    """What the candidate ``name`` of :func:`fit_extension` changed, in words.
+
+    Parameters
+    ----------
+    name : str
+        The candidate's name (``'search'``, ``'search + baseline terms'``,
+        ``'search + direction terms'``, ``'baseline + direction terms'``,
+        ``'Bouc–Wen increment'``, ``'baseline terms, CLS'``).
+    plan : ExtensionPlan
+        The plan the candidates were built from.
+
+    Returns
+    -------
+    tuple of str
+        A candidate from the search carries the plan's changes (they set up
+        the search) and how its terms were made; any other carries its own
+        structure, the estimation (CLS when drift was named), the plan's
+        remarks that change nothing, and — when a search ran — that its
+        candidates were not chosen.
+    """
+    drift = [c for c in plan.changes if c.startswith(_DRIFT)]
+    remarks = [c for c in plan.changes if "no separate change" in c]
+    search = [c for c in plan.changes if c not in drift and c not in remarks]
+    if name.startswith("search"):
+        how = {"search": "the search's terms",
+               "search + baseline terms": "the search's terms together with the baseline's",
+               "search + direction terms": f"the search's terms and {_DIRECTION}"}
+        return tuple(plan.changes) + (f"chosen candidate: {how.get(name, name)}",)
+    own = {"baseline terms, CLS": "steady-state-drift: the baseline's own terms refitted by "
+                                  "CLS under the derived continuum-of-steady-states "
+                                  "constraints (Σ_y = 1, other cluster sums 0); no new terms",
+           "baseline + direction terms": f"hysteresis: {_DIRECTION} added to the baseline's "
+                                         f"terms (no search)",
+           "Bouc–Wen increment": f"hysteresis: a discrete Bouc–Wen increment model in place "
+                                 f"of the baseline: y[k-1], Phi1(u[k-1],u[k-2]) and "
+                                 f"{_DIRECTION} (no search)"}
+    out = [own.get(name, name)]
+    if name != "baseline terms, CLS":
+        out += drift or (["estimated by CLS under the continuum-of-steady-states constraints, "
+                          "as the baseline was"] if plan.setting.constraints else [])
+    out += remarks
+    if plan.search and search:
+        out.append("not chosen: the candidates of the new search ("
+                   + "; ".join(search) + ") ranked after it on the fitting samples")
+    return tuple(out)
+
+
 def _unique(terms, data: Data, registry) -> List[str]:
     """Canonical texts of ``terms``, each once, in order."""
     sig = Signals(data.output, data.inputs)
@@ -281,7 +337,8 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
             seen.add(frozenset(terms))
             cands.append((name, _candidate(terms, data, cons, reg)))
     if not cands:
-        return Extension(baseline, "baseline (no change)", (), plan)
+        return Extension(baseline, "baseline (no change)", (), plan,
+                         ("no candidate could be built: the baseline is kept",))
     scored = [(name, m, _score(m, data),
                probe_holds(m, data) if cons and m is not None else float("nan"))
               for name, m in cands]
@@ -291,8 +348,9 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
                               "failed its estimation")
     name, best, _, _ = min(ok, key=lambda c: (max(c[3] - floor, 0.0) if c[3] == c[3] else 0.0,
                                               c[2], c[1].n_terms))
+    changes = candidate_changes(name, plan)
     best.meta.update({"source": "mggp diagnose extension", "fitness": plan.setting.fitness,
                       "window": plan.setting.window, "use_phi": plan.setting.use_phi,
-                      "estimation": "cls" if cons else "ls", "changes": list(plan.changes)})
+                      "estimation": "cls" if cons else "ls", "changes": list(changes)})
     table = tuple((n, (m.n_terms if m is not None else 0), s, h) for n, m, s, h in scored)
-    return Extension(best, name, table, plan)
+    return Extension(best, name, table, plan, changes)

@@ -151,7 +151,7 @@ class Diagnosis:
 
     @property
     def changes(self) -> Tuple[str, ...]:
-        return self.extension.plan.changes if self.findings else ()
+        return self.extension.changes if self.findings else ()
 
     def to_dict(self) -> dict:
         return {"findings": [f.to_dict() for f in self.findings],
@@ -306,7 +306,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     off = meas_rng[0]
     split = Split(fit_name, fit_rng, meas_name, meas_rng, off + start)
     ext_source = ("the baseline (nothing named, nothing changed)" if not findings else
-                  f"{ext.chosen}: " + "; ".join(plan.changes))
+                  f"{ext.chosen}: " + "; ".join(ext.changes))
     settings = {"seed": int(seed), "jobs": int(jobs), "alpha": alpha,
                 "user_model": model is not None,
                 "resolution": resolution, "holdout": None if validation is not None
