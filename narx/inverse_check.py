@@ -121,6 +121,12 @@ class InverseStability:
             return (f"{kind}the linear input part B(q⁻¹) = {self.polynomial()} has no zero "
                     f"outside the unit circle (minimum-phase)")
         zs = ", ".join(f"{_fmt_zero(z)} (|z| = {_fmt(abs(z))})" for z in self.unstable_zeros)
+        if self.linearised:
+            return (f"the model may be non-minimum-phase: {kind}its linear input part "
+                    f"B(q⁻¹) = {self.polynomial()} has zeros outside the unit circle at "
+                    f"z = {zs}, so an exact step-by-step inverse may be unstable (the "
+                    f"nonlinear terms left out can change that: watch the fallbacks and "
+                    f"the input's range)")
         return (f"the model is non-minimum-phase: {kind}its linear input part "
                 f"B(q⁻¹) = {self.polynomial()} has zeros outside the unit circle at z = "
                 f"{zs}, so an exact step-by-step inverse is unstable")
