@@ -61,6 +61,14 @@ def _cmd_estimate(args) -> int:
         from narx.atomic import check_writable
         check_writable(args.out, "--out")
     model.fit(data, constraints=cons)
+    refined = None
+    if args.refine:
+        from narx.refine import refine
+        try:
+            refined = refine(model, data, mode=args.refine, window=args.refine_window)
+        except ValueError as exc:
+            raise CLIError(f"--refine {args.refine}: {exc}") from None
+        model = refined.model
     osa = model.simulate(data, mode="osa")
     fr = model.simulate(data, mode="freerun")
     model.meta.update({"command": "estimate", "data": str(args.data), "n_samples": data.n,
@@ -81,6 +89,8 @@ def _cmd_estimate(args) -> int:
         print("steady-state clusters: " + ", ".join(f"Σ_{k} = {v:.3g}" for k, v in sums.items()))
     print(f"one-step-ahead RMSE {fmt(osa.rmse)}; free-run RMSE {fmt(fr.rmse)}, "
           f"MAPE {fmt(fr.mape)} %" + ("  (free run diverged)" if fr.diverged else ""))
+    if refined is not None:
+        print(refinement_line(refined))
     if args.out:
         print(f"model written to {args.out}")
     return 0
@@ -143,6 +153,12 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("data", metavar="DATA.csv")
     e.add_argument("--terms", nargs="+", required=True, metavar="TERM")
     e.add_argument("--constraints", choices=["steady-state"], default=None)
+    e.add_argument("--refine", choices=["ms", "freerun"], default=None,
+                   help="then refine θ by minimising the simulation error (ms: windows "
+                        "of --refine-window samples) instead of LS's one-step error, "
+                        "which is biased by output noise")
+    e.add_argument("--refine-window", type=int, default=100, metavar="W",
+                   help="Δm for --refine ms (default 100)")
     e.add_argument("--out", metavar="MODEL.json")
     add_signal_args(e)
     e.set_defaults(func=_cmd_estimate)
@@ -201,6 +217,16 @@ def main(argv: Optional[List[str]] = None) -> int:
     with warnings.catch_warnings():             # restores showwarning on return
         warnings.showwarning = _one_line_warning
         return _main(argv)
+
+
+def refinement_line(r) -> str:
+    """One line on a :class:`narx.refine.Refinement`."""
+    how = r.model.meta["refined"]["mode"]
+    if not r.improved:
+        return (f"refinement ({how}): no lower simulation error found, θ kept "
+                f"(MSE {fmt(r.cost_before)})")
+    return (f"refined by {how} simulation error: MSE {fmt(r.cost_before)} -> "
+            f"{fmt(r.cost_after)} ({r.nfev} optimiser steps)")
 
 
 def mode_option(mode: str, uses: dict, args, flag: str = "--mode") -> None:

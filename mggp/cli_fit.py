@@ -17,7 +17,7 @@ import shlex
 import sys
 import time
 
-from .cli import CLIError, add_signal_args, fmt, mode_option
+from .cli import CLIError, add_signal_args, fmt, mode_option, refinement_line
 
 __all__ = ["register"]
 
@@ -66,6 +66,10 @@ def register(sub):
     p.add_argument("--noise-lags", type=int, default=0, metavar="Q",
                    help="select moving-average noise terms e[k-1]..e[k-Q] by extended LS "
                         "after the search (NARMAX; for coloured noise; default 0)")
+    p.add_argument("--refine", choices=["ms", "freerun"], default=None,
+                   help="refine θ of the result by minimising its simulation error (ms: "
+                        "windows of --window samples, default 100) instead of the "
+                        "one-step error of LS, which is biased by output noise")
     p.add_argument("--constraints", choices=["steady-state"], default=None,
                    help="also refit the best structure by CLS with the derived "
                         "continuum-of-steady-states constraints")
@@ -118,7 +122,8 @@ def _cmd_fit(args) -> int:
     from narx.csvdata import read_csv
     from .estimator import MGGPRegressor
     from narx.atomic import check_writable
-    mode_option(args.fitness, {"ksa": "k", "ms": "window"}, args, "--fitness")
+    if args.refine != "ms":
+        mode_option(args.fitness, {"ksa": "k", "ms": "window"}, args, "--fitness")
     window = 100 if args.window is None else args.window
     k = 10 if args.k is None else args.k
     lows = {"population": 2, "generations": 0, "max_terms": 1, "max_height": 1,
@@ -157,6 +162,7 @@ def _cmd_fit(args) -> int:
                         max_lag=args.max_lag, max_degree=args.max_degree,
                         prune=args.prune or False, use_phi=not args.no_phi,
                         select=args.select, noise_lags=args.noise_lags,
+                        refine=args.refine,
                         screen=args.screen,
                         random_state=args.seed, n_jobs=args.jobs, backend=args.backend,
                         scheduler=args.scheduler, inputs=inputs, output=output,
@@ -178,6 +184,8 @@ def _cmd_fit(args) -> int:
              + ("" if args.criterion == "mse" else
                 f" ({args.criterion.upper()} of the {args.fitness} MSE)"),
              "LS:  " + m.equation(), _freerun_line(fr_ls)]
+    if est.refinement_ is not None:
+        lines.append("     " + refinement_line(est.refinement_))
     if m.meta.get("estimation") == "ls-search":
         lines.append(f"     θ from the search's fit: the QR refit of these terms simulates "
                      f"worse ({args.fitness} MSE {fmt(m.meta['qr_refit_fitness_value'])})")

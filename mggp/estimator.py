@@ -123,6 +123,12 @@ class MGGPRegressor:
         lead it to extra lags that only predict the noise; with
         ``prune='t'`` those are pruned by their ELS t-statistics with the
         full MA(q) model in the fit first (:mod:`mggp.noise`).
+    refine : None, 'ms' or 'freerun'
+        Refine θ of the result (and of its CLS refit, keeping the
+        constraints) by minimising its simulation error instead of the
+        one-step error of least squares (:mod:`narx.refine`): LS is biased
+        when the measured output is noisy (``refinement_`` holds the errors
+        before and after).
     t_threshold : float, optional
         Default: Bonferroni, Φ⁻¹(1 − 0.05/(2M)) with M the number of
         candidate monomials allowed by ``max_lag`` and ``max_degree``.
@@ -156,7 +162,7 @@ class MGGPRegressor:
                  max_terms=15, max_height=5, use_phi=True, phi_names=None,
                  max_lag=None, max_degree=None, select="fitness", select_candidates=20,
                  screen=None, screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
-                 t_threshold=None,
+                 t_threshold=None, refine=None,
                  random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
                  resume=False, callbacks=None, registry=None):
@@ -187,6 +193,7 @@ class MGGPRegressor:
         self.screen_band = screen_band
         self.prune = prune
         self.noise_lags = noise_lags
+        self.refine = refine
         self.t_threshold = t_threshold
         self.random_state = random_state
         self.n_jobs = n_jobs
@@ -340,6 +347,7 @@ class MGGPRegressor:
                 "use_phi": self.use_phi, "phi_names": self.phi_names,
                 "screen": self.screen, "select": self.select, "prune": self.prune,
                 "noise_lags": self.noise_lags, "max_lag": self.max_lag,
+                "refine": self.refine,
                 "max_degree": self.max_degree,
                 "cls_refit": self.constraints == "steady-state",
                 "search_constraints": self.search_constraints,
@@ -369,6 +377,9 @@ class MGGPRegressor:
                                                                    constraints="steady-state")
                 except ValueError as exc:
                     self.cls_error_ = str(exc)
+        self.refinement_ = None
+        if self.refine and not any(t.has_noise for t in terms):
+            self._refine(data)
         self.pareto_front_ = ParetoFront(front_rows(res.pareto, scorer, allowed),
                                          inputs=data.inputs, output=data.output,
                                          registry=registry)
@@ -380,6 +391,17 @@ class MGGPRegressor:
         self.result_ = res
         self.fit_time_ = time.perf_counter() - t0
         return self
+
+    def _refine(self, data):
+        """θ of ``model_`` (and ``model_cls_``, keeping its constraints)
+        refined by simulation error (:func:`narx.refine.refine`)."""
+        from narx.refine import refine
+        window = self.window if self.refine == "ms" else None
+        self.refinement_ = refine(self.model_, data, mode=self.refine, window=window)
+        self.model_ = self.refinement_.model
+        if self.model_cls_ is not None:
+            self.model_cls_ = refine(self.model_cls_, data, mode=self.refine,
+                                     window=window).model
 
     def _make_screen(self, data, start, registry):
         if self.screen is None:

@@ -28,5 +28,6 @@ from .steady import (Cluster, SteadyStateConstraints, clusters, cluster_sums,
 from .metrics import mse, rmse, mape, rrse, nrmse
 from .model import Model
 from .modelio import ModelFileError, load_model, save_model
+from .refine import Refinement, refine
 
 __version__ = "0.1.0"

@@ -1,0 +1,87 @@
+"""Simulation-error refinement of θ (narx.refine) and its wiring."""
+import numpy as np
+import pytest
+
+import narx
+from narx.refine import refine
+
+
+def first_order(noise, seed=0, n=5000):
+    """y[k] = 0.95 y[k-1] + 0.5 u[k-1]; the output measured with white noise."""
+    rng = np.random.default_rng(seed)
+    u = np.repeat(rng.uniform(-1, 1, n // 20), 20)
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.95 * y[k - 1] + 0.5 * u[k - 1]
+    return u, y, y + (rng.normal(0, noise * y.std(), n) if noise else 0.0)
+
+
+@pytest.mark.parametrize("mode", ["freerun", "ms"])
+def test_refinement_removes_the_noise_bias_of_least_squares(mode):
+    u, y, ym = first_order(0.1)
+    m = narx.Model(["y[k-1]", "u[k-1]"]).fit(u, ym)
+    truth = np.array([0.95, 0.5])
+    assert np.max(np.abs(m.theta - truth)) > 0.01             # LS is biased
+    r = refine(m, u, ym, mode=mode, window=100)
+    assert r.improved and r.cost_after < r.cost_before
+    assert np.max(np.abs(r.model.theta - truth)) < 0.002
+    err = lambda mm: np.mean((mm.simulate(u, y).y_hat - y)[1:] ** 2)   # noqa: E731
+    assert err(r.model) < err(m) / 100
+    assert r.model.meta["refined"]["mode"] == mode
+    assert m.theta[1] != r.model.theta[1]                     # the model itself is kept
+
+
+def test_noise_free_data_leave_theta_where_it_is():
+    u, y, _ = first_order(0.0)
+    m = narx.Model(["y[k-1]", "u[k-1]"]).fit(u, y)
+    r = refine(m, u, y, mode="freerun")
+    np.testing.assert_allclose(r.model.theta, [0.95, 0.5], atol=1e-9)
+
+
+def test_cls_constraints_are_kept(piezo_validation):
+    """A CLS model keeps its continuum of steady states (Σ_y = 1, Σ_u = 0)."""
+    u, y = piezo_validation
+    rng = np.random.default_rng(1)
+    ym = y + rng.normal(0, 0.01 * np.ptp(y), y.size)
+    terms = ["y[k-1]", "u[k-1]", "Phi1(u[k-1],u[k-2])",
+             "y[k-1]*Phi2(u[k-1],u[k-2])*Phi1(u[k-1],u[k-2])",
+             "u[k-1]*Phi2(u[k-1],u[k-2])*Phi1(u[k-1],u[k-2])"]
+    m = narx.Model(terms).fit(u, ym, constraints="steady-state")
+    r = refine(m, u, ym, mode="ms", window=200)
+    assert r.cost_after <= r.cost_before
+    sums = r.model.cluster_sums()
+    assert sums["y"] == pytest.approx(1.0, abs=1e-9) and sums["u"] == pytest.approx(0, abs=1e-9)
+
+
+def test_refine_refuses_what_it_cannot_do():
+    u, y, ym = first_order(0.1)
+    m = narx.Model(["y[k-1]", "u[k-1]"]).fit(u, ym)
+    with pytest.raises(ValueError, match="mode must be 'ms' or 'freerun'"):
+        refine(m, u, ym, mode="osa")
+    with pytest.raises(ValueError, match="window must be an integer >= 1"):
+        refine(m, u, ym, mode="ms", window=0)
+    noisy = narx.Model(["y[k-1]", "u[k-1]", "e[k-1]"]).fit(u, ym)
+    with pytest.raises(ValueError, match="noise terms"):
+        refine(noisy, u, ym)
+
+
+def test_estimator_and_cli_refine(tmp_path, capsys):
+    from mggp import MGGPRegressor
+    from mggp.cli import main
+    u, y, ym = first_order(0.1)
+    kw = dict(population=20, generations=2, use_phi=False, max_lag=1, max_degree=1,
+              random_state=0)
+    plain = MGGPRegressor(**kw).fit(u, ym)
+    est = MGGPRegressor(refine="freerun", **kw).fit(u, ym)
+    assert plain.refinement_ is None and est.refinement_.improved
+    err = lambda mm: np.mean((mm.simulate(u, y).y_hat - y)[1:] ** 2)   # noqa: E731
+    assert err(est.model_) < err(plain.model_)
+    assert est.model_.meta["refine"] == "freerun"
+    with pytest.raises(ValueError, match="refine must be one of"):
+        MGGPRegressor(refine="osa", **kw).fit(u, ym)
+    csv = tmp_path / "d.csv"
+    np.savetxt(csv, np.c_[u, ym], delimiter=",", header="u,y", comments="")
+    assert main(["estimate", str(csv), "--terms", "y[k-1]", "u[k-1]", "--refine",
+                 "freerun"]) == 0
+    out = capsys.readouterr().out
+    assert "refined by freerun simulation error: MSE" in out and "0.95" in out
