@@ -18,6 +18,9 @@ def __getattr__(name):            # lazy: importing mggp stays cheap for the CLI
     if name in ("MGGPRegressor",):
         from .estimator import MGGPRegressor
         return MGGPRegressor
+    if name == "SearchPrecisionWarning":
+        from .precision import SearchPrecisionWarning
+        return SearchPrecisionWarning
     raise AttributeError(f"module 'mggp' has no attribute {name!r}")
 
 

@@ -44,7 +44,7 @@ from .checkpoint import checkpoint_seed, data_digest
 from .evolve import evolve
 from .noise import full_ma, prune_by_t, prune_process, select_noise
 from .params import check_params
-from .precision import SearchPrecisionWarning, offset_message, search_precision
+from .precision import data_warnings, search_precision
 from .pareto import ParetoFront, front_rows
 from .primitives import identically_zero, make_pset, max_lag_for_height
 from .screen import StabilityScreen
@@ -151,7 +151,7 @@ class MGGPRegressor:
     collinear terms: the exact LS θ has large cancelling coefficients)
     ``model_`` keeps the search's θ, which is what was scored
     (``model_.meta['estimation'] == 'ls-search'``). A
-    :class:`SearchPrecisionWarning` names an offset that dominates a signal
+    :class:`mggp.precision.SearchPrecisionWarning` names an offset that dominates a signal
     before the search (its normal equations lose precision on such data).
     """
 
@@ -268,8 +268,8 @@ class MGGPRegressor:
         data = as_data(u, y, inputs=inputs, output=self.output)
         data.require_output("fit")
         start = self._validate(data)
-        if offset_message(data):
-            warnings.warn(offset_message(data), SearchPrecisionWarning, stacklevel=2)
+        for msg, kind in data_warnings(data, self.fitness, self.window, self.k):
+            warnings.warn(msg, kind, stacklevel=2)
         registry = self.registry or default_registry()
         pset = make_pset(data.signals, registry, use_phi=self.use_phi, phi_names=self.phi_names)
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["SearchPrecisionWarning", "PrecisionCheck", "search_precision", "offsets",
-           "offset_message"]
+           "offset_message", "horizon_message", "data_warnings"]
 
 #: the QR refit scoring this many times better than the search's own fit
 #: counts as lost precision
@@ -105,3 +105,39 @@ def search_precision(scorer, terms, theta) -> PrecisionCheck:
         refit = float("inf")
     floor = (1e-10 * float(np.ptp(scorer.y))) ** 2     # rounding of noise-free data
     return PrecisionCheck(float(search), float(refit), floor)
+
+
+def horizon_message(y, horizon: int, what: str, limit: float = 0.99) -> str:
+    """A sentence when a simulation horizon (the MS window Δm or the ksa
+    ``k``) sees little of the output's motion: the output's autocorrelation
+    at that lag is above ``limit`` (e.g. Δm = 100 samples at 10 kHz is 10 ms),
+    so the fitness is close to the one-step error; '' otherwise."""
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    if horizon >= n - 1 or n < 3:
+        return ""
+    d = y - y.mean()
+    den = float(d @ d)
+    if den == 0.0:
+        return ""
+    r = float(d[:-horizon] @ d[horizon:]) / den
+    if r <= limit:
+        return ""
+    return (f"{what} = {horizon} samples covers little of the output's motion (its "
+            f"autocorrelation at that lag is {r:.4f}): the fitness is close to the "
+            f"one-step error and may choose models that drift in free run; a horizon "
+            f"of several of the output's time constants is usual (try a longer one)")
+
+
+def data_warnings(data, fitness: str, window: int, k: int) -> list:
+    """``(message, category)`` of what in the data will mislead a search
+    with this fitness: a dominating offset, a horizon that sees little."""
+    out = []
+    if offset_message(data):
+        out.append((offset_message(data), SearchPrecisionWarning))
+    if fitness in ("ms", "ksa"):
+        h, name = (window, "window") if fitness == "ms" else (k, "k")
+        msg = horizon_message(data.y, int(h), name)
+        if msg:
+            out.append((msg, UserWarning))
+    return out

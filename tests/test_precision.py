@@ -78,3 +78,19 @@ def test_offset_that_dominates_the_output_is_named_before_the_search(record):
     with warnings.catch_warnings():                                  # control
         warnings.simplefilter("error", SearchPrecisionWarning)
         MGGPRegressor(population=6, generations=1, random_state=0).fit(u, y)
+
+
+def test_a_horizon_that_sees_little_of_the_motion_is_named(record):
+    """Δm = 10 samples of a 1 kHz record whose output moves at about 1 Hz:
+    the MS fitness is close to the one-step error; Δm = 100 is not named
+    (control)."""
+    from mggp import SearchPrecisionWarning as SPW
+    u, y = record
+    with pytest.warns(UserWarning, match=r"window = 10 samples covers little of the output"):
+        MGGPRegressor(fitness="ms", window=10, population=6, generations=1,
+                      random_state=0).fit(u, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        MGGPRegressor(fitness="ms", window=100, population=6, generations=1,
+                      random_state=0).fit(u, y)
+    assert SPW is SearchPrecisionWarning
