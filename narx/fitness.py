@@ -42,7 +42,7 @@ from .estimate import EstimationError
 from .kernels import Plan, run_windows
 from .ms_kernel import ms_mse, window_sse
 from .phi import PhiRegistry, default_registry
-from .regressors import factor_column, input_part
+from .regressors import factor_column, input_part_into
 from .simulate import recursion_windows
 from .steady import steady_state_constraints
 from .terms import Term
@@ -318,14 +318,10 @@ class StructureScorer:
     def _reg_slot(self, t: Term) -> int:
         def fill(row):
             # (input part) * out_1 * out_2 ..., in this order, into the store
-            ip = input_part(t, self.data, self.registry)
-            outs = [f for f in t.factors if not f.input_only]
-            if outs:
-                np.multiply(ip, self._out_column(outs[0]), out=row)
-                for f in outs[1:]:
+            input_part_into(t, self.data, row, self.registry)
+            for f in t.factors:
+                if not f.input_only:
                     row *= self._out_column(f)
-            else:
-                row[:] = ip
             _finite_inplace(row)
         return self.store.get("r:" + t.text, fill)
 
@@ -334,7 +330,7 @@ class StructureScorer:
             return self._reg_slot(t)
 
         def fill(row):
-            row[:] = input_part(t, self.data, self.registry)
+            input_part_into(t, self.data, row, self.registry)
             _finite_inplace(row)
         return self.store.get("i:" + "*".join(str(f) for f in t.input_factors), fill)
 

@@ -28,7 +28,7 @@ from .kernels import njit
 from .phi import PhiRegistry, _phi1, _phi2, default_registry
 from .terms import Lag, PhiCall, Term
 
-__all__ = ["shift", "signal_array", "factor_column", "input_part",
+__all__ = ["shift", "signal_array", "factor_column", "input_part", "input_part_into",
            "term_column", "regressor_matrix", "max_lag"]
 
 
@@ -133,6 +133,32 @@ def input_part(term: Term, data: Data,
                 for f in fs]
         return _product(cols, data.n)
     return data.cached(key, build)
+
+
+def input_part_into(term: Term, data: Data, out: np.ndarray,
+                    registry: Optional[PhiRegistry] = None) -> np.ndarray:
+    """:func:`input_part` written into ``out`` (same values, bit for bit):
+    from the record's cached product when there is one, else multiplied
+    straight into ``out`` from the cached factor columns, without a new
+    array for the product (a fresh array costs its page faults)."""
+    reg = registry or default_registry()
+    fs = term.input_factors
+    key = "in:" + "*".join(_key(f, reg) for f in fs)
+    done = data._cache.get(key) if hasattr(data, "_cache") else None
+    if done is not None:
+        out[:] = done
+        return out
+    cols = [data.cached("f:" + _key(f, reg), lambda f=f: factor_column(f, data, registry=reg))
+            for f in fs]
+    if not cols:
+        out[:] = 1.0
+    elif len(cols) == 1:
+        out[:] = cols[0]
+    else:
+        np.multiply(cols[0], cols[1], out=out)
+        for c in cols[2:]:
+            out *= c
+    return out
 
 
 def term_column(term: Term, data: Data, y=None, noise=None,
