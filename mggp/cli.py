@@ -62,10 +62,14 @@ def _cmd_estimate(args) -> int:
         check_writable(args.out, "--out")
     model.fit(data, constraints=cons)
     refined = None
+    if args.refine_window is not None and args.refine != "ms":
+        raise CLIError(f"--refine-window applies to --refine ms only, got --refine "
+                       f"{args.refine}")
     if args.refine:
         from narx.refine import refine
         try:
-            refined = refine(model, data, mode=args.refine, window=args.refine_window)
+            refined = refine(model, data, mode=args.refine,
+                             window=args.refine_window or 100)
         except ValueError as exc:
             raise CLIError(f"--refine {args.refine}: {exc}") from None
         model = refined.model
@@ -157,7 +161,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="then refine θ by minimising the simulation error (ms: windows "
                         "of --refine-window samples) instead of LS's one-step error, "
                         "which is biased by output noise")
-    e.add_argument("--refine-window", type=int, default=100, metavar="W",
+    e.add_argument("--refine-window", type=int, default=None, metavar="W",
                    help="Δm for --refine ms (default 100)")
     e.add_argument("--out", metavar="MODEL.json")
     add_signal_args(e)

@@ -67,9 +67,11 @@ def register(sub):
                    help="select moving-average noise terms e[k-1]..e[k-Q] by extended LS "
                         "after the search (NARMAX; for coloured noise; default 0)")
     p.add_argument("--refine", choices=["ms", "freerun"], default=None,
-                   help="refine θ of the result by minimising its simulation error (ms: "
-                        "windows of --window samples, default 100) instead of the "
-                        "one-step error of LS, which is biased by output noise")
+                   help="refine θ of the result by minimising its simulation error "
+                        "instead of the one-step error of LS, which is biased by output "
+                        "noise")
+    p.add_argument("--refine-window", type=int, default=None, metavar="W",
+                   help="Δm for --refine ms (default: the search's --window, 100)")
     p.add_argument("--constraints", choices=["steady-state"], default=None,
                    help="also refit the best structure by CLS with the derived "
                         "continuum-of-steady-states constraints")
@@ -122,8 +124,10 @@ def _cmd_fit(args) -> int:
     from narx.csvdata import read_csv
     from .estimator import MGGPRegressor
     from narx.atomic import check_writable
-    if args.refine != "ms":
-        mode_option(args.fitness, {"ksa": "k", "ms": "window"}, args, "--fitness")
+    mode_option(args.fitness, {"ksa": "k", "ms": "window"}, args, "--fitness")
+    if args.refine_window is not None and args.refine != "ms":
+        raise CLIError(f"--refine-window applies to --refine ms only, got --refine "
+                       f"{args.refine}")
     window = 100 if args.window is None else args.window
     k = 10 if args.k is None else args.k
     lows = {"population": 2, "generations": 0, "max_terms": 1, "max_height": 1,
@@ -162,7 +166,7 @@ def _cmd_fit(args) -> int:
                         max_lag=args.max_lag, max_degree=args.max_degree,
                         prune=args.prune or False, use_phi=not args.no_phi,
                         select=args.select, noise_lags=args.noise_lags,
-                        refine=args.refine,
+                        refine=args.refine, refine_window=args.refine_window,
                         screen=args.screen,
                         random_state=args.seed, n_jobs=args.jobs, backend=args.backend,
                         scheduler=args.scheduler, inputs=inputs, output=output,
@@ -183,7 +187,9 @@ def _cmd_fit(args) -> int:
              f"{est.fit_time_:.1f} s; best {args.fitness} fitness {fmt(est.fitness_)}"
              + ("" if args.criterion == "mse" else
                 f" ({args.criterion.upper()} of the {args.fitness} MSE)"),
-             "LS:  " + m.equation(), _freerun_line(fr_ls)]
+             ("LS:  " if "refined" not in m.meta else
+              f"LS refined ({m.meta['refined']['mode']}):  ") + m.equation(),
+             _freerun_line(fr_ls)]
     if est.refinement_ is not None:
         lines.append("     " + refinement_line(est.refinement_))
     if m.meta.get("estimation") == "ls-search":

@@ -128,7 +128,8 @@ class MGGPRegressor:
         constraints) by minimising its simulation error instead of the
         one-step error of least squares (:mod:`narx.refine`): LS is biased
         when the measured output is noisy (``refinement_`` holds the errors
-        before and after).
+        before and after). ``refine_window``: Δm for ``'ms'`` (default
+        ``window``).
     t_threshold : float, optional
         Default: Bonferroni, Φ⁻¹(1 − 0.05/(2M)) with M the number of
         candidate monomials allowed by ``max_lag`` and ``max_degree``.
@@ -162,7 +163,7 @@ class MGGPRegressor:
                  max_terms=15, max_height=5, use_phi=True, phi_names=None,
                  max_lag=None, max_degree=None, select="fitness", select_candidates=20,
                  screen=None, screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
-                 t_threshold=None, refine=None,
+                 t_threshold=None, refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
                  resume=False, callbacks=None, registry=None):
@@ -194,6 +195,7 @@ class MGGPRegressor:
         self.prune = prune
         self.noise_lags = noise_lags
         self.refine = refine
+        self.refine_window = refine_window
         self.t_threshold = t_threshold
         self.random_state = random_state
         self.n_jobs = n_jobs
@@ -378,8 +380,14 @@ class MGGPRegressor:
                 except ValueError as exc:
                     self.cls_error_ = str(exc)
         self.refinement_ = None
-        if self.refine and not any(t.has_noise for t in terms):
-            self._refine(data)
+        if self.refine:
+            from narx.refine import refine_both
+            self.refinement_, self.model_, self.model_cls_, why = refine_both(
+                self.model_, self.model_cls_, data, self.refine,
+                self.refine_window or self.window)
+            if why:
+                warnings.warn(f"refine={self.refine!r} is not applied: {why}", UserWarning,
+                              stacklevel=2)
         self.pareto_front_ = ParetoFront(front_rows(res.pareto, scorer, allowed),
                                          inputs=data.inputs, output=data.output,
                                          registry=registry)
@@ -391,17 +399,6 @@ class MGGPRegressor:
         self.result_ = res
         self.fit_time_ = time.perf_counter() - t0
         return self
-
-    def _refine(self, data):
-        """θ of ``model_`` (and ``model_cls_``, keeping its constraints)
-        refined by simulation error (:func:`narx.refine.refine`)."""
-        from narx.refine import refine
-        window = self.window if self.refine == "ms" else None
-        self.refinement_ = refine(self.model_, data, mode=self.refine, window=window)
-        self.model_ = self.refinement_.model
-        if self.model_cls_ is not None:
-            self.model_cls_ = refine(self.model_cls_, data, mode=self.refine,
-                                     window=window).model
 
     def _make_screen(self, data, start, registry):
         if self.screen is None:

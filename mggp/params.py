@@ -51,6 +51,7 @@ def check_params(est) -> None:
     _one_of("prune", est.prune, (False, None, "bic", "t"))
     _one_of("screen", est.screen, (None, "freerun", "hold"))
     _one_of("refine", est.refine, (None, "ms", "freerun"))
+    _int_at_least("refine_window", est.refine_window, 1, optional=True)
     t = est.t_threshold
     if t is not None and not (isinstance(t, numbers.Real) and not isinstance(t, bool)
                               and t > 0 and t < float("inf")):

@@ -41,10 +41,17 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["refine", "Refinement"]
+__all__ = ["refine", "refine_both", "Refinement"]
 
 #: simulated outputs beyond this many output ranges count as diverged
 _SPREAD = 1e3
+
+
+def _diverges(terms, theta, data, mode, plan, P, registry, kw, penalty) -> bool:
+    from .simulate import simulate
+    r = simulate(terms, theta, data, mode, plan=plan, P=P, registry=registry, **kw)
+    e = (r.y_hat - data.y)[plan.maxlag:]
+    return bool(r.diverged or not np.all(np.isfinite(e)) or np.any(np.abs(e) > penalty))
 
 
 @dataclass
@@ -77,7 +84,8 @@ def _constraint_space(model):
     """(θ_p, Z): θ = θ_p + Z w spans the model's CLS constraints (or all θ)."""
     th = np.asarray(model.theta, dtype=float)
     info = model.fit_info_ or {}
-    if not info.get("constraints"):
+    # a CLS model loaded from a file has no fit_info_, its meta says 'cls'
+    if not (info.get("constraints") or str(model.meta.get("estimation", "")).startswith("cls")):
         return np.zeros_like(th), np.eye(th.size)
     from .steady import steady_state_constraints
     cons = steady_state_constraints(model.terms, model.registry)
@@ -146,11 +154,16 @@ def refine(model, u, y=None, *, mode: str = "ms", window: Optional[int] = 100,
     w0 = z.T @ (theta0 - tp)
     e0 = residuals(theta0)
     cost0 = float(np.mean(e0 ** 2))
+    if _diverges(model.terms, theta0, data, mode, plan, P, model.registry, kw, penalty):
+        raise ValueError(f"the model's {mode} simulation diverges on this record: there is "
+                         f"no simulation error to refine from (refit it, or choose a "
+                         f"stable structure first)")
     sol = least_squares(lambda w: residuals(tp + z @ w), w0, method="trf",
                         x_scale="jac", max_nfev=max_nfev or 50 * max(1, w0.size))
     theta1 = tp + z @ sol.x
     cost1 = float(np.mean(residuals(theta1) ** 2))
-    improved = bool(np.isfinite(cost1) and cost1 < cost0)
+    improved = bool(np.isfinite(cost1) and cost1 < cost0) and not _diverges(
+        model.terms, theta1, data, mode, plan, P, model.registry, kw, penalty)
     if not improved:
         theta1, cost1 = theta0, cost0
     from .model import Model
@@ -159,4 +172,26 @@ def refine(model, u, y=None, *, mode: str = "ms", window: Optional[int] = 100,
     out.fit_info_ = dict(model.fit_info_ or {})
     out.meta["refined"] = {"mode": mode, **kw, "mse_before": cost0, "mse_after": cost1,
                            "improved": improved}
+    if improved:
+        out.meta["estimation"] = f"{model.meta.get('estimation', 'ls')}+refined-{mode}"
     return Refinement(out, cost0, cost1, improved, int(sol.nfev), str(sol.message))
+
+
+def refine_both(model, model_cls, data, mode: str, window: int):
+    """Refine a search's LS model and its CLS refit (``None`` allowed).
+
+    Returns ``(refinement, model, model_cls, why)``: ``why`` is '' or the
+    reason nothing was refined (noise terms, a diverging simulation), in
+    which case both models come back unchanged and ``refinement`` is None.
+    """
+    if any(t.has_noise for t in model.terms):
+        return None, model, model_cls, ("the model has noise terms, whose θ comes from "
+                                        "extended least squares")
+    w = window if mode == "ms" else None
+    try:
+        r = refine(model, data, mode=mode, window=w)
+        cls = None if model_cls is None else refine(model_cls, data, mode=mode,
+                                                    window=w).model
+    except ValueError as exc:
+        return None, model, model_cls, str(exc)
+    return r, r.model, cls, ""

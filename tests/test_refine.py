@@ -85,3 +85,38 @@ def test_estimator_and_cli_refine(tmp_path, capsys):
                  "freerun"]) == 0
     out = capsys.readouterr().out
     assert "refined by freerun simulation error: MSE" in out and "0.95" in out
+
+
+def test_a_cls_model_loaded_from_a_file_keeps_its_constraints(tmp_path, piezo_validation):
+    from narx.steady import steady_state_constraints
+    u, y = piezo_validation
+    ym = y + np.random.default_rng(2).normal(0, 0.01 * np.ptp(y), y.size)
+    terms = ["y[k-1]", "u[k-1]", "Phi1(u[k-1],u[k-2])",
+             "y[k-1]*Phi2(u[k-1],u[k-2])*Phi1(u[k-1],u[k-2])"]
+    narx.Model(terms).fit(u, ym, constraints="steady-state").save(tmp_path / "c.json")
+    loaded = narx.load_model(tmp_path / "c.json")
+    assert loaded.fit_info_ is None
+    r = refine(loaded, u, ym, mode="freerun")
+    cons = steady_state_constraints(loaded.terms)
+    assert np.max(np.abs(cons.S @ r.model.theta - cons.c)) < 1e-9
+    if r.improved:
+        assert r.model.meta["estimation"] == "cls+refined-freerun"
+
+
+def test_a_diverging_start_is_refused_and_noise_terms_warned(capsys, tmp_path):
+    from mggp import MGGPRegressor
+    from mggp.cli import main
+    u, y, ym = first_order(0.1)
+    with pytest.raises(ValueError, match="freerun simulation diverges"):
+        refine(narx.Model(["y[k-1]", "u[k-1]"], [1.5, 0.1]), u, ym, mode="freerun")
+    with pytest.warns(UserWarning, match="refine='ms' is not applied: the model has noise"):
+        MGGPRegressor(refine="ms", noise_lags=1, population=10, generations=1,
+                      use_phi=False, max_lag=1, random_state=0).fit(u, ym)
+    csv = tmp_path / "d.csv"
+    np.savetxt(csv, np.c_[u, ym], delimiter=",", header="u,y", comments="")
+    assert main(["estimate", str(csv), "--terms", "y[k-1]", "u[k-1]", "--refine", "freerun",
+                 "--refine-window", "7"]) == 2
+    assert "--refine-window applies to --refine ms only" in capsys.readouterr().err
+    assert main(["fit", str(csv), "--fitness", "pem", "--k", "5", "--refine", "ms",
+                 "--population", "10", "--generations", "1"]) == 2
+    assert "--k applies to --fitness ksa only" in capsys.readouterr().err
