@@ -11,7 +11,8 @@ Typical use::
 The file has a header row; the named columns must each appear once and hold
 finite numbers (plain ASCII decimal notation, as ``float`` reads it, without
 ``_`` separators) on every data row; the field separator is ``,``, ``;`` or
-a tab, whichever the header row uses most (``,`` when it uses none), and in
+a tab, whichever splits the header row into the most fields outside quotes
+(``,`` on a tie), and in
 a ``;`` or tab separated file a decimal comma is read as a point
 (``1,5e-3``), as spreadsheet programs of many locales write them; other columns are ignored (their
 content is not checked), blank lines are skipped, rows must all have the
@@ -47,9 +48,22 @@ def _open(path):
         raise DataError(f"{path}: cannot read file ({exc.strerror})") from None
 
 
+def _best_delimiter(line: str) -> str:
+    """The candidate that splits ``line`` into the most fields, among those
+    that leave no stray quote inside a field (quotes respected)."""
+    best, key = ",", None
+    for d in DELIMITERS:
+        fields = next(csv.reader([line], delimiter=d), [])
+        k = (not any('"' in f for f in fields), len(fields))
+        if key is None or k > key:
+            best, key = d, k
+    return best
+
+
 def delimiter(path) -> str:
-    """Field separator of a CSV file: whichever of ``,``, ``;`` and tab its
-    first non-blank line holds most often (``,`` if none)."""
+    """Field separator of a CSV file: whichever of ``,``, ``;`` and tab splits
+    its first non-blank line into the most fields, quotes respected (``,``
+    on a tie)."""
     path = os.fspath(path)
     with _open(path) as fh:
         number = 0
@@ -60,8 +74,7 @@ def delimiter(path) -> str:
                 if not line:
                     break
                 if line.strip():
-                    counts = [line.count(d) for d in DELIMITERS]
-                    return DELIMITERS[counts.index(max(counts))] if max(counts) else ","
+                    return _best_delimiter(line)
         except UnicodeDecodeError:
             raise DataError(f"{path}: not UTF-8 text (near line {number})") from None
     return ","
@@ -138,8 +151,9 @@ def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
         if not hits:
             shown = ", ".join(h if h.isprintable() else repr(h)
                               for h in header if h)[:200] or "(none)"
+            sep_name = {",": "','", ";": "';'", "\t": "tab"}[sep]
             raise DataError(f"{path}: line {line} (header): no column {name!r} "
-                            f"(columns: {shown})")
+                            f"(columns: {shown}; fields separated by {sep_name})")
         if len(hits) > 1:
             raise DataError(f"{path}: column {name!r} appears {len(hits)} times in the "
                             f"header (fields {', '.join(str(i + 1) for i in hits)})")

@@ -77,7 +77,7 @@ def test_estimate_then_simulate_roundtrip(capsys, sine_csv, tmp_path):
 @pytest.mark.parametrize("content, needle", [
     ("t,u,y\n0,1,2\n1,nan,3\n2,1,1\n", "line 3, column 'u': value 'nan' is not finite"),
     ("t,u,y\n0,1,2\n1,2\n2,1,1\n", "line 3 has 2 fields but the header has 3"),
-    ("t,u\n0,1\n1,2\n", "no column 'y' (columns: t, u)"),
+    ("t,u\n0,1\n1,2\n", "no column 'y' (columns: t, u; fields separated by ',')"),
     ("t,u,y\n0,1,abc\n", "line 2, column 'y': 'abc' is not a number"),
     ("", "empty file"),
     ("u,y,u\n1,2,3\n", "column 'u' appears 2 times"),
@@ -239,3 +239,12 @@ def test_column_name_that_is_no_identifier_gets_a_rename_hint(capsys, tmp_path):
     code, _, err = run(capsys, "estimate", p, "--input", "Voltage [V]", "--terms", "u[k-1]")
     line = one_error_line(err)
     assert code == 2 and "'Voltage [V]'" in line and "rename the column (e.g. 'Voltage_V')" in line
+
+
+@pytest.mark.parametrize("text", ['u,y,"unit: V;A;N;s"\n1,2,x\n2,3,y\n3,1,z\n4,2,w\n',
+                                  'u;y;"a,b,c"\n1;2;x\n2;3;y\n3;1;z\n4;2;w\n'])
+def test_separators_inside_quoted_header_fields_do_not_count(capsys, tmp_path, text):
+    p = tmp_path / "q.csv"
+    p.write_text(text)
+    code, out, err = run(capsys, "estimate", p, "--terms", "u[k-1]")
+    assert code == 0, err
