@@ -151,10 +151,13 @@ def inverse_stability(model, tol: float = 1e-6) -> InverseStability:
     Raises
     ------
     ValueError
-        If the model has no parameters.
+        If the model has no parameters, or more than one input.
     """
     if model.theta is None:
         raise ValueError("the model has no parameters yet: fit it or pass theta")
+    if len(model.inputs) != 1:
+        raise ValueError(f"the inverse check is for one-input models, got inputs "
+                         f"{list(model.inputs)}")
     coef: Dict[int, float] = {}
     nonlinear = []
     for term, th in active_terms(model):

@@ -489,3 +489,10 @@ def test_cli_fallback_verdict_blames_the_reference_only_for_a_minimum_phase_mode
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         _fallback_verdict(0.5, "", allow=False)             # half: still written
+
+
+def test_inverse_check_refuses_several_inputs():
+    from narx.inverse_check import inverse_stability
+    m = narx.Model(["y[k-1]", "u1[k-1]", "u2[k-2]"], [0.5, 0.3, 1.0], inputs=["u1", "u2"])
+    with pytest.raises(ValueError, match="one-input models, got inputs"):
+        inverse_stability(m)
