@@ -290,7 +290,7 @@ def test_cli_bad_files(capsys, tmp_path, drift_files):
     other = write_csv(tmp_path / "o.csv", {"x": np.arange(50.0), "y": np.zeros(50)})
     code, _, err = run(capsys, "diagnose", t, "--validation", other)
     line = one_error_line(err)
-    assert code == 2 and "o.csv" in line and "no column 'u' (columns: x, y)" in line
+    assert code == 2 and "o.csv" in line and "no column 'u' (columns: x, y; fields separated by ',')" in line
     const = write_csv(tmp_path / "k.csv", {"u": np.ones(300), "y": np.arange(300.0)})
     code, _, err = run(capsys, "diagnose", const)
     assert code == 2 and "input 'u' is constant" in one_error_line(err)

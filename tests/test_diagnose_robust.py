@@ -300,3 +300,10 @@ def test_the_summary_describes_the_extension_that_was_chosen(base_diagnosis):
     plan = dx.extension.plan
     assert candidate_changes("search", plan)[:-1] == plan.changes
     assert candidate_changes("search", plan)[-1] == "chosen candidate: the search's terms"
+
+
+def test_a_diverging_augmentation_is_said_so_not_a_drop_of_inf():
+    from mggp.diagnose.findings import _g
+    from mggp.diagnose.report import _g as rg
+    assert _g(float("-inf")) == "-inf" and rg(float("-inf")) == "-inf"
+    assert _g(float("nan")) == "undefined" and rg(float("inf")) == "inf"

@@ -177,7 +177,9 @@ def _num(v):
 
 
 def _g(v) -> str:
-    return "inf" if not np.isfinite(v) else f"{v:.3g}"
+    if np.isnan(v):
+        return "undefined"
+    return ("inf" if v > 0 else "-inf") if not np.isfinite(v) else f"{v:.3g}"
 
 
 def _hysteresis_checks(ev: Evidence) -> List[Check]:
@@ -193,11 +195,16 @@ def _hysteresis_checks(ev: Evidence) -> List[Check]:
     a = ev.augmentation
     if a is not None:
         thr = max(a.null_quantile, ev.floor)
+        if np.isfinite(a.augmented_rmse):
+            effect = (f"lower the {a.mode} RMSE of the baseline's terms (refitted by LS) "
+                      f"from {_g(a.reference_rmse)} to {_g(a.augmented_rmse)} ({a.form}, "
+                      f"{len(a.terms)} terms), a drop of {_g(a.statistic)}")
+        else:
+            effect = (f"make the {a.mode} simulation of the baseline's terms (refitted by "
+                      f"LS; RMSE {_g(a.reference_rmse)}) diverge ({a.form}, "
+                      f"{len(a.terms)} terms): no evidence for hysteresis from them")
         detail = (f"the Bouc–Wen direction terms |Δu|, {ev.output}[k-1]·|Δu|, u[k-1]·|Δu| "
-                  f"(|Δu| = Phi1·Phi2 of u[k-1], u[k-2]) lower the {a.mode} RMSE of the "
-                  f"baseline's terms (refitted by LS) from {_g(a.reference_rmse)} to "
-                  f"{_g(a.augmented_rmse)} ({a.form}, {len(a.terms)} terms), a drop of "
-                  f"{_g(a.statistic)}; placebo terms from the input shifted in time "
+                  f"(|Δu| = Phi1·Phi2 of u[k-1], u[k-2]) {effect}; placebo terms from the input shifted in time "
                   f"({a.n_shifts} shifts) drop it by at most {_g(a.null_quantile)} "
                   f"({pct} quantile); resolution floor {_g(ev.floor)}")
         out.append(Check("Φ-augmentation", "hysteresis", a.statistic, thr, detail))

@@ -35,7 +35,7 @@ __all__ = ["terminal_summary", "write_report", "verdict"]
 def _g(v) -> str:
     if v is None or np.isnan(v):
         return "undefined"
-    return "inf" if not np.isfinite(v) else f"{v:.4g}"
+    return ("inf" if v > 0 else "-inf") if not np.isfinite(v) else f"{v:.4g}"
 
 
 def _rm(v) -> str:
