@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 import os
 from array import array
 from typing import Iterator, List, Optional, Sequence, Tuple
@@ -221,14 +222,22 @@ def write_with_column(src, dst, name: str, values: np.ndarray) -> None:
     """Copy CSV ``src`` to ``dst`` (atomically, streaming) adding a column,
     with ``src``'s field separator."""
     sep = delimiter(src)
+    comma = None                              # decimal commas in the source?
     with atomic_writer(dst, newline="") as fh:
         w = csv.writer(fh, delimiter=sep)
         rows = iter_rows(src, sep)
         _, header = next(rows)
-        w.writerow([h.strip() for h in header] + [name])
+        header = [h.strip() for h in header]
+        while len(header) > 1 and not header[-1]:     # trailing separators
+            header.pop()
+        w.writerow(header + [name])
         width = len(header)
         for i, (_, fields) in enumerate(rows):
             v = values[i]
             if len(fields) > width and not any(f.strip() for f in fields[width:]):
                 fields = fields[:width]
-            w.writerow(fields + ["" if not np.isfinite(v) else repr(float(v))])
+            if comma is None:
+                comma = sep != "," and any(re.fullmatch(r"\s*[-+]?\d*,\d+([eE][-+]?\d+)?\s*", f)
+                                           for f in fields)
+            text = "" if not np.isfinite(v) else repr(float(v))
+            w.writerow(fields + [text.replace(".", ",") if comma else text])

@@ -204,9 +204,11 @@ def test_semicolon_and_tab_files_with_decimal_commas(capsys, sine_csv, model19, 
     code2, out2, err2 = run(capsys, "simulate", model19, p, "--out", pred)
     assert code2 == 0, err2
     assert out2.splitlines()[0] == out.splitlines()[0]          # same RMSE and MAPE
-    head = pred.read_text().splitlines()[:2]
+    head = pred.read_text().splitlines()[:3]
     assert head[0] == sep.join(["t", "u", "y", "y_hat"])
     assert len(head[1].split(sep)) == 4
+    last = head[2].split(sep)[-1]                  # the source's decimal comma
+    assert "," in last and "." not in last, head[2]
 
 
 def test_units_row_under_the_header_is_named(capsys, tmp_path):
