@@ -75,6 +75,9 @@ def register(sub):
     p.add_argument("--constraints", choices=["steady-state"], default=None,
                    help="also refit the best structure by CLS with the derived "
                         "continuum-of-steady-states constraints")
+    p.add_argument("--search-constraints", choices=["steady-state"], default=None,
+                   help="score every structure of the search by its CLS fit (the "
+                        "continuum of steady states) instead of LS")
     p.add_argument("--no-phi", action="store_true", help="plain polynomial terms only")
     p.add_argument("--screen", choices=["freerun", "hold"], default=None,
                    help="reject each generation's leaders whose free run over the "
@@ -161,6 +164,7 @@ def _cmd_fit(args) -> int:
     data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True)
     est = MGGPRegressor(fitness=args.fitness, window=window, k=k,
                         criterion=args.criterion, constraints=args.constraints,
+                        search_constraints=args.search_constraints,
                         population=args.population, generations=args.generations,
                         max_terms=args.max_terms, max_height=args.max_height,
                         max_lag=args.max_lag, max_degree=args.max_degree,

@@ -241,3 +241,12 @@ def test_fit_keeps_the_cls_model_when_hold_chose_it(capsys, tmp_path, monkeypatc
     assert code == 0, err
     assert "LS model is written" not in err and "(CLS fit)" in stdout
     assert "(BIC of the ms MSE)" in stdout
+
+
+def test_fit_search_constraints_reach_the_estimator(capsys, tmp_path):
+    out = tmp_path / "m.json"
+    code, _, err = run(capsys, "fit", csv(tmp_path), "--population", "20", "--generations",
+                       "2", "--seed", "0", "--quiet", "--search-constraints", "steady-state",
+                       "--out", out)
+    assert code == 0, err
+    assert json.loads(out.read_text())["meta"]["search_constraints"] == "steady-state"
