@@ -361,8 +361,10 @@ class MGGPRegressor:
             self.model_ = Model(terms, inputs=data.inputs, output=data.output,
                                 meta=dict(meta, estimation="ls"), registry=registry).fit(data)
             self.rank_ = int(self.model_.fit_info_["rank"])
-            # ELS fits of noise terms are not the search's fits: not compared
-            self.precision_ = check = None if any(t.has_noise for t in terms) else \
+            # ELS fits of noise terms, and CLS fits of a constrained search, are
+            # not what model_ (LS) is: not compared
+            self.precision_ = check = None if (any(t.has_noise for t in terms)
+                                               or self.search_constraints) else \
                 search_precision(scorer, terms, self.model_.theta)
             if check is not None and check.refit_worse:   # keep what the search scored
                 theta, _ = scorer.fit(terms)

@@ -94,3 +94,12 @@ def test_a_horizon_that_sees_little_of_the_motion_is_named(record):
         MGGPRegressor(fitness="ms", window=100, population=6, generations=1,
                       random_state=0).fit(u, y)
     assert SPW is SearchPrecisionWarning
+
+
+def test_a_constrained_search_leaves_model_ls(record):
+    """With search_constraints the search scores CLS fits: model_ stays the
+    LS fit (its θ is never replaced by a CLS one)."""
+    u, y = record
+    est = MGGPRegressor(search_constraints="steady-state", population=10, generations=2,
+                        random_state=0).fit(u, y)
+    assert est.precision_ is None and est.model_.meta["estimation"] == "ls"
