@@ -47,13 +47,6 @@ __all__ = ["refine", "refine_both", "Refinement"]
 _SPREAD = 1e3
 
 
-def _diverges(terms, theta, data, mode, plan, P, registry, kw, penalty) -> bool:
-    from .simulate import simulate
-    r = simulate(terms, theta, data, mode, plan=plan, P=P, registry=registry, **kw)
-    e = (r.y_hat - data.y)[plan.maxlag:]
-    return bool(r.diverged or not np.all(np.isfinite(e)) or np.any(np.abs(e) > penalty))
-
-
 @dataclass
 class Refinement:
     """Outcome of :func:`refine`.
@@ -120,7 +113,7 @@ def refine(model, u, y=None, *, mode: str = "ms", window: Optional[int] = 100,
     """
     from scipy.optimize import least_squares
 
-    from .simulate import Plan
+    from .simulate import Plan, simulate
     if mode not in ("ms", "freerun"):
         raise ValueError(f"mode must be 'ms' or 'freerun', got {mode!r}")
     if mode == "ms" and (isinstance(window, bool) or not isinstance(window, (int, np.integer))
@@ -131,7 +124,6 @@ def refine(model, u, y=None, *, mode: str = "ms", window: Optional[int] = 100,
                          "least squares, not by simulation error")
     data = model._data(u, y)
     data.require_output("refining θ")
-    from .simulate import simulate
     theta0 = np.asarray(model._need_theta(), dtype=float)
     plan = Plan.from_terms(model.terms, data.inputs, model.registry)
     P = plan.input_parts(data, model.registry)
@@ -139,31 +131,33 @@ def refine(model, u, y=None, *, mode: str = "ms", window: Optional[int] = 100,
     yr = float(np.ptp(data.y)) or 1.0
     penalty = _SPREAD * yr
 
-    def residuals(theta):
+    def errors(theta):
+        """(simulation errors, with diverged samples set to ``penalty``;
+        whether the simulation diverged)."""
         if not np.all(np.isfinite(theta)):
-            return np.full(data.n - plan.maxlag, penalty)
+            return np.full(data.n - plan.maxlag, penalty), True
         r = simulate(model.terms, theta, data, mode, plan=plan, P=P,
                      registry=model.registry, **kw)
         e = (r.y_hat - data.y)[plan.maxlag:]
         bad = ~np.isfinite(e) | (np.abs(e) > penalty)
         if bad.any():
             e = np.where(bad, penalty, e)
-        return e
+        return e, bool(r.diverged or bad.any())
 
     tp, z = _constraint_space(model)
     w0 = z.T @ (theta0 - tp)
-    e0 = residuals(theta0)
+    e0, diverged0 = errors(theta0)
     cost0 = float(np.mean(e0 ** 2))
-    if _diverges(model.terms, theta0, data, mode, plan, P, model.registry, kw, penalty):
+    if diverged0:
         raise ValueError(f"the model's {mode} simulation diverges on this record: there is "
                          f"no simulation error to refine from (refit it, or choose a "
                          f"stable structure first)")
-    sol = least_squares(lambda w: residuals(tp + z @ w), w0, method="trf",
+    sol = least_squares(lambda w: errors(tp + z @ w)[0], w0, method="trf",
                         x_scale="jac", max_nfev=max_nfev or 50 * max(1, w0.size))
     theta1 = tp + z @ sol.x
-    cost1 = float(np.mean(residuals(theta1) ** 2))
-    improved = bool(np.isfinite(cost1) and cost1 < cost0) and not _diverges(
-        model.terms, theta1, data, mode, plan, P, model.registry, kw, penalty)
+    e1, diverged1 = errors(theta1)
+    cost1 = float(np.mean(e1 ** 2))
+    improved = bool(np.isfinite(cost1) and cost1 < cost0) and not diverged1
     if not improved:
         theta1, cost1 = theta0, cost0
     from .model import Model
