@@ -62,9 +62,7 @@ def _cmd_estimate(args) -> int:
         check_writable(args.out, "--out")
     model.fit(data, constraints=cons)
     refined = None
-    if args.refine_window is not None and args.refine != "ms":
-        raise CLIError(f"--refine-window applies to --refine ms only, got --refine "
-                       f"{args.refine}")
+    check_refine_args(args)
     if args.refine:
         from narx.refine import refine
         try:
@@ -157,12 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("data", metavar="DATA.csv")
     e.add_argument("--terms", nargs="+", required=True, metavar="TERM")
     e.add_argument("--constraints", choices=["steady-state"], default=None)
-    e.add_argument("--refine", choices=["ms", "freerun"], default=None,
-                   help="then refine θ by minimising the simulation error (ms: windows "
-                        "of --refine-window samples) instead of LS's one-step error, "
-                        "which is biased by output noise")
-    e.add_argument("--refine-window", type=int, default=None, metavar="W",
-                   help="Δm for --refine ms (default 100)")
+    add_refine_args(e, "100")
     e.add_argument("--out", metavar="MODEL.json")
     add_signal_args(e)
     e.set_defaults(func=_cmd_estimate)
@@ -221,6 +214,23 @@ def main(argv: Optional[List[str]] = None) -> int:
     with warnings.catch_warnings():             # restores showwarning on return
         warnings.showwarning = _one_line_warning
         return _main(argv)
+
+
+def add_refine_args(p, window_default: str) -> None:
+    """``--refine ms|freerun`` and ``--refine-window W`` (see narx.refine)."""
+    p.add_argument("--refine", choices=["ms", "freerun"], default=None,
+                   help="refine θ by minimising the simulation error (ms: windows of "
+                        "--refine-window samples) instead of the one-step error of LS, "
+                        "which is biased by output noise")
+    p.add_argument("--refine-window", type=int, default=None, metavar="W",
+                   help=f"Δm for --refine ms (default {window_default})")
+
+
+def check_refine_args(args) -> None:
+    """Refuse ``--refine-window`` without ``--refine ms``."""
+    if args.refine_window is not None and args.refine != "ms":
+        raise CLIError(f"--refine-window applies to --refine ms only, got --refine "
+                       f"{args.refine}")
 
 
 def refinement_line(r) -> str:

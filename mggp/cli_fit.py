@@ -17,7 +17,8 @@ import shlex
 import sys
 import time
 
-from .cli import CLIError, add_signal_args, fmt, mode_option, refinement_line
+from .cli import (CLIError, add_refine_args, add_signal_args, check_refine_args, fmt,
+                  mode_option, refinement_line)
 
 __all__ = ["register"]
 
@@ -66,12 +67,7 @@ def register(sub):
     p.add_argument("--noise-lags", type=int, default=0, metavar="Q",
                    help="select moving-average noise terms e[k-1]..e[k-Q] by extended LS "
                         "after the search (NARMAX; for coloured noise; default 0)")
-    p.add_argument("--refine", choices=["ms", "freerun"], default=None,
-                   help="refine θ of the result by minimising its simulation error "
-                        "instead of the one-step error of LS, which is biased by output "
-                        "noise")
-    p.add_argument("--refine-window", type=int, default=None, metavar="W",
-                   help="Δm for --refine ms (default: the search's --window, 100)")
+    add_refine_args(p, "the search's --window, 100")
     p.add_argument("--constraints", choices=["steady-state"], default=None,
                    help="also refit the best structure by CLS with the derived "
                         "continuum-of-steady-states constraints")
@@ -128,9 +124,7 @@ def _cmd_fit(args) -> int:
     from .estimator import MGGPRegressor
     from narx.atomic import check_writable
     mode_option(args.fitness, {"ksa": "k", "ms": "window"}, args, "--fitness")
-    if args.refine_window is not None and args.refine != "ms":
-        raise CLIError(f"--refine-window applies to --refine ms only, got --refine "
-                       f"{args.refine}")
+    check_refine_args(args)
     window = 100 if args.window is None else args.window
     k = 10 if args.k is None else args.k
     lows = {"population": 2, "generations": 0, "max_terms": 1, "max_height": 1,
