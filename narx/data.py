@@ -124,9 +124,8 @@ class Data(HasSignals):
 
     def cached(self, key: str, fn):
         """Column cache: ``fn()`` is called once per key and record."""
-        v = self._cache.get(key)
+        v = self.cached_only(key)
         if v is not None:
-            self._cache.move_to_end(key)
             return v
         v = fn()
         self._cache[key] = v
@@ -134,6 +133,13 @@ class Data(HasSignals):
         while self._cache_bytes > self.cache_limit and len(self._cache) > 1:
             _, old = self._cache.popitem(last=False)
             self._cache_bytes -= old.nbytes
+        return v
+
+    def cached_only(self, key: str):
+        """The cached column of ``key``, or None (nothing is built)."""
+        v = self._cache.get(key)
+        if v is not None:
+            self._cache.move_to_end(key)
         return v
 
     def clear_cache(self):

@@ -120,19 +120,22 @@ def _key(f, reg: PhiRegistry) -> str:
     return str(f)
 
 
+def _input_key(term: Term, reg: PhiRegistry) -> str:
+    return "in:" + "*".join(_key(f, reg) for f in term.input_factors)
+
+
+def _input_columns(term: Term, data: Data, reg: PhiRegistry) -> list:
+    """The factor columns of the term's input part (cached per record)."""
+    return [data.cached("f:" + _key(f, reg), lambda f=f: factor_column(f, data, registry=reg))
+            for f in term.input_factors]
+
+
 def input_part(term: Term, data: Data,
                registry: Optional[PhiRegistry] = None) -> np.ndarray:
     """Product of the input-only factors of ``term`` (cached per record)."""
     reg = registry or default_registry()
-    fs = term.input_factors
-    key = "in:" + "*".join(_key(f, reg) for f in fs)
-
-    def build():
-        cols = [data.cached("f:" + _key(f, reg),
-                            lambda f=f: factor_column(f, data, registry=reg))
-                for f in fs]
-        return _product(cols, data.n)
-    return data.cached(key, build)
+    return data.cached(_input_key(term, reg),
+                       lambda: _product(_input_columns(term, data, reg), data.n))
 
 
 def input_part_into(term: Term, data: Data, out: np.ndarray,
@@ -142,14 +145,11 @@ def input_part_into(term: Term, data: Data, out: np.ndarray,
     straight into ``out`` from the cached factor columns, without a new
     array for the product (a fresh array costs its page faults)."""
     reg = registry or default_registry()
-    fs = term.input_factors
-    key = "in:" + "*".join(_key(f, reg) for f in fs)
-    done = data._cache.get(key) if hasattr(data, "_cache") else None
+    done = data.cached_only(_input_key(term, reg))
     if done is not None:
         out[:] = done
         return out
-    cols = [data.cached("f:" + _key(f, reg), lambda f=f: factor_column(f, data, registry=reg))
-            for f in fs]
+    cols = _input_columns(term, data, reg)
     if not cols:
         out[:] = 1.0
     elif len(cols) == 1:
