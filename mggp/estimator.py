@@ -367,8 +367,8 @@ class MGGPRegressor:
                                                or self.search_constraints) else \
                 search_precision(scorer, terms, self.model_.theta)
             if check is not None and check.refit_worse:   # keep what the search scored
-                theta, _ = scorer.fit(terms)
-                self.model_ = Model(terms, theta, inputs=data.inputs, output=data.output,
+                self.model_ = Model(terms, check.search_theta, inputs=data.inputs,
+                                    output=data.output,
                                     meta=dict(meta, estimation="ls-search",
                                               qr_refit_fitness_value=check.refit_mse),
                                     registry=registry)

@@ -28,6 +28,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -58,6 +59,8 @@ class PrecisionCheck:
     refit_mse: float
     #: errors below this are rounding (exact data), never compared
     floor: float = 0.0
+    #: the search's θ of the structure (None if its fit failed)
+    search_theta: Optional[np.ndarray] = None
 
     @property
     def refit_worse(self) -> bool:
@@ -97,14 +100,20 @@ def search_precision(scorer, terms, theta) -> PrecisionCheck:
     """Fitness of ``terms`` with the search's θ and with ``theta`` (the
     refit), on the same scorer: same rows, same simulation."""
     terms = tuple(terms)
-    search = scorer.score(terms)
+    try:                                      # as StructureScorer.evaluate does
+        theta_s, s = scorer.fit(terms)
+    except (ValueError, np.linalg.LinAlgError):
+        return PrecisionCheck(float("inf"), float("inf"))
+    if not np.all(np.isfinite(theta_s)):
+        theta_s, search = None, float("inf")
+    else:
+        search = scorer.simulated_mse(terms, theta_s, s)
     try:
-        _, s = scorer.fit(terms)
         refit = scorer.simulated_mse(terms, np.asarray(theta, dtype=float), s)
     except (ValueError, np.linalg.LinAlgError):
         refit = float("inf")
     floor = (1e-10 * float(np.ptp(scorer.y))) ** 2     # rounding of noise-free data
-    return PrecisionCheck(float(search), float(refit), floor)
+    return PrecisionCheck(float(search), float(refit), floor, theta_s)
 
 
 def horizon_message(y, horizon: int, what: str, limit: float = 0.99) -> str:
@@ -133,8 +142,9 @@ def data_warnings(data, fitness: str, window: int, k: int) -> list:
     """``(message, category)`` of what in the data will mislead a search
     with this fitness: a dominating offset, a horizon that sees little."""
     out = []
-    if offset_message(data):
-        out.append((offset_message(data), SearchPrecisionWarning))
+    off = offset_message(data)
+    if off:
+        out.append((off, SearchPrecisionWarning))
     if fitness in ("ms", "ksa"):
         h, name = (window, "window") if fitness == "ms" else (k, "k")
         msg = horizon_message(data.y, int(h), name)
