@@ -87,11 +87,9 @@ def _cmd_compensate(args) -> int:
     if args.y_past is None:
         args.y_past = float(r[0])
     if args.u_past is None:
-        rng = model.meta.get("ranges", {}).get(model.inputs[0]) \
-            if isinstance(model.meta.get("ranges"), dict) else None
-        ok = (isinstance(rng, list) and len(rng) == 2
-              and all(isinstance(v, (int, float)) and np.isfinite(v) for v in rng))
-        args.u_past = 0.5 * (float(rng[0]) + float(rng[1])) if ok else 0.0
+        from narx.compensate_args import training_ranges
+        rng = training_ranges(model).get(model.inputs[0])
+        args.u_past = 0.5 * (rng[0] + rng[1]) if rng else 0.0
     info = model.meta.get("compensator")
     inverse = isinstance(info, dict) and info.get("kind") == INVERSE_KIND
     if inverse:

@@ -68,7 +68,8 @@ from typing import Optional
 
 import numpy as np
 
-from .compensate_args import check_count, check_range, check_reference, past_values
+from .compensate_args import (check_count, check_range, check_reference, past_values,
+                              training_magnitudes)
 from .inverse_check import (NonMinimumPhaseWarning, active_terms, input_lags,
                             inverse_stability, uninvertible_reason)
 from .terms import Lag
@@ -471,19 +472,6 @@ class RootCompensator:
             m=m, r=r, target=target, y_model=y_model, lead=self.lead, delay=self.delay,
             fallback=fb, fallbacks=int(fb.sum()), saturated=int(sat.sum()), n_roots=n_roots,
             diverged_at=at)
-
-
-def training_magnitudes(model) -> list:
-    """|ends| of the signal ranges the model was fitted on (``meta['ranges']``,
-    written by :meth:`narx.Model.fit`); ``[]`` when absent or malformed."""
-    ranges = getattr(model, "meta", {}).get("ranges")
-    out = []
-    if isinstance(ranges, dict):
-        for v in ranges.values():
-            if (isinstance(v, (list, tuple)) and len(v) == 2
-                    and all(isinstance(x, (int, float)) and math.isfinite(x) for x in v)):
-                out += [abs(float(x)) for x in v]
-    return out
 
 
 def compensate(model, r, *, input_range=None, lead=None, fallback="minimise",

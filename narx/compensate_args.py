@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["check_range", "check_count", "check_reference", "past_values"]
+__all__ = ["check_range", "check_count", "check_reference", "past_values",
+           "training_ranges", "training_magnitudes"]
 
 
 def check_range(input_range):
@@ -54,3 +55,22 @@ def past_values(name, value, n):
         raise ValueError(f"{name} must be a finite number or at least {n} finite values "
                          f"(the model's largest lag), got {a.size} value(s)")
     return [float(v) for v in a[a.size - n:]] if n else []
+
+
+def training_ranges(model) -> dict:
+    """``{signal: (low, high)}`` of the ranges the model was fitted on
+    (``meta['ranges']``, written by :meth:`narx.Model.fit`); malformed or
+    absent entries are left out."""
+    ranges = getattr(model, "meta", {}).get("ranges")
+    out = {}
+    if isinstance(ranges, dict):
+        for name, v in ranges.items():
+            if (isinstance(v, (list, tuple)) and len(v) == 2
+                    and all(isinstance(x, (int, float)) and np.isfinite(x) for x in v)):
+                out[name] = (float(v[0]), float(v[1]))
+    return out
+
+
+def training_magnitudes(model) -> list:
+    """|ends| of the signal ranges the model was fitted on; ``[]`` if none."""
+    return [abs(x) for lo_hi in training_ranges(model).values() for x in lo_hi]

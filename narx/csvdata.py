@@ -103,6 +103,14 @@ def _records(path, sep: str = ",") -> Iterator[Tuple[int, int, List[str]]]:
             raise DataError(f"{path}: {where}: malformed CSV ({exc})") from None
 
 
+def _trim(fields: List[str], width: int) -> List[str]:
+    """``fields`` without empty fields after the ``width``-th (trailing
+    separators, as LabVIEW and spreadsheets write them)."""
+    if len(fields) > width and not any(f.strip() for f in fields[width:]):
+        return fields[:width]
+    return fields
+
+
 def iter_rows(path, sep: Optional[str] = None) -> Iterator[Tuple[int, List[str]]]:
     """Yield (line number, fields) of non-blank rows, header included.
 
@@ -165,8 +173,7 @@ def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
     values = array("d")
     pairs = list(zip(names, idx))
     for line, end, fields in rows:
-        if len(fields) > width and not any(f.strip() for f in fields[width:]):
-            fields = fields[:width]               # trailing separators (LabVIEW, Excel)
+        fields = _trim(fields, width)
         if len(fields) != width:
             span = "" if end == line else f" (the row runs to line {end}: an unclosed quote?)"
             raise DataError(f"{path}: line {line} has {len(fields)} fields but the "
@@ -234,8 +241,7 @@ def write_with_column(src, dst, name: str, values: np.ndarray) -> None:
         width = len(header)
         for i, (_, fields) in enumerate(rows):
             v = values[i]
-            if len(fields) > width and not any(f.strip() for f in fields[width:]):
-                fields = fields[:width]
+            fields = _trim(fields, width)
             if comma is None:
                 comma = sep != "," and any(re.fullmatch(r"\s*[-+]?\d*,\d+([eE][-+]?\d+)?\s*", f)
                                            for f in fields)
