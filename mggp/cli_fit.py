@@ -190,7 +190,7 @@ def _cmd_fit(args) -> int:
              _freerun_line(fr_ls)]
     if est.refinement_ is not None:
         lines.append("     " + refinement_line(est.refinement_))
-    if m.meta.get("estimation") == "ls-search":
+    if str(m.meta.get("estimation", "")).startswith("ls-search"):
         lines.append(f"     θ from the search's fit: the QR refit of these terms simulates "
                      f"worse ({args.fitness} MSE {fmt(m.meta['qr_refit_fitness_value'])})")
     if args.constraints:

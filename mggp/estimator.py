@@ -152,8 +152,9 @@ class MGGPRegressor:
     collinear terms: the exact LS θ has large cancelling coefficients)
     ``model_`` keeps the search's θ, which is what was scored
     (``model_.meta['estimation'] == 'ls-search'``). A
-    :class:`mggp.precision.SearchPrecisionWarning` names an offset that dominates a signal
-    before the search (its normal equations lose precision on such data).
+    :class:`mggp.precision.SearchPrecisionWarning` names an offset that
+    dominates a signal before the search (its normal equations lose
+    precision on such data).
     """
 
     def __init__(self, *, fitness="ms", window=100, k=10, criterion="mse",
