@@ -100,14 +100,10 @@ def search_precision(scorer, terms, theta) -> PrecisionCheck:
     """Fitness of ``terms`` with the search's θ and with ``theta`` (the
     refit), on the same scorer: same rows, same simulation."""
     terms = tuple(terms)
-    try:                                      # as StructureScorer.evaluate does
-        theta_s, s = scorer.fit(terms)
-    except (ValueError, np.linalg.LinAlgError):
+    theta_s, s = scorer.fitted(terms)
+    if s is None:
         return PrecisionCheck(float("inf"), float("inf"))
-    if not np.all(np.isfinite(theta_s)):
-        theta_s, search = None, float("inf")
-    else:
-        search = scorer.simulated_mse(terms, theta_s, s)
+    search = float("inf") if theta_s is None else scorer.simulated_mse(terms, theta_s, s)
     try:
         refit = scorer.simulated_mse(terms, np.asarray(theta, dtype=float), s)
     except (ValueError, np.linalg.LinAlgError):

@@ -48,7 +48,6 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from narx.data import Data
-from narx.estimate import EstimationError
 from narx.fitness import StructureScorer
 from narx.phi import PhiRegistry
 from narx.simulate import recursion_windows
@@ -130,11 +129,8 @@ class StabilityScreen:
         """Whether the LS (or CLS) free run of ``terms`` over the record stays
         within ``[min y - f range, max y + f range]``."""
         sc = self.scorer
-        try:
-            theta, s = sc.fit(terms)
-        except (EstimationError, np.linalg.LinAlgError, ValueError):
-            return False
-        if not np.all(np.isfinite(theta)):
+        theta, s = sc.fitted(terms)
+        if theta is None:
             return False
         starts, length, wf, first = recursion_windows("freerun", sc.data.n, s, sc.k)
         if starts.size == 0:
@@ -145,12 +141,8 @@ class StabilityScreen:
 
     def holds(self, terms: Tuple[Term, ...]) -> bool:
         """Whether the CLS refit of ``terms`` holds on the held record."""
-        try:
-            theta, _ = self.scorer.fit(terms, constraints="steady-state")
-        except (EstimationError, np.linalg.LinAlgError, ValueError):
-            return False
-        return bool(np.all(np.isfinite(theta))) and self.hold.holds(terms, theta,
-                                                                    self.scorer.bound)
+        theta, _ = self.scorer.fitted(terms, constraints="steady-state")
+        return theta is not None and self.hold.holds(terms, theta, self.scorer.bound)
 
     def __call__(self, term_sets: Sequence[Tuple[Term, ...]],
                  values: Sequence[float]) -> List[float]:

@@ -390,13 +390,19 @@ class StructureScorer:
         self.evaluations += 1
         if not terms:
             return float("inf"), None
-        try:
-            theta, s = self.fit(terms)
-        except (EstimationError, np.linalg.LinAlgError, ValueError):
-            return float("inf"), None
-        if not np.all(np.isfinite(theta)):
+        theta, s = self.fitted(terms)
+        if theta is None:
             return float("inf"), None
         return self._simulate_mse(terms, theta, s), theta
+
+    def fitted(self, terms: Sequence[Term], constraints="default"):
+        """:meth:`fit` that does not raise: ``(θ, s)``, θ None when the fit
+        failed or is not finite (and s None when it failed)."""
+        try:
+            theta, s = self.fit(terms, constraints)
+        except (EstimationError, np.linalg.LinAlgError, ValueError):
+            return None, None
+        return (theta if np.all(np.isfinite(theta)) else None), s
 
     def score(self, terms: Sequence[Term]) -> float:
         return self.evaluate(terms)[0]
