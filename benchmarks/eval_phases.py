@@ -10,7 +10,7 @@ of :mod:`benchmarks.evals` once (a generation 0: every column, Gram entry
 and window-major copy is built on first sight), best of ``--repeats``
 passes. The scorer's phases are timed by wrapping them:
 
-* ``Gram entries``: ``_fill_gram`` (one compiled pass: a 4-lane
+* ``Gram entries``: ``narx.gram.fill_gram`` (one compiled pass: a 4-lane
   fixed-order dot product per new pair of columns, and per column with y);
 * ``MS kernel``: the window-major multiple-shooting kernel ``_ms_sse``;
 * ``columns``: building the regressor columns and input parts on first

@@ -39,6 +39,7 @@ import scipy.linalg
 
 from .data import Data
 from .estimate import EstimationError
+from .gram import fill_gram as _fill_gram, fixed_dot
 from .kernels import Plan, run_windows
 from .ms_kernel import ms_mse, window_sse
 from .phi import PhiRegistry, default_registry
@@ -54,54 +55,6 @@ try:
 except ImportError:                       # pragma: no cover
     def njit(*a, **k):
         return (lambda f: f) if not a or not callable(a[0]) else a[0]
-
-
-@njit(cache=True, nogil=True)
-def fixed_dot(a, b):
-    """Dot product with a fixed summation order (4 interleaved partial sums).
-
-    BLAS ``ddot`` may round differently depending on memory alignment; the
-    cache layout differs between worker processes, so a search whose
-    results must not depend on the number of workers needs this one.
-    """
-    n = a.shape[0]
-    m = n - n % 4
-    s0 = s1 = s2 = s3 = 0.0
-    for i in range(0, m, 4):
-        s0 += a[i] * b[i]
-        s1 += a[i + 1] * b[i + 1]
-        s2 += a[i + 2] * b[i + 2]
-        s3 += a[i + 3] * b[i + 3]
-    for i in range(m, n):
-        s0 += a[i] * b[i]
-    return (s0 + s1) + (s2 + s3)
-
-
-@njit(cache=True, nogil=True)
-def _fill_gram(G, bv, arr, slots, y, s):
-    """Gram entries of the columns ``arr[slots]`` and their products with
-    ``y`` over rows ``s..``: the missing (NaN) ones of the slot-indexed
-    cache ``G``/``bv`` are computed by :func:`fixed_dot` and stored; returns
-    the set's (G, b). One compiled pass instead of a Python call per pair,
-    with the same products, bit for bit."""
-    t = slots.shape[0]
-    sub = np.empty((t, t))
-    b = np.empty(t)
-    for i in range(t):
-        a = slots[i]
-        if bv[a] != bv[a]:
-            bv[a] = fixed_dot(arr[a, s:], y[s:])
-        b[i] = bv[a]
-        for j in range(i, t):
-            c = slots[j]
-            v = G[a, c]
-            if v != v:
-                v = fixed_dot(arr[a, s:], arr[c, s:])
-                G[a, c] = v
-                G[c, a] = v
-            sub[i, j] = v
-            sub[j, i] = v
-    return sub, b
 
 
 @njit(cache=True, nogil=True)
