@@ -37,6 +37,7 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 import scipy.linalg
 
+from .colbuild import ColumnBuilder
 from .data import Data
 from .estimate import EstimationError
 from .gram import fill_gram as _fill_gram, fixed_dot
@@ -225,6 +226,7 @@ class StructureScorer:
         self.start = None if start is None else int(start)
         self.registry = registry or default_registry()
         self.store = ColumnStore(data.n, budget_bytes)
+        self._builder = ColumnBuilder(data, self.y, self.registry)
         # the stores are written at creation (the first task of a worker);
         # what may still grow is bounded: the record's column cache, the
         # decoder and term caches. joblib's loky restarts a worker whose
@@ -270,6 +272,8 @@ class StructureScorer:
 
     def _reg_slot(self, t: Term) -> int:
         def fill(row):
+            if self._builder.build(t, row):
+                return
             # (input part) * out_1 * out_2 ..., in this order, into the store
             input_part_into(t, self.data, row, self.registry)
             for f in t.factors:
@@ -283,8 +287,9 @@ class StructureScorer:
             return self._reg_slot(t)
 
         def fill(row):
-            input_part_into(t, self.data, row, self.registry)
-            _finite_inplace(row)
+            if not self._builder.build(t, row, input_only=True):
+                input_part_into(t, self.data, row, self.registry)
+                _finite_inplace(row)
         return self.store.get("i:" + "*".join(str(f) for f in t.input_factors), fill)
 
     def _gram(self, slots: np.ndarray, s: int) -> Tuple[np.ndarray, np.ndarray]:
