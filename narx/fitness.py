@@ -20,12 +20,13 @@ Speed comes from caching across term sets, as a structure search meets the
 same terms again and again:
 
 * every distinct regressor column (on measured data) and every input-only
-  part is computed once and kept in a :class:`ColumnStore` (bounded LRU);
+  part is computed once (compiled, :mod:`narx.colbuild`, for the built-in
+  Φ-functions) and kept in a :class:`ColumnStore` (bounded LRU);
 * every Gram entry :math:`\\psi_i^T\\psi_j` and :math:`\\psi_i^T y` is
-  computed once; θ then comes from the small normal equations, solved on
-  unit-diagonal scaling by a rank-revealing pivoted-QR least-squares solve
-  (``gelsy``), which is the minimum-norm LS solution when columns are
-  dependent. Final models are refitted with :func:`narx.estimate.least_squares`
+  computed once, in a fixed summation order (:mod:`narx.gram`); θ then
+  comes from the small normal equations, solved on unit-diagonal scaling
+  by a rank-revealing pivoted-QR least-squares solve (``gelsy``), which is
+  the minimum-norm LS solution when columns are dependent. Final models are refitted with :func:`narx.estimate.least_squares`
   on the regressor matrix itself (``Model.fit``);
 * the compiled kernel reads input parts straight from the store.
 """
