@@ -26,8 +26,9 @@ same terms again and again:
   computed once, in a fixed summation order (:mod:`narx.gram`); θ then
   comes from the small normal equations, solved on unit-diagonal scaling
   by a rank-revealing pivoted-QR least-squares solve (``gelsy``), which is
-  the minimum-norm LS solution when columns are dependent. Final models are refitted with :func:`narx.estimate.least_squares`
-  on the regressor matrix itself (``Model.fit``);
+  the minimum-norm LS solution when columns are dependent. Final models
+  are refitted with :func:`narx.estimate.least_squares` on the regressor
+  matrix itself (``Model.fit``);
 * the compiled kernel reads input parts straight from the store.
 """
 from __future__ import annotations
