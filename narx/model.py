@@ -117,7 +117,7 @@ class Model(HasSignals):
 
     def __repr__(self):
         return (f"Model({self.term_texts!r}, "
-                f"theta={None if self.theta is None else self.theta.round(6).tolist()}, "
+                f"theta={None if self.theta is None else [float(f'{v:.6g}') for v in self.theta]}, "
                 f"inputs={list(self.inputs)!r}, output={self.output!r})")
 
     # ------------------------------------------------------------ estimation

@@ -256,3 +256,15 @@ def test_save_does_not_touch_the_file_when_serialisation_fails(tmp_path):
         bad.save(p)
     assert p.read_bytes() == before
     assert sorted(os.listdir(tmp_path)) == ["model.json"]
+
+
+def test_repr_keeps_small_parameters():
+    """θ of a model whose output is in metres and input in newtons is ~1e-6:
+    the repr keeps six significant digits, not six decimals (which showed
+    8.8e-07 as -1e-06 and 3e-07 as 0.0)."""
+    import narx
+    m = narx.Model(["y[k-1]", "u[k-1]", "u[k-2]", "y[k-1]*y[k-1]*y[k-2]"],
+                   theta=[2.29641178, -8.81827690e-07, 3.01269919e-07, -12834.9235])
+    text = repr(m)
+    assert "theta=[2.29641, -8.81828e-07, 3.0127e-07, -12834.9]" in text
+    assert "0.0" not in text
