@@ -273,6 +273,11 @@ class MGGPRegressor:
         start = self._validate(data)
         for msg, kind in data_warnings(data, self.fitness, self.window, self.k):
             warnings.warn(msg, kind, stacklevel=2)
+        if self.max_lag is not None and self.max_lag > start:
+            warnings.warn(f"max_lag={self.max_lag} has no effect: trees of max_height="
+                          f"{self.max_height} reach lags up to {start} only (1 + 3 × "
+                          f"height); raise max_height to reach longer lags",
+                          UserWarning, stacklevel=2)
         registry = self.registry or default_registry()
         pset = make_pset(data.signals, registry, use_phi=self.use_phi, phi_names=self.phi_names)
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,

@@ -66,3 +66,22 @@ def test_repr_shows_the_parameters_that_differ_from_the_defaults():
     assert repr(MGGPRegressor()) == "MGGPRegressor()"
     assert repr(MGGPRegressor(fitness="pem", population=10, use_phi=False)) == \
         "MGGPRegressor(fitness='pem', population=10, use_phi=False)"
+
+
+def test_max_lag_beyond_height_warns():
+    """--max-lag only restricts: a value above what max_height trees reach
+    (1 + 3 × height) used to be accepted silently and change nothing."""
+    import warnings
+    import numpy as np
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal(300)
+    y = np.zeros(300)
+    for k in range(1, 300):
+        y[k] = 0.5 * y[k - 1] + u[k - 1]
+    with pytest.warns(UserWarning, match=r"max_lag=20 has no effect.*up to 7 only"):
+        MGGPRegressor(population=4, generations=0, max_height=2, max_lag=20,
+                      fitness="pem", random_state=0).fit(u, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        MGGPRegressor(population=4, generations=0, max_height=2, max_lag=7,
+                      fitness="pem", random_state=0).fit(u, y)
