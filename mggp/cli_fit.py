@@ -81,9 +81,9 @@ def register(sub):
                         "does not hold its output on a held input)")
     p.add_argument("--out", metavar="MODEL.json",
                    help="write the model: with --constraints the CLS fit, unless its free "
-                        "run diverges on the training record or (without --select/--screen "
-                        "hold) its RMSE there is over twice the LS fit's: then the LS fit, "
-                        "with a warning")
+                        "run diverges on the training record or (unless --screen hold, or "
+                        "--select hold found a structure that holds) its RMSE there is "
+                        "over twice the LS fit's: then the LS fit, with a warning")
     p.add_argument("--report", metavar="DIR", help="write figures and a Markdown summary")
     p.add_argument("--checkpoint", metavar="FILE", help="save the state every generation")
     p.add_argument("--resume", action="store_true",
@@ -201,8 +201,11 @@ def _cmd_fit(args) -> int:
             fr = c.simulate(data, mode="freerun")
             lines += ["CLS: " + c.equation(), _freerun_line(fr)]
             worse = fr_ls.rmse > 0 and fr.rmse > CLS_WORSE * fr_ls.rmse
-            # with 'hold' the structure was chosen for its CLS refit's holding
-            held = "hold" in (args.select, args.screen)
+            # with 'hold' the structure was chosen for its CLS refit's holding;
+            # not when --select hold found no candidate that holds (it then
+            # falls back to the best-fitness structure, with a warning)
+            held = args.screen == "hold" or (
+                args.select == "hold" and any(ok for ok, _ in getattr(est, "selection_", ())))
             if fr.diverged or (worse and not fr_ls.diverged and not held):
                 why = ("diverges on the training record" if fr.diverged else
                        f"is {fr.rmse / fr_ls.rmse:.3g} times the LS fit's free-run RMSE")
