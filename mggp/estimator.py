@@ -48,7 +48,7 @@ from .precision import data_warnings, search_precision
 from .pareto import ParetoFront, front_rows
 from .primitives import identically_zero, make_pset, max_lag_for_height
 from .screen import StabilityScreen
-from .selection import select_freerun, select_hold
+from .selection import bonferroni_t, prune_by_criterion, select_freerun, select_hold
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
 
@@ -335,7 +335,7 @@ class MGGPRegressor:
                                  constraints=self.search_constraints, start=start,
                                  registry=registry)
         if self.prune == "bic":
-            terms = self._prune(scorer, terms, data.n - start)
+            terms = prune_by_criterion(scorer, terms, data.n - start)
         elif self.prune == "t":
             terms = self._prune_t(data, terms, start)
         if self.noise_lags:
@@ -451,12 +451,8 @@ class MGGPRegressor:
     def _t_threshold(self, data) -> float:
         if self.t_threshold is not None:
             return float(self.t_threshold)
-        from math import comb
-        from scipy.stats import norm
-        lag = self.max_lag or max_lag_for_height(self.max_height)
-        deg = self.max_degree or 3
-        m = comb((len(data.inputs) + 1) * lag + deg, deg) - 1
-        return float(norm.ppf(1 - 0.05 / (2 * m)))
+        return bonferroni_t(len(data.inputs), self.max_lag or max_lag_for_height(self.max_height),
+                            self.max_degree or 3)
 
     def _prune_t(self, data, terms, start):
         from narx.estimate import t_statistics
@@ -464,21 +460,6 @@ class MGGPRegressor:
         crit = self.t_threshold_ = self._t_threshold(data)
         return prune_by_t(terms, lambda ts: t_statistics(
             *regressor_matrix(ts, data, start=start)[:2]), crit)
-
-    @staticmethod
-    def _prune(scorer, terms, n, criterion=None):
-        crit = criterion or "bic"
-        cur = criterion_value(scorer.score(terms), len(terms), n, crit)
-        while len(terms) > 1:
-            trials = []
-            for i in range(len(terms)):
-                sub = terms[:i] + terms[i + 1:]
-                trials.append((criterion_value(scorer.score(sub), len(sub), n, crit), i))
-            best, i = min(trials)
-            if not best < cur:
-                break
-            cur, terms = best, terms[:i] + terms[i + 1:]
-        return terms
 
     # -------------------------------------------------------------- use
     def _check_fitted(self):

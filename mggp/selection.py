@@ -28,9 +28,10 @@ from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.terms import Term
 
+from .evaluate import criterion_value
 from .screen import StabilityScreen
 
-__all__ = ["select_freerun", "select_hold"]
+__all__ = ["select_freerun", "select_hold", "prune_by_criterion", "bonferroni_t"]
 
 
 def select_freerun(cands: Sequence[Tuple[Term, ...]], data: Data, start: int,
@@ -54,3 +55,30 @@ def select_hold(cands: Sequence[Tuple[Term, ...]], data: Data, start: int,
         if ok:
             return terms, table
     return None, table
+
+
+def prune_by_criterion(scorer, terms: Tuple[Term, ...], n: int, criterion: str = "bic"):
+    """Backward elimination: drop the term whose removal lowers the
+    information criterion (of the scorer's fitness, ``n`` samples) most,
+    while one does."""
+    cur = criterion_value(scorer.score(terms), len(terms), n, criterion)
+    while len(terms) > 1:
+        trials = []
+        for i in range(len(terms)):
+            sub = terms[:i] + terms[i + 1:]
+            trials.append((criterion_value(scorer.score(sub), len(sub), n, criterion), i))
+        best, i = min(trials)
+        if not best < cur:
+            break
+        cur, terms = best, terms[:i] + terms[i + 1:]
+    return terms
+
+
+def bonferroni_t(n_inputs: int, max_lag: int, max_degree: int, alpha: float = 0.05) -> float:
+    """Two-sided t threshold at level ``alpha`` shared among the
+    :math:`m = \\binom{(n_u + 1)L + d}{d} - 1` candidate monomials of
+    lags up to ``L`` and degree up to ``d`` (Bonferroni)."""
+    from math import comb
+    from scipy.stats import norm
+    m = comb((n_inputs + 1) * max_lag + max_degree, max_degree) - 1
+    return float(norm.ppf(1 - alpha / (2 * m)))
