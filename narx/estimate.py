@@ -190,7 +190,9 @@ def t_statistics(Psi, target, theta=None) -> np.ndarray:
 def _t_dependent(A, norms, r, theta) -> np.ndarray:
     """t-statistics for dependent (column-scaled) regressors ``A``."""
     n, p = A.shape
-    _, sv, Vt = np.linalg.svd(A, full_matrices=True)
+    # thin SVD: only V is needed (the full one builds an n × n U: 8 GB at
+    # n = 32,000); n >= p here (_check), so Vt is p × p either way
+    _, sv, Vt = np.linalg.svd(A, full_matrices=False)
     rank = int(np.sum(sv > 1e-10 * max(sv.max(initial=0.0), 1e-300)))
     V = Vt.T
     null = V[:, rank:]

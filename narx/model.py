@@ -30,7 +30,7 @@ from .data import Data, as_data
 from .estimate import (EstimationError, constrained_least_squares,
                        least_squares)
 from .phi import PhiRegistry, default_registry
-from .regressors import max_lag, regressor_matrix
+from .regressors import max_lag, regressor_matrix, term_column
 from .simulate import SimulationResult, simulate
 from .steady import cluster_sums, steady_state_constraints
 from .terms import HasSignals, Signals, Term, parse_terms
@@ -140,9 +140,17 @@ class Model(HasSignals):
         has_noise = any(t.has_noise for t in self.terms)
         iters = max(1, int(noise_iterations)) if has_noise else 1
         prev = None
+        # ELS: only the columns of noise terms change between iterations
+        refresh = [j for j, t in enumerate(self.terms) if t.has_noise]
+        Psi = None
         for _ in range(iters):
-            Psi, target, start = regressor_matrix(self.terms, d, noise=noise,
-                                                  registry=self.registry)
+            if Psi is None:
+                Psi, target, start = regressor_matrix(self.terms, d, noise=noise,
+                                                      registry=self.registry)
+            else:
+                for j in refresh:
+                    Psi[:, j] = term_column(self.terms[j], d, d.y, noise,
+                                            self.registry)[start:]
             if S is None:
                 est = least_squares(Psi, target)
             else:

@@ -268,3 +268,15 @@ def test_cls_does_not_depend_on_the_units_of_the_output():
         assert m.fit_info_["rank"] == base.fit_info_["rank"] == len(terms)
         back = m.theta * np.array([1, 1, 1 / s, s**2, s**2, 1 / s, 1 / s, 1, 1])
         np.testing.assert_allclose(back, base.theta, rtol=1e-6, atol=1e-12)
+
+
+def test_t_statistics_of_dependent_columns_on_a_long_record():
+    """Dependent columns on 100,000 rows: the t-statistics need V only; a
+    full SVD would build a 100,000 × 100,000 U (80 GB: MemoryError, or the
+    process killed; a NARMAX selection on 32,000 samples grew to 13 GB)."""
+    from narx.estimate import t_statistics
+    rng = np.random.default_rng(1)
+    x0, x1 = rng.standard_normal((2, 100_000))
+    y = 2.0 * x0 + 0.01 * rng.standard_normal(100_000)
+    t = t_statistics(np.c_[x0, x1, np.zeros(100_000)], y)
+    assert t[0] > 1e3 and t[1] < 5 and t[2] == 0.0
