@@ -16,16 +16,13 @@ import os
 import shlex
 import sys
 import time
+import warnings
 
 from .cli import (CLIError, add_refine_args, add_signal_args, check_refine_args, fmt,
                   mode_option, refinement_line)
+from .selection import CLSRejectedWarning
 
 __all__ = ["register"]
-
-#: a CLS refit whose free-run RMSE is more than this many times the LS fit's
-#: is not written (the LS model is, with a warning)
-CLS_WORSE = 2.0
-
 
 def register(sub):
     p = sub.add_parser("fit", help="search a model structure by MGGP",
@@ -173,7 +170,9 @@ def _cmd_fit(args) -> int:
     from narx.data import DataError
     from .evaluate import WorkerLostError
     try:
-        est.fit(data)
+        with warnings.catch_warnings():       # said below, for the model written
+            warnings.simplefilter("ignore", CLSRejectedWarning)
+            est.fit(data)
     except DataError as exc:                  # e.g. too few samples for the lags
         raise CLIError(f"{args.data}: {exc}") from None
     except WorkerLostError as exc:
@@ -200,15 +199,10 @@ def _cmd_fit(args) -> int:
             c = est.model_cls_
             fr = c.simulate(data, mode="freerun")
             lines += ["CLS: " + c.equation(), _freerun_line(fr)]
-            worse = fr_ls.rmse > 0 and fr.rmse > CLS_WORSE * fr_ls.rmse
-            # with 'hold' the structure was chosen for its CLS refit's holding;
-            # not when --select hold found no candidate that holds (it then
-            # falls back to the best-fitness structure, with a warning)
-            held = args.screen == "hold" or (
-                args.select == "hold" and any(ok for ok, _ in getattr(est, "selection_", ())))
-            if fr.diverged or (worse and not fr_ls.diverged and not held):
-                why = ("diverges on the training record" if fr.diverged else
-                       f"is {fr.rmse / fr_ls.rmse:.3g} times the LS fit's free-run RMSE")
+            # with 'hold' the structure was chosen for its CLS refit's holding
+            # (not when --select hold found no candidate that holds)
+            why = est.cls_rejected_
+            if why:
                 print(f"warning: the CLS refit {why}; the LS model is written instead "
                       f"(`mggp estimate DATA --terms ... --constraints steady-state` "
                       f"writes the CLS fit of these terms)", file=sys.stderr)

@@ -48,6 +48,7 @@ References
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +58,8 @@ from narx.compensate import (CompensationResult, TermPlan, check_count, check_ra
                              check_reference, past_values)
 from narx.data import Data
 from narx.systems import piezo_bouc_wen
+
+from .selection import CLSRejectedWarning
 
 __all__ = ["InverseCompensator", "identify_inverse", "pi_loop", "LoopResult",
            "PiezoPlant", "INVERSE_KIND"]
@@ -193,7 +196,9 @@ def identify_inverse(u, y, *, lead=1, reference="r", constrained=True, estimator
         params.setdefault("constraints", "steady-state" if constrained else None)
         params.setdefault("select", "freerun")
         estimator = MGGPRegressor(**params)
-    estimator.fit(data)
+    with warnings.catch_warnings():           # the model is chosen here, explicitly
+        warnings.simplefilter("ignore", CLSRejectedWarning)
+        estimator.fit(data)
     model = estimator.get_best(bool(constrained and estimator.model_cls_ is not None))
     inv = InverseCompensator(model, lead)
     inv.estimator_ = estimator

@@ -48,7 +48,8 @@ from .precision import data_warnings, search_precision
 from .pareto import ParetoFront, front_rows
 from .primitives import identically_zero, make_pset, max_lag_for_height
 from .screen import StabilityScreen
-from .selection import bonferroni_t, prune_by_criterion, select_freerun, select_hold
+from .selection import (CLSRejectedWarning, bonferroni_t, cls_rejection, prune_by_criterion,
+                        run_candidates, select_freerun, select_hold)
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
 
@@ -317,13 +318,14 @@ class MGGPRegressor:
             raise ValueError("no structure with a finite fitness was found: every "
                              "candidate diverged; try fitness='pem' or a shorter window")
         terms = tuple(t for t in res.best.terms if allowed(t))
+        if self.select in ("freerun", "hold"):
+            cands = run_candidates(res, data.signals, allowed, self.select_candidates)
         if self.select == "freerun":
-            chosen, self.selection_ = select_freerun(self._candidates(res, data, allowed),
-                                                     data, start, registry)
+            chosen, self.selection_ = select_freerun(cands, data, start, registry)
             terms = chosen or terms
         elif self.select == "hold":
-            chosen, self.selection_ = select_hold(self._candidates(res, data, allowed),
-                                                  data, start, registry, self.screen_band)
+            chosen, self.selection_ = select_hold(cands, data, start, registry,
+                                                  self.screen_band)
             if not chosen:
                 warnings.warn(f"select='hold': none of the {len(self.selection_)} "
                               f"candidates holds its output on a held input; model_ is "
@@ -396,6 +398,7 @@ class MGGPRegressor:
             if why:
                 warnings.warn(f"refine={self.refine!r} is not applied: {why}", UserWarning,
                               stacklevel=2)
+        self._check_cls(data)
         self.pareto_front_ = ParetoFront(front_rows(res.pareto, scorer, allowed),
                                          inputs=data.inputs, output=data.output,
                                          registry=registry)
@@ -408,6 +411,18 @@ class MGGPRegressor:
         self.fit_time_ = time.perf_counter() - t0
         return self
 
+    def _check_cls(self, data):
+        # a structure chosen for its CLS refit's holding keeps it (not when
+        # select='hold' found no candidate that holds)
+        held = self.screen == "hold" or (self.select == "hold" and any(
+            ok for ok, _ in getattr(self, "selection_", ())))
+        self.cls_rejected_ = None if self.model_cls_ is None else cls_rejection(
+            self.model_, self.model_cls_, data, held)
+        if self.cls_rejected_:
+            warnings.warn(f"the CLS refit {self.cls_rejected_}: get_best(), simulate() and "
+                          f"predict() use the LS model (constrained=True for the CLS one)",
+                          CLSRejectedWarning, stacklevel=3)
+
     def _make_screen(self, data, start, registry):
         if self.screen is None:
             return None
@@ -417,27 +432,6 @@ class MGGPRegressor:
         return StabilityScreen(data, start, top, band=self.screen_band,
                                constraints=self.search_constraints, registry=registry,
                                hold=self.screen == "hold")
-
-    def _candidates(self, res, data, allowed):
-        """The ``select_candidates`` best distinct structures of the run
-        (archive and final population), best search fitness first."""
-        from .individual import fitness_of
-        from .primitives import Decoder
-        rows = [(r.fitness, tuple(r.terms)) for r in res.pareto]
-        dec = Decoder(data.signals)
-        rows += [(fitness_of(ind), dec.decode_individual(ind)) for ind in res.population
-                 if ind.fitness.valid]
-        seen, cands = set(), []
-        for fit, terms in sorted((r for r in rows if r[1] and np.isfinite(r[0])),
-                                 key=lambda r: (r[0], len(r[1]))):
-            terms = tuple(t for t in terms if allowed(t))
-            key = frozenset(terms)
-            if terms and key not in seen:
-                seen.add(key)
-                cands.append(terms)
-            if len(cands) >= int(self.select_candidates):
-                break
-        return cands
 
     def _allowed(self, term) -> bool:
         if identically_zero(term, self.registry or default_registry()):
@@ -467,10 +461,12 @@ class MGGPRegressor:
             raise ValueError("this MGGPRegressor is not fitted yet: call fit(u, y) first")
 
     def get_best(self, constrained: Optional[bool] = None) -> Model:
-        """The best model: the CLS refit if one was made (unless False)."""
+        """The best model: the CLS refit if one was made, unless False or
+        it was rejected (``cls_rejected_``: it diverges in free run on the
+        training record, or its RMSE there is over twice the LS fit's)."""
         self._check_fitted()
         if constrained is None:
-            constrained = self.model_cls_ is not None
+            constrained = self.model_cls_ is not None and not self.cls_rejected_
         if constrained and self.model_cls_ is None:
             raise ValueError("no CLS refit: fit with constraints='steady-state'")
         return self.model_cls_ if constrained else self.model_

@@ -31,7 +31,12 @@ from narx.terms import Term
 from .evaluate import criterion_value
 from .screen import StabilityScreen
 
-__all__ = ["select_freerun", "select_hold", "prune_by_criterion", "bonferroni_t"]
+__all__ = ["select_freerun", "select_hold", "prune_by_criterion", "bonferroni_t",
+           "cls_rejection", "CLS_WORSE", "CLSRejectedWarning", "run_candidates"]
+
+#: a CLS refit whose free-run RMSE on the training record is more than this
+#: many times the LS fit's is not preferred to it
+CLS_WORSE = 2.0
 
 
 def select_freerun(cands: Sequence[Tuple[Term, ...]], data: Data, start: int,
@@ -82,3 +87,46 @@ def bonferroni_t(n_inputs: int, max_lag: int, max_degree: int, alpha: float = 0.
     from scipy.stats import norm
     m = comb((n_inputs + 1) * max_lag + max_degree, max_degree) - 1
     return float(norm.ppf(1 - alpha / (2 * m)))
+
+
+class CLSRejectedWarning(UserWarning):
+    """The CLS refit is not used by default (see :func:`cls_rejection`)."""
+
+
+def cls_rejection(model, model_cls, data, held: bool = False) -> Optional[str]:
+    """Why the CLS refit should not replace the LS fit ``model`` (None: it
+    may): its free run on the training record diverges, or (unless the
+    structure was chosen for its CLS refit's holding, ``held``) its RMSE is
+    over :data:`CLS_WORSE` times the LS fit's."""
+    fr_cls = model_cls.simulate(data, mode="freerun")
+    if fr_cls.diverged:
+        return "diverges on the training record"
+    if held:
+        return None
+    fr_ls = model.simulate(data, mode="freerun")
+    if not fr_ls.diverged and fr_ls.rmse > 0 and fr_cls.rmse > CLS_WORSE * fr_ls.rmse:
+        return f"is {fr_cls.rmse / fr_ls.rmse:.3g} times the LS fit's free-run RMSE"
+    return None
+
+
+def run_candidates(res, signals, allowed, count: int) -> List[Tuple[Term, ...]]:
+    """The ``count`` best distinct structures of a search run ``res`` (its
+    archive and final population), best search fitness first (ties: fewer
+    terms); genes whose term is not ``allowed`` contribute nothing."""
+    from .individual import fitness_of
+    from .primitives import Decoder
+    rows = [(r.fitness, tuple(r.terms)) for r in res.pareto]
+    dec = Decoder(signals)
+    rows += [(fitness_of(ind), dec.decode_individual(ind)) for ind in res.population
+             if ind.fitness.valid]
+    seen, cands = set(), []
+    for fit, terms in sorted((r for r in rows if r[1] and np.isfinite(r[0])),
+                             key=lambda r: (r[0], len(r[1]))):
+        terms = tuple(t for t in terms if allowed(t))
+        key = frozenset(terms)
+        if terms and key not in seen:
+            seen.add(key)
+            cands.append(terms)
+        if len(cands) >= int(count):
+            break
+    return cands

@@ -164,9 +164,10 @@ def test_fit_writes_the_ls_model_when_the_cls_refit_fails(capsys, tmp_path, monk
     import mggp.estimator as E
     real = E.MGGPRegressor.fit
 
-    def fit(self, *a, **k):
-        real(self, *a, **k)
+    def fit(self, data, *a, **k):
+        real(self, data, *a, **k)
         self.model_cls_ = Model(["y[k-1]", "u[k-1]"], theta)
+        self._check_cls(data)
         return self
     monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
     out = tmp_path / "m.json"
@@ -226,6 +227,7 @@ def test_fit_keeps_the_cls_model_when_hold_chose_it(capsys, tmp_path, monkeypatc
     """With --select hold the structure was chosen for its CLS refit, so a
     CLS fit that is only worse in free-run RMSE is still written."""
     import mggp.estimator as E
+    from mggp.selection import cls_rejection
     real = E.MGGPRegressor.fit
 
     def fit(self, *a, **k):
@@ -261,10 +263,11 @@ def test_fit_writes_the_ls_model_when_hold_found_no_holding_candidate(capsys, tm
     import mggp.estimator as E
     real = E.MGGPRegressor.fit
 
-    def fit(self, *a, **k):
-        real(self, *a, **k)
+    def fit(self, data, *a, **k):
+        real(self, data, *a, **k)
         self.model_cls_ = Model(["y[k-1]", "u[k-1]"], [0.5, 0.5])   # stable, worse
         self.selection_ = [(False, ["y[k-1]", "u[k-1]"])]           # none held
+        self._check_cls(data)
         return self
     monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
     out = tmp_path / "m.json"
@@ -274,3 +277,31 @@ def test_fit_writes_the_ls_model_when_hold_found_no_holding_candidate(capsys, tm
     assert code == 0, err
     assert "the LS model is written instead" in err and "(CLS fit)" not in stdout
     assert json.loads(out.read_text())["meta"]["estimation"] != "cls"
+
+
+def test_cls_rejection_and_get_best_follow_the_cli_rule():
+    """The API uses the LS model when the CLS refit diverges or is over twice
+    as far off in free run (as `mggp fit` writes it); controls: a close CLS
+    refit is used, and constrained=True still returns the CLS one."""
+    from mggp import MGGPRegressor
+    from mggp.selection import cls_rejection
+    from narx.data import as_data
+    rng = np.random.default_rng(0)
+    u = rng.uniform(-1, 1, 400)
+    y = np.zeros(400)
+    for k in range(1, 400):
+        y[k] = 0.9 * y[k - 1] + 0.5 * u[k - 1]
+    data = as_data(u, y)
+    ls = Model(["y[k-1]", "u[k-1]"], [0.89, 0.51])          # not exact: RMSE > 0
+    near = Model(["y[k-1]", "u[k-1]"], [0.9, 0.51])
+    far = Model(["y[k-1]", "u[k-1]"], [0.5, 0.5])
+    assert cls_rejection(ls, Model(["y[k-1]", "u[k-1]"], [1.5, 1.0]), data) == \
+        "diverges on the training record"
+    assert cls_rejection(ls, far, data).startswith("is ")
+    assert cls_rejection(ls, far, data, held=True) is None
+    assert cls_rejection(ls, near, data) is None
+    est = MGGPRegressor()
+    est.model_, est.model_cls_, est.cls_rejected_ = ls, far, "is 9 times ..."
+    assert est.get_best() is ls and est.get_best(constrained=True) is far
+    est.cls_rejected_ = None
+    assert est.get_best() is far

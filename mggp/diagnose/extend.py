@@ -42,6 +42,7 @@ by how far they move.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
 from typing import List, Optional, Sequence, Tuple
 
@@ -53,6 +54,7 @@ from narx.estimate import EstimationError
 from narx.model import ignore_rank_warnings
 from narx.terms import Signals, parse_term
 
+from ..selection import CLSRejectedWarning
 from .holds import probe_holds
 from .hysteresis import direction_terms
 
@@ -321,7 +323,9 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
     sets = []
     if plan.search:
         setting = replace(plan.setting, window=_fit_window(plan.setting.window, data))
-        est = _regressor(setting, budget, int(seed) + 1, jobs, data).fit(data)
+        with warnings.catch_warnings():       # only its LS structure is used
+            warnings.simplefilter("ignore", CLSRejectedWarning)
+            est = _regressor(setting, budget, int(seed) + 1, jobs, data).fit(data)
         found = [str(t) for t in est.model_.terms]
         sets += [("search", found), ("search + baseline terms", base + found)]
     if plan.direction:
