@@ -122,7 +122,7 @@ def _cmd_simulate(args) -> int:
     if args.mode == "ksa":
         kw["k"] = 10 if args.k is None else args.k
     elif args.mode == "ms":
-        kw["window"] = 50 if args.window is None else args.window
+        kw["window"] = 100 if args.window is None else args.window
     res = model.simulate(d, mode=args.mode, **kw)
     if res.diverged:
         raise CLIError(f"the model is unstable on {args.data}: its {args.mode} simulation "
@@ -166,7 +166,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--mode", choices=["freerun", "osa", "ksa", "ms"], default="freerun")
     s.add_argument("--k", type=int, default=None, help="horizon for --mode ksa (default 10)")
     s.add_argument("--window", type=int, default=None,
-                   help="window Δm for --mode ms (default 50)")
+                   help="window Δm for --mode ms (default 100, as for fit)")
     s.add_argument("--out", metavar="PRED.csv")
     add_signal_args(s)
     s.set_defaults(func=_cmd_simulate)

@@ -305,3 +305,13 @@ def test_cls_rejection_and_get_best_follow_the_cli_rule():
     assert est.get_best() is ls and est.get_best(constrained=True) is far
     est.cls_rejected_ = None
     assert est.get_best() is far
+
+
+def test_simulate_ms_window_defaults_to_fits_window(capsys, tmp_path):
+    """`simulate --mode ms` uses Δm = 100 by default, as `fit` does."""
+    m = tmp_path / "m.json"
+    Model(["y[k-1]", "u[k-1]"], [0.6, 1.0]).save(m)
+    data = csv(tmp_path)
+    outs = [run(capsys, "simulate", m, data, "--mode", "ms", *w)[1]
+            for w in ([], ["--window", "100"], ["--window", "50"])]
+    assert outs[0] == outs[1] and outs[0] != outs[2]
