@@ -28,14 +28,24 @@ from typing import Any, Dict, List, Optional, Tuple
 from deap import tools
 
 from .individual import Individual, ParetoArchive, ParetoRow
-from .primitives import (Decoder, pset_signature, tree_from_tokens,
-                         tree_to_tokens)
+from .primitives import Decoder, tree_from_tokens, tree_to_tokens
 
 __all__ = ["EvolutionState", "save_checkpoint", "load_checkpoint",
            "settings_fingerprint", "data_digest", "checkpoint_seed", "FORMAT", "VERSION"]
 
 FORMAT = "mggp-checkpoint"
 VERSION = 1
+
+
+def pset_signature(pset) -> List[List[str]]:
+    """Neutral description of a set (names and types), for fingerprints."""
+    rows = []
+    for kind, table in (("prim", pset.primitives), ("term", pset.terminals)):
+        for t in sorted(table, key=lambda c: c.__name__):
+            for node in table[t]:
+                args = ",".join(a.__name__ for a in getattr(node, "args", ()))
+                rows.append([kind, t.__name__, node.name, args])
+    return rows
 
 
 @dataclass

@@ -79,6 +79,8 @@ class MGGPRegressor:
         Include Φ-functions in the primitive set (``--no-phi`` = False).
     phi_names : list of str, optional
         Φ-functions to use (default: all registered).
+    phi_outputs : bool
+        Φ-terms of output lags too (``Phi1(y[k-1],y[k-2])``; default False).
     max_lag, max_degree : int, optional
         Genes decoding to a term with a larger lag or more factors
         contribute no term (e.g. lags up to 4, degree up to 3).
@@ -163,7 +165,7 @@ class MGGPRegressor:
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi=True, phi_names=None,
-                 max_lag=None, max_degree=None, select="fitness", select_candidates=20,
+                 phi_outputs=False, max_lag=None, max_degree=None, select="fitness", select_candidates=20,
                  screen=None, screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
@@ -187,6 +189,7 @@ class MGGPRegressor:
         self.max_height = max_height
         self.use_phi = use_phi
         self.phi_names = phi_names
+        self.phi_outputs = phi_outputs
         self.max_lag = max_lag
         self.max_degree = max_degree
         self.select = select
@@ -280,7 +283,8 @@ class MGGPRegressor:
                           f"height); raise max_height to reach longer lags",
                           UserWarning, stacklevel=2)
         registry = self.registry or default_registry()
-        pset = make_pset(data.signals, registry, use_phi=self.use_phi, phi_names=self.phi_names)
+        pset = make_pset(data.signals, registry, use_phi=self.use_phi, phi_names=self.phi_names,
+                         phi_outputs=bool(self.phi_outputs))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
                               constraints=self.search_constraints, start=start,
                               criterion=self.criterion, n_jobs=self.n_jobs,
@@ -355,6 +359,7 @@ class MGGPRegressor:
                 "population": self.population, "generations": self.generations,
                 "max_terms": self.max_terms, "max_height": self.max_height,
                 "use_phi": self.use_phi, "phi_names": self.phi_names,
+                "phi_outputs": bool(self.phi_outputs),
                 "screen": self.screen, "select": self.select, "prune": self.prune,
                 "noise_lags": self.noise_lags, "max_lag": self.max_lag,
                 "refine": self.refine,
@@ -480,4 +485,4 @@ class MGGPRegressor:
 
 #: parameters besides the evolution settings that fitness values depend on
 _CONTEXT = ("fitness", "window", "k", "criterion", "search_constraints", "use_phi",
-            "phi_names", "max_lag", "max_degree", "screen", "screen_top", "screen_band")
+            "phi_names", "phi_outputs", "max_lag", "max_degree", "screen", "screen_top", "screen_band")

@@ -27,7 +27,8 @@ DEAP selects candidates by type; the types are:
     the input ``u[k-1]`` again; primitives: the back-shifts ``q1, q2, q3
     (InputLag)``. An ``InputLag`` subtree is a chain of back-shifts over one
     input terminal, so ``Phi1(q2(u[k-1]), u[k-1])`` is
-    ``Phi1(u[k-3],u[k-1])`` and Φ of an output can never be built.
+    ``Phi1(u[k-3],u[k-1])``; Φ of an output is never built, unless
+    ``phi_outputs``: the output then has a lag type of its own, as below.
 ``InputLag_u1``, ``InputLag_u2``, ... (several inputs)
     One lagged-input type per input (:func:`input_lag_type`, subclasses of
     ``InputLag``, which is then unused), each with its own terminal
@@ -69,7 +70,7 @@ from narx.terms import Lag, PhiCall, Signals, Term
 
 __all__ = ["Expr", "InputLag", "input_lag_type", "LagSymbol", "SHIFTS", "make_pset",
            "tree_from_tokens", "tree_to_tokens", "decode", "Decoder",
-           "decode_individual", "pset_signature", "max_lag_for_height"]
+           "decode_individual", "max_lag_for_height"]
 
 #: the back-shift operators q⁻¹..q⁻³, by node name
 SHIFTS = {"q1": 1, "q2": 2, "q3": 3}
@@ -181,7 +182,8 @@ _PRIM_FUNCS = {n: _symbolic(n) for n in _RESERVED}
 
 def make_pset(signals: Optional[Signals] = None,
               registry: Optional[PhiRegistry] = None, use_phi: bool = True,
-              phi_names: Optional[Iterable[str]] = None) -> gp.PrimitiveSetTyped:
+              phi_names: Optional[Iterable[str]] = None,
+              phi_outputs: bool = False) -> gp.PrimitiveSetTyped:
     """Build the typed primitive set for NARX terms.
 
     Parameters
@@ -195,6 +197,9 @@ def make_pset(signals: Optional[Signals] = None,
     phi_names : iterable of str, optional
         The Φ-functions to include (default: every function in the
         registry, built-ins and user plug-ins, in sorted name order).
+    phi_outputs : bool
+        Φ-functions of output lags too (``Phi1(y[k-1],y[k-2])``: hysteresis
+        driven by a velocity); default False, the published setup.
 
     Returns
     -------
@@ -239,10 +244,11 @@ def make_pset(signals: Optional[Signals] = None,
     pset.addPrimitive(_PRIM_FUNCS["mul"], [Expr, Expr], Expr, name="mul")
     for q in SHIFTS:
         pset.addPrimitive(_PRIM_FUNCS[q], [Expr], Expr, name=q)
-    lag_types = _lag_types(signals.inputs) if phis else {}
+    phi_signals = list(signals.inputs) + ([signals.output] if phi_outputs else [])
+    lag_types = _lag_types(phi_signals) if phis else {}
     # one input: the historical order (terminal, q1..q3, Φs) on InputLag
     for name, t in lag_types.items():
-        pset.addTerminal(LagSymbol(Lag(name, 1, "u")), t)
+        pset.addTerminal(LagSymbol(Lag(name, 1, "y" if name == signals.output else "u")), t)
         for q in SHIFTS:
             pset.addPrimitive(_PRIM_FUNCS[q], [t], t, name=q)
     for f in phis:
@@ -251,23 +257,13 @@ def make_pset(signals: Optional[Signals] = None,
     pset.signals = signals
     pset.lag_types = lag_types
     pset.phi_names = tuple(f.name for f in phis)
+    pset.phi_outputs = bool(phi_outputs and phis)
     return pset
 
 
 def max_lag_for_height(height: int) -> int:
     """Largest lag a tree of DEAP height ``height`` can express: ``1 + 3h``."""
     return 1 + max(SHIFTS.values()) * height
-
-
-def pset_signature(pset) -> List[List[str]]:
-    """Neutral description of a set (names and types), for fingerprints."""
-    rows = []
-    for kind, table in (("prim", pset.primitives), ("term", pset.terminals)):
-        for t in sorted(table, key=lambda c: c.__name__):
-            for node in table[t]:
-                args = ",".join(a.__name__ for a in getattr(node, "args", ()))
-                rows.append([kind, t.__name__, node.name, args])
-    return rows
 
 
 def _index(pset) -> Dict[Tuple[type, str], list]:
@@ -404,10 +400,11 @@ def decode(tree, signals: Optional[Signals] = None) -> Term:
             stack.append(Lag(a.signal, a.lag + d, a.role) if isinstance(a, Lag)
                          else _shift(a, d))
         else:
-            if not all(isinstance(a, Lag) and a.role == "u" for a in args):
+            if not all(isinstance(a, Lag) and a.role in ("u", "y") for a in args):
                 raise ValueError(f"{name} arguments must be lagged inputs in {tree!s}")
             if len({a.signal for a in args}) > 1:
-                raise ValueError(f"{name} arguments must be lags of one input in {tree!s}")
+                raise ValueError(f"{name} arguments must be lags of one input (or of the "
+                                 f"output, with phi_outputs) in {tree!s}")
             stack.append((PhiCall(name, tuple(args)),))
     if len(stack) != 1 or isinstance(stack[0], Lag):
         raise ValueError(f"malformed tree {tree!s}")

@@ -185,3 +185,22 @@ def test_two_input_search_does_not_depend_on_the_unit_of_u2():
     assert a.n_evaluations_ == b.n_evaluations_
     assert [r["best"] for r in a.logbook_] == pytest.approx([r["best"] for r in b.logbook_],
                                                             rel=1e-6)
+
+
+def test_phi_outputs_recovers_a_term_of_the_output_direction():
+    """y = 0.6 y₋₁ + 0.5 u₋₁ + 0.2 sign(y₋₁ − y₋₂) + e: with phi_outputs the
+    exact structure is found (Phi2 of the two output lags, either order: the
+    same column up to sign); the default search cannot build it (control)."""
+    rng = np.random.default_rng(0)
+    u = rng.uniform(-1, 1, 600)
+    e = 0.01 * rng.standard_normal(600)
+    y = np.zeros(600)
+    for k in range(2, 600):
+        y[k] = 0.6 * y[k - 1] + 0.5 * u[k - 1] + 0.2 * np.sign(y[k - 1] - y[k - 2]) + e[k]
+    kw = dict(fitness="pem", criterion="bic", population=200, generations=40, max_terms=6,
+              max_height=3, prune="t", max_lag=4, max_degree=3, random_state=1)
+    found = sorted(MGGPRegressor(phi_outputs=True, **kw).fit(u, y).model_.term_texts)
+    assert found in (sorted(["y[k-1]", "u[k-1]", "Phi2(y[k-1],y[k-2])"]),
+                     sorted(["y[k-1]", "u[k-1]", "Phi2(y[k-2],y[k-1])"]))
+    plain = MGGPRegressor(**kw).fit(u, y).model_.term_texts
+    assert not any("Phi1(y" in t or "Phi2(y" in t for t in plain)

@@ -397,3 +397,32 @@ def test_low_level_crossover_keeps_phi_on_one_input():
         a, b = rng.sample(pop, 2)
         cx_low_level(a, b, rng, MAX_HEIGHT)
         assert clean(a) and clean(b)
+
+
+def test_phi_outputs_adds_a_lag_type_for_the_output():
+    """phi_outputs=True: Φ-terms of output lags are built (one type of their
+    own: never an output lag and an input lag in one Φ-call); the default
+    set never builds one (control)."""
+    ps = make_pset(phi_outputs=True)
+    assert set(ps.lag_types) == {"u", "y"} and ps.phi_outputs
+    assert [n.name for n in ps.terminals[ps.lag_types["y"]]] == ["y[k-1]"]
+    dec, rng = Decoder(ps.signals), random.Random(0)
+    default, dec0 = make_pset(), Decoder(Signals())
+    out_phi = mixed = 0
+    for _ in range(200):
+        for t in dec.decode_individual(random_individual(ps, rng, max_terms=15, max_height=5)):
+            for f in t.factors:
+                if isinstance(f, PhiCall):
+                    roles = {a.role for a in f.args}
+                    out_phi += roles == {"y"}
+                    mixed += len(roles) > 1
+        for t in dec0.decode_individual(random_individual(default, rng, max_terms=15,
+                                                          max_height=5)):
+            assert not any(isinstance(f, PhiCall) and any(a.role == "y" for a in f.args)
+                           for f in t.factors)
+    assert out_phi > 50 and mixed == 0
+    assert not make_pset(use_phi=False, phi_outputs=True).phi_outputs
+    for _ in range(50):                  # checkpoints: tokens back to the same typed tree
+        for g in random_individual(ps, rng, max_terms=15, max_height=5):
+            back = tree_from_tokens(tree_to_tokens(g), ps)
+            assert str(back) == str(g) and [n.ret for n in back] == [n.ret for n in g]

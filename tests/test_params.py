@@ -27,6 +27,8 @@ def record():
     ("generations", -1, "generations must be an integer >= 0, got -1"),
     ("population", 1, "population must be an integer >= 2, got 1"),
     ("screen", "fast", "screen must be one of None, 'freerun', 'hold', got 'fast'"),
+    ("phi_outputs", "yes", "phi_outputs must be one of False, True, got 'yes'"),
+    ("phi_outputs", True, "phi_outputs=True needs Φ-functions in the search, got use_phi=False"),
 ])
 def test_bad_parameter_fails_before_any_generation(record, param, value, text):
     seen = []
