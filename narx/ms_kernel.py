@@ -25,9 +25,10 @@ and the squared errors summed per window (one running sum per window,
 updated as the steps advance), then over windows in window order. Hence
 identical for any number of workers.
 
-Handled: the scorer has a fixed ``start``; no term has noise lags or a
-Φ-call with an output argument (the search's primitive set never builds
-one). Anything else returns ``None`` and the general kernel runs.
+Handled: the scorer has a fixed ``start``; no term has noise lags, and a
+Φ-call with an output argument is a built-in Φ of two output lags (what
+``phi_outputs`` searches build). Anything else returns ``None`` and the
+general kernel runs.
 """
 from __future__ import annotations
 
@@ -37,7 +38,8 @@ from typing import Dict, Optional, Sequence
 
 import numpy as np
 
-from .terms import Lag, Term
+from .phi import BUILTIN_KERNEL_CODES
+from .terms import Lag, PhiCall, Term
 
 try:
     from numba import njit
@@ -80,18 +82,33 @@ def window_sse(r, L):
 
 
 @njit(cache=True, nogil=True)
-def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound):
+def _has_phi(lags, i, nl):
+    for q in range(nl):
+        if lags[i, q] <= 0:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound,
+            pkind, pla, plb):
     """(diverged, Σ r²) of multiple shooting, window-major, summed as
     :func:`window_sse` does.
 
     Window ``w`` starts at ``s + w*L``; ``B[ml + j, w]`` is its step ``j``
     and ``B[:ml, w]`` the measured samples before it; ``YT[j*W + w]`` is the
-    measured output at that step.
+    measured output at that step. ``lags[i, q]`` is the q-th output factor
+    of dynamic term i: an output lag (> 0) or ``-f`` for the Φ-call of
+    output lags in slot f (kind ``pkind[f]``: 1 difference, 2 its sign, of
+    the output at lags ``pla[f]`` and ``plb[f]``), computed at each step as
+    :func:`narx.kernels._kernel` does.
     """
     n = y.shape[0]
     B = np.empty((ml + L, W))
     acc = np.empty(W)
     S = np.zeros(W)
+    n_phi = pkind.shape[0]
+    PH = np.empty((n_phi, W))
     for j in range(ml):
         for w in range(W):
             B[j, w] = y[s + w * L - ml + j]
@@ -113,11 +130,26 @@ def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound):
                 p = PT[idx[t], off:off + Wj]
                 for w in range(Wj):
                     acc[w] += th * p[w]
+        for f in range(n_phi):
+            ra = B[pos - pla[f]]
+            rb = B[pos - plb[f]]
+            ph = PH[f]
+            for w in range(Wj):
+                d = ra[w] - rb[w]
+                ph[w] = d if pkind[f] == 1 else (1.0 if d > 0 else (-1.0 if d < 0 else 0.0))
         for i in range(n_dyn):
             t = dyn[i]
             th = theta[t]
             p = PT[idx[t], off:off + Wj]
             nl = nlag[i]
+            if n_phi and _has_phi(lags, i, nl):
+                for w in range(Wj):
+                    v = th * p[w]
+                    for q in range(nl):
+                        c = lags[i, q]
+                        v *= B[pos - c, w] if c > 0 else PH[-c, w]
+                    acc[w] += v
+                continue
             b0 = B[pos - lags[i, 0]]
             if nl == 1:
                 for w in range(Wj):
@@ -212,15 +244,21 @@ class _State:
 
 
 def _term_info(t: Term):
-    """(input-part key, output lags) or None if the fast path cannot run it."""
+    """(input-part key, output factors) or None if the fast path cannot run
+    it; an output factor is a lag (int) or a built-in Φ of two output lags
+    ``(kind, lag_a, lag_b)``."""
     if t.has_noise:
         return None
-    lags = []
+    facs = []
     for f in t.output_factors:
-        if not isinstance(f, Lag):
-            return None                  # Φ of an output: general kernel
-        lags.append(f.lag)
-    return "*".join(str(f) for f in t.input_factors), tuple(lags)
+        if isinstance(f, Lag):
+            facs.append(f.lag)
+        elif (isinstance(f, PhiCall) and f.name in BUILTIN_KERNEL_CODES and len(f.args) == 2
+              and all(a.role == "y" for a in f.args)):
+            facs.append((BUILTIN_KERNEL_CODES[f.name], f.args[0].lag, f.args[1].lag))
+        else:
+            return None                  # Φ mixing output and input: general kernel
+    return "*".join(str(f) for f in t.input_factors), tuple(facs)
 
 
 def ms_mse(scorer, terms: Sequence[Term], theta, s: int) -> Optional[float]:
@@ -245,12 +283,14 @@ def ms_mse(scorer, terms: Sequence[Term], theta, s: int) -> Optional[float]:
             return None
         infos.append(info)
     idx = np.empty(len(terms), dtype=np.int64)
-    static, dyn, lag_rows = [], [], []
-    for i, (t, (key, lags)) in enumerate(zip(terms, infos)):
+    static, dyn, lag_rows, phis = [], [], [], {}
+    for i, (t, (key, facs)) in enumerate(zip(terms, infos)):
         idx[i] = st.store.slot(key, lambda t=t: _natural(scorer, t))
-        if lags:
+        if facs:
             dyn.append(i)
-            lag_rows.append(lags)
+            # a lag, or -slot of a Φ-call of output lags (slots 0, 1, ...)
+            lag_rows.append([f if isinstance(f, int) else -phis.setdefault(f, len(phis))
+                             for f in facs])
         else:
             static.append(i)
     width = max((len(r) for r in lag_rows), default=1)
@@ -258,13 +298,16 @@ def ms_mse(scorer, terms: Sequence[Term], theta, s: int) -> Optional[float]:
     for i, r in enumerate(lag_rows):
         lags[i, :len(r)] = r
     nlag = np.array([len(r) for r in lag_rows], dtype=np.int64)
-    ml = max((max(r) for r in lag_rows), default=0)
+    pk = np.array([k for k, _, _ in phis], dtype=np.int64)
+    pla = np.array([a for _, a, _ in phis], dtype=np.int64)
+    plb = np.array([b for _, _, b in phis], dtype=np.int64)
+    ml = max([c for r in lag_rows for c in r] + list(pla) + list(plb) + [0])
     ws = st.store
     diverged, sse = _ms_sse(scorer.y, st.YT, ws.array, idx,
                            np.ascontiguousarray(theta, dtype=np.float64),
                            np.array(static, dtype=np.int64),
                            np.array(dyn, dtype=np.int64), lags, nlag,
-                           s, ws.window, ws.W, ml, float(scorer.bound))
+                           s, ws.window, ws.W, int(ml), float(scorer.bound), pk, pla, plb)
     if diverged:
         return float("inf")
     return float(sse / (scorer.data.n - s))

@@ -53,10 +53,31 @@ def _sets(n, seed=0):
     return evals.random_term_sets(n, seed=seed)
 
 
+def _sets_phi_outputs(n, seed=0):
+    """Random individuals of a ``phi_outputs`` set: terms with Φ of output lags."""
+    import random
+    from mggp.operators import random_individual
+    from mggp.primitives import Decoder, make_pset
+    ps, rng = make_pset(phi_outputs=True), random.Random(seed)
+    dec, sets = Decoder(ps.signals), []
+    while len(sets) < n:
+        terms = tuple(t for t in dec.decode_individual(random_individual(
+            ps, rng, max_terms=15, max_height=5)) if not any(
+            f.name == "Phi1" and f.args[0] == f.args[1] for f in t.factors
+            if hasattr(f, "args")))
+        if terms:
+            sets.append(terms)
+    return sets
+
+
 @pytest.mark.parametrize("window", [1, 7, 100, 5000])
 def test_ms_kernel_bit_identical_to_general_kernel(record, window):
     u, y = record
     sets = _sets(25, seed=window) + [tuple(narx.parse_terms(speed.MODEL33))]
+    phi_y = _sets_phi_outputs(25, seed=window)          # Φ of output lags: fast path too
+    assert sum(any("(y[" in t.text for t in s) for s in phi_y) > 10
+    assert all(msk._term_info(t) is not None for s in phi_y for t in s)
+    sets += phi_y
     out = {}
     for flag in (False, True):
         old = msk.ENABLED
