@@ -63,6 +63,7 @@ def test_same_seed_same_model_for_one_and_two_workers():
     assert [r["best"] for r in c.logbook_] != [r["best"] for r in a.logbook_]
 
 
+@pytest.mark.filterwarnings("ignore::mggp.selection.CLSRejectedWarning")
 def test_cls_refit_satisfies_steady_state_constraints():
     u, y = _piezo()
     est = MGGPRegressor(fitness="ms", window=50, population=40, generations=4,
