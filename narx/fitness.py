@@ -322,6 +322,11 @@ class StructureScorer:
         s = ml if self.start is None else self.start
         if s < ml:
             raise ValueError(f"start={s} is below the terms' largest lag {ml}")
+        if s >= self.data.n:
+            # no row to fit or score (the compiled columns are all 0 then: a
+            # set would otherwise score a perfect 0)
+            raise ValueError(f"record of {self.data.n} samples is too short for "
+                             f"the terms' largest lag {ml} (start {s})")
         slots = np.array([self._reg_slot(t) for t in terms], dtype=np.int64)
         G, b = self._gram(slots, s)
         d = np.sqrt(np.diag(G))

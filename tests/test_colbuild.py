@@ -86,3 +86,17 @@ def test_scorer_uses_builder_and_scores_as_before():
     for t in terms:
         row = sc.store.array[sc.store.slots["r:" + t.text]]
         assert row.tobytes() == _numpy_column(t, data, False).tobytes()
+
+
+@pytest.mark.parametrize("fitness", ["pem", "freerun", "ms"])
+@pytest.mark.parametrize("start", [None, 12])
+def test_record_shorter_than_the_lags_scores_inf(fitness, start):
+    """No row to fit or score: inf, as a failed fit (the compiled builder's
+    all-zero columns scored a perfect -0.0 in pem, and freerun raised
+    ZeroDivisionError)."""
+    rng = np.random.default_rng(0)
+    data = Data(rng.standard_normal(10), rng.standard_normal(10))
+    sc = StructureScorer(data, fitness, start=start)
+    for text in (["y[k-12]"], ["u[k-12]", "y[k-1]"], ["Phi1(u[k-1],u[k-12])"], ["y[k-10]"]):
+        terms = [parse_term(t, data.signals) for t in text]
+        assert sc.score(terms) == float("inf"), text
