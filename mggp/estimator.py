@@ -306,6 +306,8 @@ class MGGPRegressor:
         if self.resume and self.checkpoint is not None and self.random_state is None:
             seed = checkpoint_seed(self.checkpoint) or seed   # continue its run
         context = {"data": data_digest(data), **{k: getattr(self, k) for k in _CONTEXT}}
+        if not self.phi_outputs:       # absent: checkpoints written before it resume
+            del context["phi_outputs"]
         try:
             res = evolve(pset, evaluate_batch, seed=seed, population_size=self.population,
                          generations=self.generations, cxpb=self.cxpb, mutpb=self.mutpb,

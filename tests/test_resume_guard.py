@@ -73,3 +73,22 @@ def test_fitness_cache_is_packed_and_older_files_still_read(tmp_path):
     assert _unpack_cache(older) == cache
     with pytest.raises(ValueError, match="entry 0 must be"):
         _unpack_cache({"terms": ["y[k-1]"], "entries": [[[3], 0.1]]})
+
+
+def test_checkpoint_written_before_phi_outputs_resumes(tmp_path):
+    """A default run's settings are those of the version before phi_outputs
+    (no such context key), so its checkpoints still resume."""
+    from mggp.checkpoint import settings_fingerprint
+    from mggp.primitives import make_pset
+    from narx.data import as_data
+    ck = tmp_path / "ck.json"
+    MGGPRegressor(random_state=1, checkpoint=ck, **KW).fit(*record(0))
+    doc = json.loads(ck.read_text())
+    doc["settings"]["context"].pop("phi_outputs", None)     # as the previous version wrote
+    pset = make_pset(as_data(*record(0)).signals, use_phi=False)
+    doc["fingerprint"] = settings_fingerprint(doc["settings"], pset)
+    ck.write_text(json.dumps(doc))
+    b = MGGPRegressor(random_state=1, checkpoint=ck, resume=True,
+                      **dict(KW, generations=4)).fit(*record(0))
+    full = MGGPRegressor(random_state=1, **dict(KW, generations=4)).fit(*record(0))
+    assert b.model_.term_texts == full.model_.term_texts
