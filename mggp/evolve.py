@@ -276,6 +276,17 @@ def _step(state: EvolutionState, toolbox, s: EvolutionSettings):
     return elites + offspring
 
 
+def _stored_settings(path) -> dict:
+    """A checkpoint's ``settings`` as written ({} if unreadable)."""
+    import json
+    try:
+        with open(path, encoding="utf-8") as fh:
+            st = json.load(fh).get("settings")
+    except (OSError, ValueError, AttributeError, RecursionError):
+        return {}
+    return st if isinstance(st, dict) else {}
+
+
 def _differences(old: dict, new: dict, prefix: str = "") -> str:
     """``key (checkpoint A, this run B)`` for every differing setting."""
     out = []
@@ -356,7 +367,18 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
             save_checkpoint(checkpoint, state)
 
     if resume and checkpoint is not None and os.path.exists(checkpoint):
-        state = load_checkpoint(checkpoint, pset, decoder)
+        try:
+            state = load_checkpoint(checkpoint, pset, decoder)
+        except ValueError as exc:
+            # genes of another primitive set (use_phi, phi_names, phi_outputs
+            # changed) do not parse in this one: name the settings first
+            stored = _stored_settings(checkpoint)
+            diff = _differences(stored, sdict) if stored else ""
+            if not diff:
+                raise
+            raise ValueError(f"checkpoint {os.fspath(checkpoint)}: written by a run with "
+                             f"other settings or primitives (differs in: {diff}); remove "
+                             f"it or run without resume ({exc})") from None
         if state.fingerprint != fingerprint:
             raise ValueError(f"checkpoint {os.fspath(checkpoint)}: written by a run "
                              f"with other settings or primitives (differs in: "

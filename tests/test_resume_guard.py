@@ -92,3 +92,19 @@ def test_checkpoint_written_before_phi_outputs_resumes(tmp_path):
                       **dict(KW, generations=4)).fit(*record(0))
     full = MGGPRegressor(random_state=1, **dict(KW, generations=4)).fit(*record(0))
     assert b.model_.term_texts == full.model_.term_texts
+
+
+@pytest.mark.parametrize("first, then", [(dict(phi_outputs=True), {}),
+                                         ({}, dict(phi_outputs=True)),
+                                         ({}, dict(use_phi=False))])
+def test_other_primitive_set_names_the_setting(tmp_path, first, then):
+    """A resume whose primitive set differs (its genes do not parse, or the
+    file's fingerprint does not match this set) names the setting, as for
+    any other setting, not only the gene or the fingerprint."""
+    ck = tmp_path / "ck.json"
+    kw = dict(KW, use_phi=True)
+    MGGPRegressor(random_state=1, checkpoint=ck, **dict(kw, **first)).fit(*record(0))
+    key = next(iter(then or first))
+    with pytest.raises(ValueError, match=rf"differs in: context\.{key} "):
+        MGGPRegressor(random_state=1, checkpoint=ck, resume=True,
+                      **dict(kw, generations=4, **then)).fit(*record(0))
