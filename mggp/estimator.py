@@ -135,7 +135,8 @@ class MGGPRegressor:
         ``window``).
     t_threshold : float, optional
         Default: Bonferroni, Φ⁻¹(1 − 0.05/(2M)) with M the number of
-        candidate monomials allowed by ``max_lag`` and ``max_degree``.
+        candidate monomials allowed by ``max_lag`` (at most the lag
+        ``max_height`` trees reach, 1 + 3 × height) and ``max_degree``.
     random_state : int, optional
         Seed; the result does not depend on ``n_jobs`` or ``backend``.
     n_jobs : int
@@ -452,7 +453,9 @@ class MGGPRegressor:
     def _t_threshold(self, data) -> float:
         if self.t_threshold is not None:
             return float(self.t_threshold)
-        return bonferroni_t(len(data.inputs), self.max_lag or max_lag_for_height(self.max_height),
+        # the lags the trees reach bound the candidates (a larger max_lag has no effect)
+        reach = max_lag_for_height(self.max_height)
+        return bonferroni_t(len(data.inputs), min(self.max_lag or reach, reach),
                             self.max_degree or 3)
 
     def _prune_t(self, data, terms, start):

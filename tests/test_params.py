@@ -87,3 +87,22 @@ def test_max_lag_beyond_height_warns():
         warnings.simplefilter("error")
         MGGPRegressor(population=4, generations=0, max_height=2, max_lag=7,
                       fitness="pem", random_state=0).fit(u, y)
+
+
+def test_max_lag_beyond_height_leaves_the_t_threshold_alone():
+    """The warning says max_lag=20 has no effect with max_height=2: the
+    Bonferroni t threshold of prune='t' counts the candidate monomials of
+    the lags the trees reach (it counted lags up to 20)."""
+    import warnings
+    import numpy as np
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal(300)
+    y = np.zeros(300)
+    for k in range(1, 300):
+        y[k] = 0.5 * y[k - 1] + u[k - 1] + 0.1 * rng.standard_normal()
+    kw = dict(population=4, generations=0, max_height=2, prune="t", fitness="pem",
+              random_state=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = [MGGPRegressor(max_lag=m, **kw).fit(u, y).t_threshold_ for m in (None, 7, 20)]
+    assert t[0] == t[1] == t[2]
