@@ -125,6 +125,8 @@ def _cmd_fit(args) -> int:
     from narx.atomic import check_writable
     mode_option(args.fitness, {"ksa": "k", "ms": "window"}, args, "--fitness")
     check_refine_args(args)
+    if args.phi_outputs and args.no_phi:
+        raise CLIError("--phi-outputs needs Φ-functions in the search: drop --no-phi")
     window = 100 if args.window is None else args.window
     k = 10 if args.k is None else args.k
     lows = {"population": 2, "generations": 0, "max_terms": 1, "max_height": 1,

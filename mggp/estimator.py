@@ -120,7 +120,8 @@ class MGGPRegressor:
         With q > 0, a moving-average noise model is selected after the
         search (NARMAX): candidates ``e[k-j]`` and ``x*e[k-j]`` (x a lag
         1..q of an input or the output), j = 1..q, are added one at a time
-        by extended least squares while the best has |t| >= ``t_threshold``,
+        by extended least squares (each step ranks them with the noise held
+        and fits the 3 best by ELS) while the best has |t| >= ``t_threshold``,
         and the process parameters are re-estimated with it. The search
         scores with the plain one-step error, so strong coloured noise can
         lead it to extra lags that only predict the noise; with
@@ -150,7 +151,10 @@ class MGGPRegressor:
     callbacks : list of callables ``f(state)`` called every generation.
 
     After ``fit``, besides ``model_``, ``model_cls_``, ``pareto_front_`` and
-    ``logbook_``: ``precision_`` (:class:`mggp.precision.PrecisionCheck`) holds
+    ``logbook_``: ``cls_rejected_`` says why the CLS refit is not used by
+    ``get_best``/``simulate``/``predict`` (it diverges in free run on the
+    training record or its RMSE is over twice the LS fit's; None: it is);
+    ``precision_`` (:class:`mggp.precision.PrecisionCheck`) holds
     the chosen structure's fitness with the search's normal-equation fit and
     with the QR refit; when the refit simulates more than 1.25× worse (nearly
     collinear terms: the exact LS θ has large cancelling coefficients)

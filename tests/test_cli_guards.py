@@ -315,3 +315,10 @@ def test_simulate_ms_window_defaults_to_fits_window(capsys, tmp_path):
     outs = [run(capsys, "simulate", m, data, "--mode", "ms", *w)[1]
             for w in ([], ["--window", "100"], ["--window", "50"])]
     assert outs[0] == outs[1] and outs[0] != outs[2]
+
+
+def test_fit_refuses_phi_outputs_without_phi(capsys, tmp_path):
+    code, _, err = run(capsys, "fit", csv(tmp_path), "--no-phi", "--phi-outputs",
+                       "--population", "10", "--generations", "1")
+    assert code == 2 and "--phi-outputs needs Φ-functions in the search: drop --no-phi" \
+        in error_line(err)
