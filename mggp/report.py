@@ -147,7 +147,11 @@ def write_fit_report(folder, est, data, data_name: str = "data",
         lines += [f"**{name}**", "", "| term | θ |", "|---|---:|"]
         lines += [f"| `{tt}` | {v:.6g} |" for tt, v in zip(m.term_texts, m.theta)]
         lines.append("")
+    why = getattr(est, "cls_rejected_", None)
     if est.model_cls_ is not None:
+        lines += [f"The CLS refit {why}: the LS fit is the model used (and the one "
+                  f"`mggp fit --out` writes)." if why else
+                  "The CLS fit is the model used (and the one `mggp fit --out` writes).", ""]
         sums = est.model_.cluster_sums()
         lines += ["Cluster sums of the LS fit (a continuum of steady states needs "
                   "Σ_y = 1 and the others 0): " +

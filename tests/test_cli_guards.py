@@ -173,11 +173,14 @@ def test_fit_writes_the_ls_model_when_the_cls_refit_fails(capsys, tmp_path, monk
     out = tmp_path / "m.json"
     code, stdout, err = run(capsys, "fit", csv(tmp_path), "--population", "20",
                             "--generations", "2", "--seed", "0", "--quiet",
-                            "--constraints", "steady-state", "--out", out)
+                            "--constraints", "steady-state", "--out", out,
+                            "--report", tmp_path / "rep")
     assert code == 0, err
     assert text in err and "LS model is written" in err
     assert json.loads(out.read_text())["meta"]["estimation"] != "cls"
     assert "(CLS fit)" not in stdout
+    summary = (tmp_path / "rep" / "summary.md").read_text()
+    assert "the LS fit is the model used" in summary and text in summary
 
 
 @pytest.mark.parametrize("argv, text", [
