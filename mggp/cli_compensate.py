@@ -48,8 +48,10 @@ def register(sub):
     p.add_argument("--max-step", type=float, default=None, metavar="DU",
                    help="largest input change per sample (slew limit)")
     p.add_argument("--u-past", type=float, default=None,
-                   help="actuator input before the record (default: the middle of the "
-                        "input range the model was fitted on, else 0)")
+                   help="actuator input before the record (default: where the model "
+                        "rests with its output at --y-past, within the input range it was "
+                        "fitted on; the middle of that range when any or no input rests "
+                        "there; 0 without a recorded range)")
     p.add_argument("--y-past", type=float, default=None,
                    help="model output before the record (default: the reference's first "
                         "value, at rest on it)")
@@ -86,12 +88,10 @@ def _cmd_compensate(args) -> int:
     r = arr[:, 0]
     if args.y_past is None:
         args.y_past = float(r[0])
-    if args.u_past is None:
-        from narx.compensate_args import training_ranges
-        rng = training_ranges(model).get(model.inputs[0])
-        args.u_past = 0.5 * (rng[0] + rng[1]) if rng else 0.0
     info = model.meta.get("compensator")
     inverse = isinstance(info, dict) and info.get("kind") == INVERSE_KIND
+    if args.u_past is None:
+        args.u_past = _rest_input(model, args.y_past, inverse)
     if inverse:
         for opt, v, default in (("--max-step", args.max_step, None),
                                 ("--fallback", args.fallback, "minimise")):
@@ -183,3 +183,21 @@ def _fallback_verdict(rate, nmp, allow):
                                         "PI loop"))
     elif nmp:
         warnings.warn(nmp)
+
+
+def _rest_input(model, level: float, inverse: bool) -> float:
+    """Default actuator input before the record: where the model rests with
+    the output (or, for a data-driven compensator, the reference) at
+    ``level``, within the training range of the actuator input; the middle
+    of that range when every value rests there (a continuum of steady
+    states) or none does; 0 without recorded ranges."""
+    from narx.compensate_args import rest_actuator, training_ranges
+    actuator = model.output if inverse else model.inputs[0]
+    rng = training_ranges(model).get(actuator)
+    if not rng:
+        return 0.0
+    try:
+        a = rest_actuator(model, level, actuator, *rng)
+    except (ValueError, ArithmeticError):
+        a = None
+    return 0.5 * (rng[0] + rng[1]) if a is None else a

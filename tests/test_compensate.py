@@ -496,3 +496,39 @@ def test_inverse_check_refuses_several_inputs():
     m = narx.Model(["y[k-1]", "u1[k-1]", "u2[k-2]"], [0.5, 0.3, 1.0], inputs=["u1", "u2"])
     with pytest.raises(ValueError, match="one-input models, got inputs"):
         inverse_stability(m)
+
+
+def test_rest_actuator_solves_the_rest_state():
+    from narx.compensate_args import rest_actuator
+    gain1 = narx.Model(["y[k-1]", "u[k-1]", "u[k-2]"], [0.5, 0.3, 0.2])      # y_ss = u
+    assert rest_actuator(gain1, 2.0, "u", -5, 5) == pytest.approx(2.0)
+    assert rest_actuator(gain1, 20.0, "u", -5, 5) is None                  # out of range
+    hyst = narx.Model(["y[k-1]", "Phi1(u[k-1],u[k-2])"], [1.0, 0.5])        # a continuum
+    assert rest_actuator(hyst, 2.0, "u", -5, 5) is None
+    inv = narx.Model(["r[k-1]", "u[k-1]"], [0.5, 0.5], inputs=("r",), output="u")  # m_ss = r
+    assert rest_actuator(inv, 1.5, "u", -5, 5) == pytest.approx(1.5)
+
+
+@pytest.mark.parametrize("inverse", [False, True])
+def test_cli_default_rest_input_is_the_models_rest_state(tmp_path, capsys, inverse):
+    """Without --u-past the compensator starts at rest: the input at which the
+    model rests on the reference's first value (here 2, in a training input
+    range 0..10 whose middle, 5, the old default took; a data-driven
+    compensator took the middle of the reference's range instead)."""
+    if inverse:
+        m = narx.Model(["r[k-1]", "u[k-1]"], [0.5, 0.5], inputs=("r",), output="u")
+        m.meta["ranges"] = {"r": [50.0, 60.0], "u": [0.0, 10.0]}
+        path = tmp_path / "inv.json"
+        InverseCompensator(m, lead=1).save(path)
+    else:
+        m = narx.Model(["y[k-1]", "u[k-1]", "u[k-2]"], [0.5, 0.3, 0.2])
+        m.meta["ranges"] = {"u": [0.0, 10.0], "y": [0.0, 10.0]}
+        path = tmp_path / "m.json"
+        m.save(path)
+    ref = tmp_path / "ref.csv"
+    ref.write_text("r\n" + "\n".join(["2.0"] * 20) + "\n")
+    out = tmp_path / "o.csv"
+    assert main(["compensate", str(path), str(ref), "--out", str(out)]) == 0, \
+        capsys.readouterr().err
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    assert np.allclose(data["u"], 2.0, atol=1e-9)          # held at rest from the start
