@@ -35,7 +35,7 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from .phi import PhiRegistry, _phi1, _phi2
+from .phi import BUILTIN_KERNEL_CODES, PhiRegistry
 from .terms import Lag, PhiCall, Term
 
 try:
@@ -46,9 +46,9 @@ except ImportError:                       # pragma: no cover
 
 __all__ = ["ColumnBuilder", "build_into"]
 
-#: factor kinds of the compiled builder
-LAG, PHI1, PHI2 = 0, 1, 2
-_KIND = {_phi1: PHI1, _phi2: PHI2}
+#: factor kinds of the compiled builder: a lag, or a built-in Φ by the
+#: kernels' codes (built-ins cannot be re-registered, so the name decides)
+LAG, PHI1, PHI2 = 0, BUILTIN_KERNEL_CODES["Phi1"], BUILTIN_KERNEL_CODES["Phi2"]
 
 
 @njit(cache=True, nogil=True)
@@ -139,7 +139,8 @@ class ColumnBuilder:
             return None if s is None else (LAG, s, f.lag, 0, 0)
         if not isinstance(f, PhiCall) or len(f.args) != 2:
             return None
-        kind = _KIND.get(self.registry.get(f.name).func)
+        self.registry.get(f.name)                  # an unknown name raises KeyError
+        kind = BUILTIN_KERNEL_CODES.get(f.name)
         sa, sb = (self._signal(a) for a in f.args)
         if kind is None or sa is None or sb is None:
             return None
