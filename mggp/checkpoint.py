@@ -31,7 +31,8 @@ from .individual import Individual, ParetoArchive, ParetoRow
 from .primitives import Decoder, tree_from_tokens, tree_to_tokens
 
 __all__ = ["EvolutionState", "save_checkpoint", "load_checkpoint",
-           "settings_fingerprint", "data_digest", "checkpoint_seed", "FORMAT", "VERSION"]
+           "settings_fingerprint", "data_digest", "checkpoint_seed", "checkpoint_settings",
+           "FORMAT", "VERSION"]
 
 FORMAT = "mggp-checkpoint"
 VERSION = 1
@@ -102,14 +103,21 @@ def data_digest(data) -> str:
     return h.hexdigest()
 
 
+def checkpoint_settings(path) -> dict:
+    """The ``settings`` stored in the checkpoint at ``path`` as written, not
+    validated ({} if there is no readable file or no settings)."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            st = json.load(fh).get("settings")
+    except (OSError, ValueError, AttributeError, RecursionError):
+        return {}
+    return st if isinstance(st, dict) else {}
+
+
 def checkpoint_seed(path) -> Optional[int]:
     """The seed stored in the checkpoint at ``path`` (None if there is no
     file or no integer seed), so a run started without a seed can resume."""
-    try:
-        with open(path, encoding="utf-8") as fh:
-            seed = json.load(fh).get("settings", {}).get("seed")
-    except (OSError, ValueError, AttributeError, RecursionError):
-        return None
+    seed = checkpoint_settings(path).get("seed")
     return seed if isinstance(seed, int) and not isinstance(seed, bool) else None
 
 

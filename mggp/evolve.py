@@ -49,8 +49,8 @@ from deap import base, tools
 
 from narx.terms import Term
 
-from .checkpoint import (EvolutionState, load_checkpoint, save_checkpoint,
-                         settings_fingerprint)
+from .checkpoint import (EvolutionState, checkpoint_settings, load_checkpoint,
+                         save_checkpoint, settings_fingerprint)
 from .individual import Individual, ParetoArchive, ParetoRow
 from .operators import (cx_high_level, cx_low_level, mut_high_level,
                         mut_low_level, random_individual, sel_tournament)
@@ -276,17 +276,6 @@ def _step(state: EvolutionState, toolbox, s: EvolutionSettings):
     return elites + offspring
 
 
-def _stored_settings(path) -> dict:
-    """A checkpoint's ``settings`` as written ({} if unreadable)."""
-    import json
-    try:
-        with open(path, encoding="utf-8") as fh:
-            st = json.load(fh).get("settings")
-    except (OSError, ValueError, AttributeError, RecursionError):
-        return {}
-    return st if isinstance(st, dict) else {}
-
-
 def _differences(old: dict, new: dict, prefix: str = "") -> str:
     """``key (checkpoint A, this run B)`` for every differing setting."""
     out = []
@@ -372,7 +361,7 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         except ValueError as exc:
             # genes of another primitive set (use_phi, phi_names, phi_outputs
             # changed) do not parse in this one: name the settings first
-            stored = _stored_settings(checkpoint)
+            stored = checkpoint_settings(checkpoint)
             diff = _differences(stored, sdict) if stored else ""
             if not diff:
                 raise
