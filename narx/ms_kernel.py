@@ -82,14 +82,6 @@ def window_sse(r, L):
 
 
 @njit(cache=True, nogil=True)
-def _has_phi(lags, i, nl):
-    for q in range(nl):
-        if lags[i, q] <= 0:
-            return True
-    return False
-
-
-@njit(cache=True, nogil=True)
 def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound,
             pkind, pla, plb):
     """(diverged, Σ r²) of multiple shooting, window-major, summed as
@@ -109,11 +101,17 @@ def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound,
     S = np.zeros(W)
     n_phi = pkind.shape[0]
     PH = np.empty((n_phi, W))
+    n_dyn = dyn.shape[0]
+    # dynamic terms with a Φ-call of output lags (codes <= 0), once per call
+    has_phi = np.zeros(n_dyn, dtype=np.bool_)
+    for i in range(n_dyn):
+        for q in range(nlag[i]):
+            if lags[i, q] <= 0:
+                has_phi[i] = True
     for j in range(ml):
         for w in range(W):
             B[j, w] = y[s + w * L - ml + j]
     last = n - (s + (W - 1) * L)            # steps of the last window
-    n_dyn = dyn.shape[0]
     for j in range(L):
         Wj = W if j < last else W - 1
         if Wj == 0:
@@ -142,7 +140,7 @@ def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound,
             th = theta[t]
             p = PT[idx[t], off:off + Wj]
             nl = nlag[i]
-            if n_phi and _has_phi(lags, i, nl):
+            if has_phi[i]:
                 for w in range(Wj):
                     v = th * p[w]
                     for q in range(nl):
