@@ -24,6 +24,7 @@ from .selection import CLSRejectedWarning
 
 __all__ = ["register"]
 
+
 def register(sub):
     p = sub.add_parser("fit", help="search a model structure by MGGP",
                        description="Search the structure of a polynomial NARX model by "
@@ -205,9 +206,7 @@ def _cmd_fit(args) -> int:
             c = est.model_cls_
             fr = c.simulate(data, mode="freerun")
             lines += ["CLS: " + c.equation(), _freerun_line(fr)]
-            # with 'hold' the structure was chosen for its CLS refit's holding
-            # (not when --select hold found no candidate that holds)
-            why = est.cls_rejected_
+            why = est.cls_rejected_                 # the estimator's verdict
             if why:
                 print(f"warning: the CLS refit {why}; the LS model is written instead "
                       f"(`mggp estimate DATA --terms ... --constraints steady-state` "

@@ -373,9 +373,9 @@ def decode(tree, signals: Optional[Signals] = None) -> Term:
     ------
     ValueError
         A terminal that is not a lagged signal of ``signals``, a Φ argument
-        that is not a lagged input, Φ arguments that are lags of different
-        inputs (trees of :func:`make_pset` never have them; a hand-written
-        term may), or a malformed tree.
+        that is not a lagged input or output, Φ arguments that are lags of
+        different signals (trees of :func:`make_pset` never have them; a
+        hand-written term may), or a malformed tree.
     """
     stack = []  # values: tuple of factors (Expr) or a Lag (InputLag)
     for node in reversed(tree):
@@ -401,7 +401,7 @@ def decode(tree, signals: Optional[Signals] = None) -> Term:
                          else _shift(a, d))
         else:
             if not all(isinstance(a, Lag) and a.role in ("u", "y") for a in args):
-                raise ValueError(f"{name} arguments must be lagged inputs in {tree!s}")
+                raise ValueError(f"{name} arguments must be lagged signals in {tree!s}")
             if len({a.signal for a in args}) > 1:
                 raise ValueError(f"{name} arguments must be lags of one input (or of the "
                                  f"output, with phi_outputs) in {tree!s}")
