@@ -89,6 +89,16 @@ def _dot4(a, b0, b1, b2, b3):
 
 
 @njit(cache=True, nogil=True)
+def _store(G, bv, a, c, v):
+    """Keep the product of column ``a`` with column ``c`` (-1: with y)."""
+    if c < 0:
+        bv[a] = v
+    else:
+        G[a, c] = v
+        G[c, a] = v
+
+
+@njit(cache=True, nogil=True)
 def fill_gram(G, bv, arr, slots, y, s):
     """Gram entries of the columns ``arr[slots]`` and their products with
     ``y`` over rows ``s..``: the missing (NaN) ones of the slot-indexed
@@ -116,12 +126,7 @@ def fill_gram(G, bv, arr, slots, y, s):
         while q < k:
             if k - q == 1:
                 c = part[q]
-                if c < 0:
-                    bv[a] = fixed_dot(col, y[s:])
-                else:
-                    v1 = fixed_dot(col, arr[c, s:])
-                    G[a, c] = v1
-                    G[c, a] = v1
+                _store(G, bv, a, c, fixed_dot(col, y[s:] if c < 0 else arr[c, s:]))
                 q += 1
                 continue
             # four at a time; a group of 2 or 3 repeats its last column
@@ -134,12 +139,7 @@ def fill_gram(G, bv, arr, slots, y, s):
             v = _dot4(col, y[s:] if c0 < 0 else arr[c0, s:], arr[c1, s:],
                       arr[c2, s:], arr[c3, s:])
             for e in range(g):
-                c = part[q + e]
-                if c < 0:
-                    bv[a] = v[e]
-                else:
-                    G[a, c] = v[e]
-                    G[c, a] = v[e]
+                _store(G, bv, a, part[q + e], v[e])
             q += g
     sub = np.empty((t, t))
     b = np.empty(t)
