@@ -31,22 +31,28 @@ import numpy as np
 from narx import Data, PhiRegistry, rrse
 from narx.csvdata import read_columns
 
-__all__ = ["load_damper", "run_damper", "damper_path"]
+__all__ = ["load_damper", "run_damper", "damper_path", "data_path"]
 
 PUBLISHED = {"FROLS (sysidentpy tutorial)": 0.0451, "MetaMSS": 0.0557}
 
 
-def damper_path():
-    """``mr_damper.csv`` from ``$MGGP_SHARED_DATA`` if set, else the copy
-    shipped in ``benchmarks/data``, else the project's ``shared/data``."""
+def data_path(name):
+    """Path of the shared data file ``name`` from ``$MGGP_SHARED_DATA`` if
+    set, else the copy shipped in ``benchmarks/data``, else the project's
+    ``shared/data`` beside the repository; None if none has it."""
     env = os.environ.get("MGGP_SHARED_DATA")
     here = os.path.dirname(os.path.abspath(__file__))
     for folder in ([env] if env else []) + [os.path.join(here, "data"),
                                             os.path.join(here, "..", "..", "shared", "data")]:
-        p = os.path.join(folder, "mr_damper.csv")
+        p = os.path.join(folder, name)
         if os.path.exists(p):
             return os.path.normpath(p)
     return None
+
+
+def damper_path():
+    """``mr_damper.csv`` (see :func:`data_path`)."""
+    return data_path("mr_damper.csv")
 
 
 def load_damper(path):

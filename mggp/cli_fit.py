@@ -76,6 +76,10 @@ def register(sub):
     p.add_argument("--phi-outputs", action="store_true",
                    help="Φ-terms of output lags too, e.g. Phi1(y[k-1],y[k-2]) (hysteresis "
                         "driven by the output's velocity; default: inputs only)")
+    p.add_argument("--constant", action="store_true",
+                   help="every structure also holds the constant term 1 (an intercept), "
+                        "for an output that rests at an offset the lag terms cannot "
+                        "express, e.g. an affine static curve")
     p.add_argument("--screen", choices=["freerun", "hold"], default=None,
                    help="reject each generation's leaders whose free run over the "
                         "record leaves the output band ('hold': or whose CLS refit "
@@ -166,7 +170,7 @@ def _cmd_fit(args) -> int:
                         max_terms=args.max_terms, max_height=args.max_height,
                         max_lag=args.max_lag, max_degree=args.max_degree,
                         prune=args.prune or False, use_phi=not args.no_phi,
-                        phi_outputs=args.phi_outputs,
+                        phi_outputs=args.phi_outputs, constant=args.constant,
                         select=args.select, noise_lags=args.noise_lags,
                         refine=args.refine, refine_window=args.refine_window,
                         screen=args.screen,

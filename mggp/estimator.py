@@ -37,6 +37,7 @@ from narx.model import ignore_rank_warnings
 from narx.data import Data, DataError, as_data
 from narx.fitness import StructureScorer
 from narx.phi import default_registry
+from narx.terms import Term
 
 from .evaluate import Evaluator, criterion_value
 from . import versions
@@ -48,10 +49,13 @@ from .precision import data_warnings, search_precision
 from .pareto import ParetoFront, front_rows
 from .primitives import identically_zero, make_pset, max_lag_for_height
 from .screen import StabilityScreen
-from .selection import (CLSRejectedWarning, bonferroni_t, cls_rejection, prune_by_criterion,
-                        run_candidates, select_freerun, select_hold)
+from .selection import (CLSRejectedWarning, cls_rejection, prune_by_criterion, run_candidates,
+                        select_freerun, select_hold, t_threshold_of)
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
+
+#: the constant term ``1`` (the empty product) added by ``constant=True``
+CONSTANT = Term(())
 
 
 class MGGPRegressor:
@@ -81,6 +85,10 @@ class MGGPRegressor:
         Φ-functions to use (default: all registered).
     phi_outputs : bool
         Φ-terms of output lags too (``Phi1(y[k-1],y[k-2])``; default False).
+    constant : bool
+        Every structure also holds the constant term ``1`` (an intercept):
+        for records whose output rests at an offset the lag terms cannot
+        express, e.g. an affine static curve (default False).
     max_lag, max_degree : int, optional
         Genes decoding to a term with a larger lag or more factors
         contribute no term (e.g. lags up to 4, degree up to 3).
@@ -170,7 +178,7 @@ class MGGPRegressor:
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi=True, phi_names=None,
-                 phi_outputs=False, max_lag=None, max_degree=None, select="fitness",
+                 phi_outputs=False, constant=False, max_lag=None, max_degree=None, select="fitness",
                  select_candidates=20,
                  screen=None, screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, refine=None, refine_window=None,
@@ -196,6 +204,7 @@ class MGGPRegressor:
         self.use_phi = use_phi
         self.phi_names = phi_names
         self.phi_outputs = phi_outputs
+        self.constant = constant
         self.max_lag = max_lag
         self.max_degree = max_degree
         self.select = select
@@ -297,11 +306,11 @@ class MGGPRegressor:
                               backend=self.backend, scheduler=self.scheduler,
                               registry=registry)
         callbacks = list(self.callbacks or [])
-        allowed = self._allowed
+        shape = self._structure
         screen = self._make_screen(data, start, registry)
 
         def evaluate_batch(term_sets):
-            sets = [tuple(t for t in ts if allowed(t)) for ts in term_sets]
+            sets = [shape(ts) for ts in term_sets]
             values = evaluator(sets)
             return values if screen is None else screen(sets, values)
 
@@ -312,8 +321,9 @@ class MGGPRegressor:
         if self.resume and self.checkpoint is not None and self.random_state is None:
             seed = checkpoint_seed(self.checkpoint) or seed   # continue its run
         context = {"data": data_digest(data), **{k: getattr(self, k) for k in _CONTEXT}}
-        if not self.phi_outputs:       # absent: checkpoints written before it resume
-            del context["phi_outputs"]
+        for name in ("phi_outputs", "constant"):
+            if not context[name]:      # absent: checkpoints written before it resume
+                del context[name]
         try:
             res = evolve(pset, evaluate_batch, seed=seed, population_size=self.population,
                          generations=self.generations, cxpb=self.cxpb, mutpb=self.mutpb,
@@ -329,9 +339,9 @@ class MGGPRegressor:
         if res.best is None or not np.isfinite(res.best.fitness):
             raise ValueError("no structure with a finite fitness was found: every "
                              "candidate diverged; try fitness='pem' or a shorter window")
-        terms = tuple(t for t in res.best.terms if allowed(t))
+        terms = shape(res.best.terms)
         if self.select in ("freerun", "hold"):
-            cands = run_candidates(res, data.signals, allowed, self.select_candidates)
+            cands = run_candidates(res, data.signals, shape, self.select_candidates)
         if self.select == "freerun":
             chosen, self.selection_ = select_freerun(cands, data, start, registry)
             terms = chosen or terms
@@ -353,7 +363,7 @@ class MGGPRegressor:
         elif self.prune == "t":
             terms = self._prune_t(data, terms, start)
         if self.noise_lags:
-            crit = self._t_threshold(data)
+            crit = t_threshold_of(self, len(data.inputs))
             if self.prune == "t":               # terms that only predicted the noise
                 terms = prune_process(data, terms, full_ma(data, int(self.noise_lags),
                                                            registry), start, registry, crit)
@@ -362,20 +372,10 @@ class MGGPRegressor:
         self.terms_ = terms
         self.fitness_ = res.best.fitness if terms == self.search_terms_ else \
             criterion_value(scorer.score(terms), len(terms), data.n - start, self.criterion)
-        meta = {"fitness": self.fitness, "window": self.window, "k": self.k,
-                "criterion": self.criterion, "seed": seed,
-                "population": self.population, "generations": self.generations,
-                "max_terms": self.max_terms, "max_height": self.max_height,
-                "use_phi": self.use_phi, "phi_names": self.phi_names,
-                "phi_outputs": bool(self.phi_outputs),
-                "screen": self.screen, "select": self.select, "prune": self.prune,
-                "noise_lags": self.noise_lags, "max_lag": self.max_lag,
-                "refine": self.refine,
-                "max_degree": self.max_degree,
-                "cls_refit": self.constraints == "steady-state",
-                "search_constraints": self.search_constraints,
-                "search_fitness_value": self.fitness_}
-        meta["versions"] = versions()
+        meta = {name: getattr(self, name) for name in _META}
+        meta.update(seed=seed, phi_outputs=bool(self.phi_outputs), constant=bool(self.constant),
+                    cls_refit=self.constraints == "steady-state",
+                    search_fitness_value=self.fitness_, versions=versions())
         # a searched structure may hold terms the record cannot tell apart
         # (``rank_`` < number of terms): θ is then the minimum-norm solution
         with ignore_rank_warnings():
@@ -412,7 +412,7 @@ class MGGPRegressor:
                 warnings.warn(f"refine={self.refine!r} is not applied: {why}", UserWarning,
                               stacklevel=2)
         self._check_cls(data)
-        self.pareto_front_ = ParetoFront(front_rows(res.pareto, scorer, allowed),
+        self.pareto_front_ = ParetoFront(front_rows(res.pareto, scorer, shape),
                                          inputs=data.inputs, output=data.output,
                                          registry=registry)
         self.logbook_ = res.logbook
@@ -446,6 +446,12 @@ class MGGPRegressor:
                                constraints=self.search_constraints, registry=registry,
                                hold=self.screen == "hold")
 
+    def _structure(self, terms) -> tuple:
+        """The scored structure of decoded terms: the allowed ones, after
+        the constant term when ``constant``."""
+        kept = tuple(t for t in terms if self._allowed(t))
+        return (CONSTANT,) + kept if self.constant else kept
+
     def _allowed(self, term) -> bool:
         if identically_zero(term, self.registry or default_registry()):
             return False
@@ -455,18 +461,10 @@ class MGGPRegressor:
             return False
         return True
 
-    def _t_threshold(self, data) -> float:
-        if self.t_threshold is not None:
-            return float(self.t_threshold)
-        # the lags the trees reach bound the candidates (a larger max_lag has no effect)
-        reach = max_lag_for_height(self.max_height)
-        return bonferroni_t(len(data.inputs), min(self.max_lag or reach, reach),
-                            self.max_degree or 3)
-
     def _prune_t(self, data, terms, start):
         from narx.estimate import t_statistics
         from narx.regressors import regressor_matrix
-        crit = self.t_threshold_ = self._t_threshold(data)
+        crit = self.t_threshold_ = t_threshold_of(self, len(data.inputs))
         return prune_by_t(terms, lambda ts: t_statistics(
             *regressor_matrix(ts, data, start=start)[:2]), crit)
 
@@ -495,5 +493,9 @@ class MGGPRegressor:
 
 #: parameters besides the evolution settings that fitness values depend on
 _CONTEXT = ("fitness", "window", "k", "criterion", "search_constraints", "use_phi",
-            "phi_names", "phi_outputs", "max_lag", "max_degree", "screen", "screen_top",
+            "phi_names", "phi_outputs", "constant", "max_lag", "max_degree", "screen", "screen_top",
             "screen_band")
+#: parameters recorded in a result's ``meta`` (with the seed and the fitness)
+_META = ("fitness", "window", "k", "criterion", "population", "generations", "max_terms",
+         "max_height", "use_phi", "phi_names", "screen", "select", "prune", "noise_lags",
+         "max_lag", "refine", "max_degree", "search_constraints")

@@ -52,6 +52,7 @@ def check_params(est) -> None:
     _one_of("screen", est.screen, (None, "freerun", "hold"))
     _one_of("refine", est.refine, (None, "ms", "freerun"))
     _one_of("phi_outputs", est.phi_outputs, (False, True))
+    _one_of("constant", est.constant, (False, True))
     if est.phi_outputs and not est.use_phi:
         raise ValueError("phi_outputs=True needs Φ-functions in the search, got use_phi=False")
     _int_at_least("refine_window", est.refine_window, 1, optional=True)

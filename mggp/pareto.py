@@ -137,12 +137,13 @@ class ParetoFront(list):
         return "\n".join(out)
 
 
-def front_rows(pareto, scorer, allowed) -> list:
+def front_rows(pareto, scorer, shape) -> list:
     """Rows for :class:`ParetoFront` from a search's front, with the θ the
-    scorer estimates for each structure (None when its fit fails)."""
+    scorer estimates for each structure (None when its fit fails);
+    ``shape`` maps decoded terms to the scored structure."""
     rows = []
     for r in pareto:
-        terms = tuple(t for t in r.terms if allowed(t))
+        terms = shape(r.terms)
         if not terms:
             continue
         theta: Optional[list] = None

@@ -32,7 +32,8 @@ from .evaluate import criterion_value
 from .screen import StabilityScreen
 
 __all__ = ["select_freerun", "select_hold", "prune_by_criterion", "bonferroni_t",
-           "cls_rejection", "CLS_WORSE", "CLSRejectedWarning", "run_candidates"]
+           "cls_rejection", "CLS_WORSE", "CLSRejectedWarning", "run_candidates",
+           "t_threshold_of"]
 
 #: a CLS refit whose free-run RMSE on the training record is more than this
 #: many times the LS fit's is not preferred to it
@@ -89,6 +90,18 @@ def bonferroni_t(n_inputs: int, max_lag: int, max_degree: int, alpha: float = 0.
     return float(norm.ppf(1 - alpha / (2 * m)))
 
 
+def t_threshold_of(est, n_inputs: int) -> float:
+    """An estimator's ``t_threshold``, or by default :func:`bonferroni_t`
+    over the monomials its trees can build (lags up to ``max_lag`` but no
+    longer than ``max_height`` trees reach: a larger ``max_lag`` has no
+    effect; degree up to ``max_degree``, else 3)."""
+    if est.t_threshold is not None:
+        return float(est.t_threshold)
+    from .primitives import max_lag_for_height
+    reach = max_lag_for_height(est.max_height)
+    return bonferroni_t(n_inputs, min(est.max_lag or reach, reach), est.max_degree or 3)
+
+
 class CLSRejectedWarning(UserWarning):
     """The CLS refit is not used by default (see :func:`cls_rejection`)."""
 
@@ -109,10 +122,11 @@ def cls_rejection(model, model_cls, data, held: bool = False) -> Optional[str]:
     return None
 
 
-def run_candidates(res, signals, allowed, count: int) -> List[Tuple[Term, ...]]:
+def run_candidates(res, signals, shape, count: int) -> List[Tuple[Term, ...]]:
     """The ``count`` best distinct structures of a search run ``res`` (its
     archive and final population), best search fitness first (ties: fewer
-    terms); genes whose term is not ``allowed`` contribute nothing."""
+    terms); ``shape`` maps decoded terms to the scored structure (the
+    estimator's: allowed terms, and the constant term if asked for)."""
     from .individual import fitness_of
     from .primitives import Decoder
     rows = [(r.fitness, tuple(r.terms)) for r in res.pareto]
@@ -122,7 +136,7 @@ def run_candidates(res, signals, allowed, count: int) -> List[Tuple[Term, ...]]:
     seen, cands = set(), []
     for fit, terms in sorted((r for r in rows if r[1] and np.isfinite(r[0])),
                              key=lambda r: (r[0], len(r[1]))):
-        terms = tuple(t for t in terms if allowed(t))
+        terms = shape(terms)
         key = frozenset(terms)
         if terms and key not in seen:
             seen.add(key)

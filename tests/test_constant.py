@@ -1,0 +1,78 @@
+"""``constant=True`` / ``mggp fit --constant``: every structure holds the
+constant term ``1`` (an intercept), for outputs that rest at an offset."""
+import json
+
+import numpy as np
+import pytest
+
+from mggp import MGGPRegressor
+
+from conftest import first_order_record
+
+KW = dict(fitness="pem", criterion="bic", population=120, generations=25, max_terms=5,
+          max_height=2, use_phi=False, prune="t", max_degree=2, random_state=3)
+
+
+def affine_record(n=500, seed=0):
+    """y = 0.5 + 0.6 y[k-1] + 0.4 u[k-1] + e: at rest y = 1.25 + u, off zero."""
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1, 1, n)
+    e = 0.01 * rng.standard_normal(n)
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.5 + 0.6 * y[k - 1] + 0.4 * u[k - 1] + e[k]
+    return u, y
+
+
+def test_intercept_is_recovered_and_needed():
+    u, y = affine_record()
+    est = MGGPRegressor(constant=True, **KW).fit(u, y)
+    assert sorted(est.model_.term_texts) == ["1", "u[k-1]", "y[k-1]"]
+    theta = dict(zip(est.model_.term_texts, est.model_.theta))
+    assert theta["1"] == pytest.approx(0.5, abs=0.02)
+    assert est.model_.meta["constant"] is True
+    # every structure scored holds it: the whole Pareto front
+    assert len(est.pareto_front_) and all("1" in row["terms"] for row in est.pareto_front_)
+    # control: without it the search cannot express the offset; the free
+    # run of its best structure is over twice as far off on the same record
+    plain = MGGPRegressor(**KW).fit(u, y)
+    assert "1" not in plain.model_.term_texts
+    assert plain.model_.meta["constant"] is False
+    assert plain.simulate(u, y).rmse > 2 * est.simulate(u, y).rmse
+
+
+def test_no_intercept_where_there_is_none():
+    """Control: on a record without an offset the constant is offered to
+    every structure and pruned by its t-statistic."""
+    u, y = first_order_record(500, 0, noise=0.01)
+    est = MGGPRegressor(constant=True, **KW).fit(u, y)
+    assert "1" not in est.model_.term_texts
+
+
+def test_constant_must_be_a_bool():
+    with pytest.raises(ValueError, match=r"constant must be one of False, True, got 'yes'"):
+        MGGPRegressor(constant="yes", **KW).fit(*affine_record(100))
+
+
+@pytest.mark.parametrize("first, then", [(dict(constant=True), {}), ({}, dict(constant=True))])
+def test_resume_with_other_constant_setting_is_refused(tmp_path, first, then):
+    ck = tmp_path / "ck.json"
+    kw = dict(KW, generations=2, population=12)
+    MGGPRegressor(checkpoint=ck, **dict(kw, **first)).fit(*affine_record(200))
+    with pytest.raises(ValueError, match=r"differs in: context\.constant "):
+        MGGPRegressor(checkpoint=ck, resume=True, **dict(kw, generations=4, **then)).fit(
+            *affine_record(200))
+
+
+def test_cli_fit_constant(tmp_path):
+    from mggp.cli import main
+    u, y = affine_record(300)
+    csv = tmp_path / "d.csv"
+    csv.write_text("u,y\n" + "".join(f"{a},{b}\n" for a, b in zip(u, y)))
+    out = tmp_path / "m.json"
+    rc = main(["fit", str(csv), "--constant", "--no-phi", "--fitness", "pem", "--population",
+               "60", "--generations", "10", "--max-height", "2", "--seed", "1", "--quiet",
+               "--out", str(out)])
+    assert rc == 0
+    doc = json.loads(out.read_text())
+    assert "1" in doc["terms"] and doc["meta"]["constant"] is True
