@@ -91,9 +91,10 @@ def offset_message(data) -> str:
         return ""
     return ("an offset dominates " + ", ".join(f"{n} (mean {m:.4g}, standard deviation "
                                                f"{sd:.3g})" for n, m, sd in off)
-            + ": the search's least squares lose precision on such data and its models "
-              "are often poor; subtract the offset (e.g. the mean or the first sample) "
-              "before fitting")
+            + ": the search's least squares lose precision as an offset grows (its "
+              "normal equations square the regressors' condition number); if its models "
+              "are poor, subtract the offset (e.g. the mean or the first sample) before "
+              "fitting")
 
 
 def search_precision(scorer, terms, theta) -> PrecisionCheck:
