@@ -178,8 +178,8 @@ class MGGPRegressor:
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi=True, phi_names=None,
-                 phi_outputs=False, constant=False, max_lag=None, max_degree=None, select="fitness",
-                 select_candidates=20,
+                 phi_outputs=False, constant=False, max_lag=None, max_degree=None,
+                 select="fitness", select_candidates=20,
                  screen=None, screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
@@ -493,8 +493,8 @@ class MGGPRegressor:
 
 #: parameters besides the evolution settings that fitness values depend on
 _CONTEXT = ("fitness", "window", "k", "criterion", "search_constraints", "use_phi",
-            "phi_names", "phi_outputs", "constant", "max_lag", "max_degree", "screen", "screen_top",
-            "screen_band")
+            "phi_names", "phi_outputs", "constant", "max_lag", "max_degree", "screen",
+            "screen_top", "screen_band")
 #: parameters recorded in a result's ``meta`` (with the seed and the fitness)
 _META = ("fitness", "window", "k", "criterion", "population", "generations", "max_terms",
          "max_height", "use_phi", "phi_names", "screen", "select", "prune", "noise_lags",
