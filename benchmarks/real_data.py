@@ -77,11 +77,6 @@ def load_record(name):
     return tuple(out)
 
 
-def _val_rmse(model, val) -> float:
-    r = model.simulate(val, mode="freerun")
-    return float("inf") if r.diverged else float(r.rmse)
-
-
 def run(seeds=(1, 2, 3), population=300, generations=60, jobs=2, log=print) -> dict:
     from mggp import MGGPRegressor
     import warnings
@@ -96,7 +91,8 @@ def run(seeds=(1, 2, 3), population=300, generations=60, jobs=2, log=print) -> d
         for label, terms in (("linear ARX(2,2), LS", ARX), ("linear ARX(2,2) + constant, LS",
                                                            ("1",) + ARX)):
             m = Model(list(terms)).fit(tr)
-            rows.append({"setting": label, "rmse": [_val_rmse(m, va)], "terms": [len(terms)],
+            rmse = m.simulate(va, mode="freerun").rmse           # inf: diverged
+            rows.append({"setting": label, "rmse": [rmse], "terms": [len(terms)],
                          "seconds": [0.0]})
         for label, kw in SETTINGS.items():
             row = {"setting": label, "rmse": [], "terms": [], "seconds": []}
@@ -107,7 +103,7 @@ def run(seeds=(1, 2, 3), population=300, generations=60, jobs=2, log=print) -> d
                     est = MGGPRegressor(population=population, generations=generations,
                                         random_state=seed, n_jobs=jobs, **kw).fit(tr)
                 row["seconds"].append(time.perf_counter() - t0)
-                row["rmse"].append(_val_rmse(est.model_, va))
+                row["rmse"].append(est.model_.simulate(va, mode="freerun").rmse)   # inf: diverged
                 row["terms"].append(est.model_.n_terms)
                 log(f"{name} [{label}] seed {seed}: validation RMSE {row['rmse'][-1]:.4g} "
                     f"({row['terms'][-1]} terms, {row['seconds'][-1]:.1f} s)")
