@@ -1,0 +1,28 @@
+"""Same seeds give the same models and fitness values, bit for bit, as the
+values recorded from main before the reshape of the core (issue 16):
+S1–S6 recovery, the quick case study and a diagnosis, at small budgets
+(:mod:`tests.golden_cases`)."""
+import json
+import os
+
+import pytest
+
+from tests import golden_cases
+
+HERE = os.path.dirname(__file__)
+
+
+@pytest.fixture(scope="module")
+def recorded():
+    with open(os.path.join(HERE, "data", "golden.json")) as fh:
+        return json.load(fh)
+
+
+@pytest.fixture(scope="module")
+def now():
+    return json.loads(json.dumps(golden_cases.record(), sort_keys=True))
+
+
+@pytest.mark.parametrize("case", ["recovery", "case_study", "diagnosis"])
+def test_same_numbers_as_recorded(recorded, now, case):
+    assert now[case] == recorded[case]
