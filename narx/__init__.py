@@ -26,8 +26,7 @@ from .simulate import SimulationResult, simulate, MODES
 from .steady import (Cluster, SteadyStateConstraints, clusters, cluster_sums,
                      steady_state_constraints)
 from .metrics import mse, rmse, mape, rrse, nrmse
-from .model import Model
-from .modelio import ModelFileError, load_model, save_model
+from .model import Model, ModelFileError, load_model, save_model
 from .refine import Refinement, refine
 
-__version__ = "0.1.0"
+from .version import __version__

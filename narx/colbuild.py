@@ -14,17 +14,15 @@ A term's column on measured data is the product of its factors,
 
 input factors first, then output factors, each in the term's order; a
 factor is a lagged signal :math:`x_{k-a}` or a built-in Φ of two lags,
-:math:`\\Phi_1 = x_{k-a} - z_{k-b}` and :math:`\\Phi_2 = \\mathrm{sign}(\\Phi_1)`.
+:math:`\\Phi(x_{k-a}, z_{k-b})` computed by :func:`narx.phi.phi_value`.
 Rows before the term's largest lag are 0 and non-finite products are
 clipped as in :func:`narx.fitness._finite_inplace`.
 
-Why: the numpy path builds every factor as a new array and the record
-caches them; on a first sight of many terms (a generation 0 of a search)
-most of the time went to the first touch of that fresh memory, not to the
-arithmetic. Here each factor is computed on the fly and multiplied into the
-store's row (already written once), one pass per factor. The products are
-formed in the numpy path's order (a left fold over the same factor
-columns), so every value is the same bit for bit.
+Each factor is computed on the fly and multiplied into the store's row, one
+pass per factor, without a new array per factor (the numpy path builds
+each factor as a new array, whose first touch costs more than the
+arithmetic). The products are formed in the numpy path's order (a left fold
+over the same factor columns), so every value is the same bit for bit.
 
 Terms with noise lags or user Φ-functions return ``False`` from
 :meth:`ColumnBuilder.build` and keep the general path.
@@ -35,30 +33,27 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from .phi import BUILTIN_KERNEL_CODES, PhiRegistry
+from numba import njit
+
+from .phi import PhiRegistry, builtin_code, phi_value
 from .terms import Lag, PhiCall, Term
 
-try:
-    from numba import njit
-except ImportError:                       # pragma: no cover
-    def njit(*a, **k):
-        return (lambda f: f) if not a or not callable(a[0]) else a[0]
+__all__ = ["ColumnBuilder", "build_into", "LAG"]
 
-__all__ = ["ColumnBuilder", "build_into"]
-
-#: factor kinds of the compiled builder: a lag, or a built-in Φ by the
-#: kernels' codes (built-ins cannot be re-registered, so the name decides)
-LAG, PHI1, PHI2 = 0, BUILTIN_KERNEL_CODES["Phi1"], BUILTIN_KERNEL_CODES["Phi2"]
+#: factor kind of a lagged signal; a built-in Φ has its kernel code (> 0)
+#: of :data:`narx.phi.BUILTINS` (built-ins cannot be re-registered, so the
+#: name decides)
+LAG = 0
 
 
 @njit(cache=True, nogil=True)
 def build_into(out, S, kind, sa, la, sb, lb):
     """Write the product of the encoded factors into ``out``.
 
-    Factor ``f`` is ``S[sa[f], k - la[f]]`` (kind 0), or that minus
-    ``S[sb[f], k - lb[f]]`` (kind 1) or its sign (kind 2, as ``np.sign``
-    of finite values). Rows before the largest lag are 0; NaN -> 0 and
-    ±inf -> ±max float.
+    Factor ``f`` is ``S[sa[f], k - la[f]]`` (kind 0), or the built-in of
+    kernel code ``kind[f]`` of that and ``S[sb[f], k - lb[f]]``
+    (:func:`narx.phi.phi_value`, which raises on an unknown code). Rows
+    before the largest lag are 0; NaN -> 0 and ±inf -> ±max float.
     """
     n = out.shape[0]
     nf = kind.shape[0]
@@ -82,23 +77,13 @@ def build_into(out, S, kind, sa, la, sb, lb):
                     o[i] *= x[i]
             continue
         z = S[sb[f], m - lb[f]:n - lb[f]]
-        if kind[f] == PHI1:
-            if f == 0:
-                for i in range(o.shape[0]):
-                    o[i] = x[i] - z[i]
-            else:
-                for i in range(o.shape[0]):
-                    o[i] *= x[i] - z[i]
-            continue
-        # the sign of a difference of finite values: +1, -1 or +0
+        c = kind[f]
         if f == 0:
             for i in range(o.shape[0]):
-                d = x[i] - z[i]
-                o[i] = (1.0 if d > 0.0 else 0.0) - (1.0 if d < 0.0 else 0.0)
+                o[i] = phi_value(c, x[i], z[i])
         else:
             for i in range(o.shape[0]):
-                d = x[i] - z[i]
-                o[i] *= (1.0 if d > 0.0 else 0.0) - (1.0 if d < 0.0 else 0.0)
+                o[i] *= phi_value(c, x[i], z[i])
     out[:m] = 0.0
     big = np.finfo(np.float64).max
     for i in range(o.shape[0]):
@@ -116,7 +101,7 @@ class ColumnBuilder:
     y : ndarray
         The measured output.
     registry : PhiRegistry
-        Φ-functions; only the built-in Phi1 and Phi2 are compiled.
+        Φ-functions; the built-ins (:data:`narx.phi.BUILTINS`) are compiled.
     """
 
     def __init__(self, data, y: np.ndarray, registry: PhiRegistry):
@@ -140,7 +125,7 @@ class ColumnBuilder:
         if not isinstance(f, PhiCall) or len(f.args) != 2:
             return None
         self.registry.get(f.name)                  # an unknown name raises KeyError
-        kind = BUILTIN_KERNEL_CODES.get(f.name)
+        kind = builtin_code(f.name)
         sa, sb = (self._signal(a) for a in f.args)
         if kind is None or sa is None or sb is None:
             return None

@@ -72,6 +72,7 @@ from .compensate_args import (check_count, check_range, check_reference, past_va
                               training_magnitudes)
 from .inverse_check import (NonMinimumPhaseWarning, active_terms, input_lags,
                             inverse_stability, uninvertible_reason)
+from .phi import BUILTINS, phi_value
 from .terms import Lag
 
 __all__ = ["CompensationResult", "RootCompensator", "TermPlan", "compensate",
@@ -119,6 +120,12 @@ class CompensationResult:
     def fallback_rate(self) -> float:
         """Fraction of steps that fell back."""
         return self.fallbacks / max(1, self.m.size)
+
+
+def _invertible_names() -> str:
+    """The built-ins with a polynomial form in an argument, e.g. 'Phi1 and Phi2'."""
+    names = [f.name for f in BUILTINS if f.form in ("difference", "sign")]
+    return ", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else names[0]
 
 
 def _sign(v) -> int:
@@ -195,20 +202,20 @@ class TermPlan:
                         known.append((f.role, f.lag))
                     continue
                 hit = [a.role == "u" and a.lag == d for a in f.args]
+                fn = reg.get(f.name)
                 if not any(hit):
-                    fn = reg.get(f.name)
-                    known.append(("phi", fn.name if fn.builtin else fn.func,
-                                  tuple((a.role, a.lag) for a in f.args)))
-                elif f.name not in ("Phi1", "Phi2"):
+                    known.append(("phi", fn, tuple((a.role, a.lag) for a in f.args)))
+                elif fn.form not in ("difference", "sign"):
                     raise ValueError(f"term {term}: the Φ-function {f.name} of the current "
-                                     f"input u[k-{d}] has no polynomial form; only Phi1 and "
-                                     f"Phi2 may take it")
+                                     f"input u[k-{d}] has no polynomial form; only "
+                                     f"{_invertible_names()} may take it")
                 elif all(hit):
                     zero = True                # Phi(x, x) = 0
                 else:
                     s = 1.0 if hit[0] else -1.0  # Phi(x, b): x - b; Phi(a, x): -(x - a)
                     other = f.args[1] if hit[0] else f.args[0]
-                    (lin if f.name == "Phi1" else sgn).append((s, (other.role, other.lag)))
+                    (lin if fn.form == "difference" else sgn).append(
+                        (s, (other.role, other.lag)))
             if not zero:
                 self.rows.append((float(th), known, power, lin, sgn))
 
@@ -217,7 +224,7 @@ class TermPlan:
         return ins[ki - spec[1]] if spec[0] == "u" else outs[ko - spec[1]]
 
     def parts(self, ins, outs, ki, ko):
-        """Per term: known coefficient c, power p, linear factors, Phi2 signs.
+        """Per term: known coefficient c, power p, linear factors, sign factors.
 
         ``ki``/``ko`` are the indices of output time k in the input and
         output lists; a factor ``u[k-l]`` is ``ins[ki - l]``.
@@ -228,12 +235,11 @@ class TermPlan:
             for spec in known:
                 if spec[0] == "phi":
                     args = [get(a, ins, outs, ki, ko) for a in spec[2]]
-                    if spec[1] == "Phi1":
-                        v = args[0] - args[1]
-                    elif spec[1] == "Phi2":
-                        v = _sign(args[0] - args[1])
+                    fn = spec[1]
+                    if fn.builtin:
+                        v = phi_value(fn.code, args[0], args[1])
                     else:
-                        v = float(np.asarray(spec[1](*[np.array([a]) for a in args]))[0])
+                        v = float(np.asarray(fn.func(*[np.array([a]) for a in args]))[0])
                 else:
                     v = get(spec, ins, outs, ki, ko)
                 c *= v

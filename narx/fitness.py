@@ -38,6 +38,7 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 import scipy.linalg
+from numba import njit
 
 from .colbuild import ColumnBuilder
 from .data import Data
@@ -52,12 +53,6 @@ from .steady import steady_state_constraints
 from .terms import Term
 
 __all__ = ["StructureScorer", "ColumnStore", "FITNESS", "fixed_dot"]
-
-try:
-    from numba import njit
-except ImportError:                       # pragma: no cover
-    def njit(*a, **k):
-        return (lambda f: f) if not a or not callable(a[0]) else a[0]
 
 
 @njit(cache=True, nogil=True)

@@ -16,12 +16,7 @@ arrays' alignment and its thread count.
 from __future__ import annotations
 
 import numpy as np
-
-try:
-    from numba import njit
-except ImportError:                       # pragma: no cover
-    def njit(*a, **k):
-        return (lambda f: f) if not a or not callable(a[0]) else a[0]
+from numba import njit
 
 __all__ = ["fixed_dot", "fill_gram"]
 

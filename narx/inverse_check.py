@@ -31,6 +31,7 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
+from .phi import builtin
 from .terms import Lag
 
 __all__ = ["InverseStability", "NonMinimumPhaseWarning", "inverse_stability",
@@ -47,6 +48,13 @@ def active_terms(model):
     theta = model.theta if model.theta is not None else [1.0] * len(model.terms)
     return [(t, float(th)) for t, th in zip(model.terms, theta)
             if th != 0.0 and not t.has_noise]
+
+
+def _form(factor):
+    """Form of a Φ-call's function (:data:`narx.phi.BUILTINS`); None for
+    a plug-in, which has no known form."""
+    row = builtin(factor.name)
+    return None if row is None else row.form
 
 
 def input_lags(term):
@@ -165,7 +173,7 @@ def inverse_stability(model, tol: float = 1e-6) -> InverseStability:
         if len(fs) == 1 and isinstance(fs[0], Lag):
             if fs[0].role == "u":
                 coef[fs[0].lag] = coef.get(fs[0].lag, 0.0) + th
-        elif len(fs) == 1 and fs[0].name == "Phi1" and len(fs[0].args) == 2:
+        elif len(fs) == 1 and _form(fs[0]) == "difference" and len(fs[0].args) == 2:
             for a, s in zip(fs[0].args, (1.0, -1.0)):
                 if a.role == "u":
                     coef[a.lag] = coef.get(a.lag, 0.0) + s * th
@@ -207,7 +215,7 @@ def uninvertible_reason(model, lag: int) -> Optional[str]:
         polynomially, if any), or None when ``u[k-lag]`` enters polynomially.
     """
     def poly_lags(term):
-        return [a.lag for f in term.factors if isinstance(f, Lag) or f.name == "Phi1"
+        return [a.lag for f in term.factors if isinstance(f, Lag) or _form(f) == "difference"
                 for a in ((f,) if isinstance(f, Lag) else f.args) if a.role == "u"]
 
     active = active_terms(model)

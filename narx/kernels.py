@@ -33,14 +33,10 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from .phi import BUILTIN_KERNEL_CODES, PhiRegistry, default_registry
-from .terms import Lag, Term
+from numba import njit
 
-try:                                     # numba is a hard dependency, but
-    from numba import njit               # keep the module importable
-except ImportError:                      # pragma: no cover
-    def njit(*a, **k):
-        return (lambda f: f) if not a or not callable(a[0]) else a[0]
+from .phi import PhiRegistry, builtin_code, check_codes, default_registry, phi_value
+from .terms import Lag, Term
 
 __all__ = ["Plan", "run_windows", "KIND_USER"]
 
@@ -100,11 +96,7 @@ def _kernel(y_meas, U, P, idx, theta, static, dyn, d_ptr, d_code, p_kind, p_sig,
                     b = buf[pos - p_lag[f, 1]]
                 else:
                     b = U[p_sig[f, 1], k - p_lag[f, 1]]
-                d = a - b
-                if p_kind[f] == 1:
-                    buf[1 + f] = d
-                else:
-                    buf[1 + f] = 1.0 if d > 0 else (-1.0 if d < 0 else 0.0)
+                buf[1 + f] = phi_value(p_kind[f], a, b)
             acc = base[k]
             if n_phi == 0:                       # output lags only
                 for i in range(n_dyn):
@@ -172,7 +164,8 @@ class Plan:
         lag = np.zeros((len(phis), arity), dtype=np.int64)
         for j, f in enumerate(phis):
             reg.get(f.name)                      # unknown name -> KeyError
-            kind[j] = BUILTIN_KERNEL_CODES.get(f.name, KIND_USER)
+            code = builtin_code(f.name)
+            kind[j] = KIND_USER if code is None or len(f.args) != 2 else code
             for a, arg in enumerate(f.args):
                 sig[j, a] = -1 if arg.role == "y" else inputs.index(arg.signal)
                 lag[j, a] = arg.lag

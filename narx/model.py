@@ -21,21 +21,27 @@ References
 from __future__ import annotations
 
 import contextlib
+import json
+import os
 import warnings
 from typing import Optional, Sequence
 
 import numpy as np
 
 from .data import Data, as_data
+from .atomic import atomic_write_text
 from .estimate import (EstimationError, constrained_least_squares,
                        least_squares)
+from .modelio import (ModelFileError, fail, model_fields, model_json, model_to_dict,
+                      read_model_json)
 from .phi import PhiRegistry, default_registry
 from .regressors import max_lag, regressor_matrix, term_column
 from .simulate import SimulationResult, simulate
 from .steady import cluster_sums, steady_state_constraints
-from .terms import HasSignals, Signals, Term, parse_terms
+from .terms import HasSignals, Signals, Term, TermError, parse_terms
 
-__all__ = ["Model", "RankWarning", "ignore_rank_warnings"]
+__all__ = ["Model", "RankWarning", "ignore_rank_warnings", "load_model", "save_model",
+           "model_from_dict", "model_to_dict", "ModelFileError"]
 
 
 class RankWarning(UserWarning):
@@ -234,19 +240,45 @@ class Model(HasSignals):
         return to_latex(self, precision)
 
     def to_dict(self) -> dict:
-        from .modelio import model_to_dict
+        """The dict of the model's file (:func:`narx.modelio.model_to_dict`)."""
         return model_to_dict(self)
 
     @classmethod
     def from_dict(cls, d: dict, source: str = "model", registry=None) -> "Model":
-        from .modelio import model_from_dict
-        return model_from_dict(d, source, registry)
+        """The model of a model file's dict, every field checked
+        (:class:`ModelFileError` names ``source`` and the field)."""
+        fields = model_fields(d, source, registry)
+        try:
+            return cls(**fields)
+        except (TermError, ValueError, OverflowError) as exc:
+            fail(source, str(exc))
 
     def save(self, path) -> None:
-        from .modelio import save_model
-        save_model(self, path)
+        """Write the model as JSON (atomically), after checking that
+        :meth:`load` reads it back: a model the loader would refuse (too
+        many terms or factors) raises :class:`ModelFileError`, nothing is
+        written."""
+        text = model_json(self)
+        self.from_dict(json.loads(text), os.fspath(path), self.registry)
+        atomic_write_text(path, text)
 
     @classmethod
     def load(cls, path, registry=None) -> "Model":
-        from .modelio import load_model
-        return load_model(path, registry)
+        """Read a model file; any problem raises :class:`ModelFileError`."""
+        return cls.from_dict(read_model_json(path), os.fspath(path), registry)
+
+
+def model_from_dict(d: dict, source: str = "model", registry=None) -> Model:
+    """:meth:`Model.from_dict`."""
+    return Model.from_dict(d, source, registry)
+
+
+def save_model(model: Model, path) -> None:
+    """:meth:`Model.save`."""
+    model.save(path)
+
+
+def load_model(path, registry=None) -> Model:
+    """:meth:`Model.load`: read a model file; any problem raises
+    :class:`ModelFileError`."""
+    return Model.load(path, registry)

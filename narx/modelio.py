@@ -1,10 +1,16 @@
-"""Model files: JSON in, JSON out, nothing executed.
+"""Model files: the JSON format, checked field by field, nothing executed.
 
-Typical use::
+Typical use (through :class:`narx.Model` and :func:`narx.load_model`)::
 
-    from narx.modelio import save_model, load_model
+    from narx import load_model, save_model
     save_model(model, "model.json")
     model = load_model("model.json")
+
+This module holds the file format without the model class: it turns a
+model into the dict of its file (:func:`model_to_dict`) and back into the
+checked arguments of :class:`narx.Model` (:func:`model_fields`), and reads a
+file's JSON under the limits below (:func:`read_model_json`);
+:mod:`narx.model` builds the model from them.
 
 A model file holds ``{"output": "y", "inputs": ["u"], "terms": [TERM, ...],
 "theta": [number, ...]}`` plus metadata (``format``, ``version``, ``meta``:
@@ -28,10 +34,12 @@ import math
 import os
 
 from .atomic import atomic_write_text
+from .phi import default_registry
 from .terms import Signals, TermError, parse_term
+from .version import __version__
 
-__all__ = ["ModelFileError", "model_to_dict", "model_from_dict", "save_model",
-           "load_model", "atomic_write_text", "FORMAT"]
+__all__ = ["ModelFileError", "model_to_dict", "model_fields", "model_json",
+           "read_model_json", "fail", "atomic_write_text", "FORMAT"]
 
 FORMAT = "mggp-narx-model"
 #: newest model-file version this code reads and the one it writes
@@ -51,10 +59,10 @@ class ModelFileError(ValueError):
 
 
 def model_to_dict(model) -> dict:
+    """The dict of ``model``'s file (``ValueError`` without parameters)."""
     import numpy, scipy
     if model.theta is None:
         raise ValueError("cannot save a model without parameters: fit it or give theta")
-    from . import __version__
     meta = dict(model.meta)
     meta.setdefault("versions", {"narx": __version__, "numpy": numpy.__version__,
                                  "scipy": scipy.__version__})
@@ -79,7 +87,8 @@ def _plain(v):
     return v
 
 
-def _fail(source, msg):
+def fail(source, msg):
+    """Raise :class:`ModelFileError` ``'<source>: <msg>'``."""
     raise ModelFileError(f"{source}: {msg}")
 
 
@@ -105,144 +114,136 @@ def _is_number(v) -> bool:
 
 def _parse_terms(source, terms, signals, registry):
     """Parse each term text, naming ``'terms'[i]`` in any error."""
-    from .phi import default_registry
     reg = registry or default_registry()
     out, seen = [], {}
     for i, text in enumerate(terms):
         where = f"'terms'[{i}]"
         if not isinstance(text, str):
-            _fail(source, f"'terms' must be a non-empty list of strings: {where} is "
+            fail(source, f"'terms' must be a non-empty list of strings: {where} is "
                           f"{_show(text)}")
         if len(text) > MAX_TERM_CHARS:
-            _fail(source, f"{where} is {len(text)} characters long, more than the "
+            fail(source, f"{where} is {len(text)} characters long, more than the "
                           f"{MAX_TERM_CHARS} allowed")
         try:
             t = parse_term(text, signals, registry=reg)
         except (TermError, ValueError) as exc:
-            _fail(source, f"{where}: {exc}")
+            fail(source, f"{where}: {exc}")
         if t.degree > MAX_DEGREE:
-            _fail(source, f"{where} has {t.degree} factors, more than the {MAX_DEGREE} "
+            fail(source, f"{where} has {t.degree} factors, more than the {MAX_DEGREE} "
                           "allowed")
         if t in seen:
-            _fail(source, f"{where}: term {str(t)!r} appears twice ('terms'[{seen[t]}] "
+            fail(source, f"{where}: term {str(t)!r} appears twice ('terms'[{seen[t]}] "
                           f"and {where})")
         seen[t] = i
         out.append(t)
     return out
 
 
-def model_from_dict(d, source: str = "model", registry=None):
-    """Build a Model from the dict of a model file, checking every field."""
-    from .model import Model
+def model_fields(d, source: str = "model", registry=None) -> dict:
+    """The keyword arguments of :class:`narx.Model` from the dict of a model
+    file, every field checked (:class:`ModelFileError` names the first bad
+    one)."""
     if not isinstance(d, dict):
-        _fail(source, f"top level must be a JSON object, got {type(d).__name__}")
+        fail(source, f"top level must be a JSON object, got {type(d).__name__}")
     for key in ("output", "inputs", "terms", "theta"):
         if key not in d:
-            _fail(source, f"missing key {key!r}")
+            fail(source, f"missing key {key!r}")
     unknown = [k for k in d if k not in KEYS]
     if unknown:
-        _fail(source, f"unknown key {_show(unknown[0], 40)} (a model file has "
+        fail(source, f"unknown key {_show(unknown[0], 40)} (a model file has "
                       f"{', '.join(KEYS)})")
     if "format" in d and d["format"] != FORMAT:
-        _fail(source, f"'format' must be {FORMAT!r}, got {_show(d['format'], 40)}")
+        fail(source, f"'format' must be {FORMAT!r}, got {_show(d['format'], 40)}")
     if "version" in d and not (_is_number(d["version"]) and d["version"] in range(1, VERSION + 1)):
-        _fail(source, f"unsupported 'version' {_show(d['version'], 20)} (this mggp reads "
+        fail(source, f"unsupported 'version' {_show(d['version'], 20)} (this mggp reads "
                       f"versions 1 to {VERSION}; a newer mggp wrote it?)")
     out, inputs, terms, theta = d["output"], d["inputs"], d["terms"], d["theta"]
     if not isinstance(out, str):
-        _fail(source, f"'output' must be a string, got {_show(out)}")
+        fail(source, f"'output' must be a string, got {_show(out)}")
     if isinstance(inputs, str):
         inputs = [inputs]
     if not isinstance(inputs, list) or not inputs:
-        _fail(source, f"'inputs' must be a non-empty list of strings, got {_show(inputs)}")
+        fail(source, f"'inputs' must be a non-empty list of strings, got {_show(inputs)}")
     for i, name in enumerate(inputs):
         if not isinstance(name, str):
-            _fail(source, f"'inputs' must be a non-empty list of strings: 'inputs'[{i}] "
+            fail(source, f"'inputs' must be a non-empty list of strings: 'inputs'[{i}] "
                           f"is {_show(name)}")
     if not isinstance(terms, list) or not terms:
-        _fail(source, f"'terms' must be a non-empty list of strings, got {_show(terms)}")
+        fail(source, f"'terms' must be a non-empty list of strings, got {_show(terms)}")
     if len(terms) > MAX_TERMS:
-        _fail(source, f"'terms' has {len(terms)} entries, more than the {MAX_TERMS} allowed")
+        fail(source, f"'terms' has {len(terms)} entries, more than the {MAX_TERMS} allowed")
     if not isinstance(theta, list):
-        _fail(source, f"'theta' must be a list of numbers, got {_show(theta)}")
+        fail(source, f"'theta' must be a list of numbers, got {_show(theta)}")
     for i, v in enumerate(theta):
         if not _is_number(v):
-            _fail(source, f"'theta' must be a list of numbers: 'theta'[{i}] is {_show(v)}")
+            fail(source, f"'theta' must be a list of numbers: 'theta'[{i}] is {_show(v)}")
         if not _finite(v):
-            _fail(source, f"'theta'[{i}] is not finite ({_show(v, 30)})")
+            fail(source, f"'theta'[{i}] is not finite ({_show(v, 30)})")
     if len(theta) != len(terms):
-        _fail(source, f"'theta' has {len(theta)} values but 'terms' has {len(terms)}")
+        fail(source, f"'theta' has {len(theta)} values but 'terms' has {len(terms)}")
     noise = d.get("noise", "e")
     if not isinstance(noise, str):
-        _fail(source, f"'noise' must be a string, got {_show(noise)}")
+        fail(source, f"'noise' must be a string, got {_show(noise)}")
     meta = d.get("meta", {})
     if not isinstance(meta, dict):
-        _fail(source, f"'meta' must be an object, got {type(meta).__name__}")
+        fail(source, f"'meta' must be an object, got {type(meta).__name__}")
     for key, name in [("output", out), ("noise", noise)] + [
             (f"inputs'[{i}", n) for i, n in enumerate(inputs)]:
         if name.startswith("__"):
-            _fail(source, f"'{key}': signal name {_show(name, 30)} must not start with '__'")
+            fail(source, f"'{key}': signal name {_show(name, 30)} must not start with '__'")
     try:
         signals = Signals(out, tuple(inputs), noise)
     except (TermError, ValueError) as exc:
-        _fail(source, f"'output'/'inputs'/'noise': {exc}")
+        fail(source, f"'output'/'inputs'/'noise': {exc}")
     parsed = _parse_terms(source, terms, signals, registry)
-    try:
-        return Model(parsed, theta, inputs=inputs, output=out, noise=noise, meta=meta,
-                     registry=registry)
-    except (TermError, ValueError, OverflowError) as exc:
-        _fail(source, str(exc))
+    return dict(terms=parsed, theta=theta, inputs=inputs, output=out, noise=noise,
+                meta=meta, registry=registry)
 
 
-def save_model(model, path) -> None:
-    """Write ``model`` as JSON (atomically), after checking that
-    :func:`load_model` will read it back: a model the loader would refuse
-    (too many terms or factors) raises :class:`ModelFileError`, nothing is
-    written."""
-    d = model_to_dict(model)
-    text = json.dumps(d, indent=2, allow_nan=False) + "\n"
-    model_from_dict(json.loads(text), os.fspath(path), model.registry)
-    atomic_write_text(path, text)
+def model_json(model) -> str:
+    """The text of ``model``'s file (standard JSON, indented)."""
+    return json.dumps(model_to_dict(model), indent=2, allow_nan=False) + "\n"
 
 
-def load_model(path, registry=None):
-    """Read a model file; any problem raises :class:`ModelFileError`."""
+def read_model_json(path) -> dict:
+    """The JSON object of a model file, read under the size, digit and
+    nesting limits; any problem raises :class:`ModelFileError`."""
     path = os.fspath(path)
     try:
         size = os.path.getsize(path)
     except OSError as exc:
         raise ModelFileError(f"{path}: cannot read model file ({exc.strerror})") from None
     if size > MAX_BYTES:
-        _fail(path, f"file is {size} bytes, over the {MAX_BYTES}-byte limit")
+        fail(path, f"file is {size} bytes, over the {MAX_BYTES}-byte limit")
 
     def no_duplicates(pairs):
         seen = set()
         for k, _ in pairs:
             if k in seen:
-                _fail(path, f"key {_show(k, 40)} appears more than once in an object")
+                fail(path, f"key {_show(k, 40)} appears more than once in an object")
             seen.add(k)
         return dict(pairs)
 
     def integer(text):
         if len(text.lstrip("-")) > MAX_DIGITS:
-            _fail(path, f"an integer of {len(text.lstrip('-'))} digits (at most "
+            fail(path, f"an integer of {len(text.lstrip('-'))} digits (at most "
                         f"{MAX_DIGITS} are accepted)")
         return int(text)
     try:
         with open(path, encoding="utf-8") as fh:
             d = json.load(fh, object_pairs_hook=no_duplicates, parse_int=integer,
-                          parse_constant=lambda c: _fail(
+                          parse_constant=lambda c: fail(
                               path, f"non-standard JSON constant {c}"))
     except UnicodeDecodeError:
-        _fail(path, "not UTF-8 text")
+        fail(path, "not UTF-8 text")
     except json.JSONDecodeError as exc:
-        _fail(path, f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}")
+        fail(path, f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}")
     except RecursionError:
-        _fail(path, "JSON nested too deeply")
+        fail(path, "JSON nested too deeply")
     except OSError as exc:
-        _fail(path, f"cannot read model file ({exc.strerror or exc})")
+        fail(path, f"cannot read model file ({exc.strerror or exc})")
     except ModelFileError:
         raise
     except ValueError as exc:                      # e.g. a number Python cannot hold
-        _fail(path, f"invalid JSON ({' '.join(str(exc).split())[:120]})")
-    return model_from_dict(d, path, registry)
+        fail(path, f"invalid JSON ({' '.join(str(exc).split())[:120]})")
+    return d

@@ -38,14 +38,10 @@ from typing import Dict, Optional, Sequence
 
 import numpy as np
 
-from .phi import BUILTIN_KERNEL_CODES
-from .terms import Lag, PhiCall, Term
+from numba import njit
 
-try:
-    from numba import njit
-except ImportError:                       # pragma: no cover
-    def njit(*a, **k):
-        return (lambda f: f) if not a or not callable(a[0]) else a[0]
+from .phi import builtin_code, phi_value
+from .terms import Lag, PhiCall, Term
 
 __all__ = ["ms_mse", "window_sse", "WindowStore", "ENABLED"]
 
@@ -91,9 +87,9 @@ def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound,
     and ``B[:ml, w]`` the measured samples before it; ``YT[j*W + w]`` is the
     measured output at that step. ``lags[i, q]`` is the q-th output factor
     of dynamic term i: an output lag (> 0) or ``-f`` for the Φ-call of
-    output lags in slot f (kind ``pkind[f]``: 1 difference, 2 its sign, of
-    the output at lags ``pla[f]`` and ``plb[f]``), computed at each step as
-    :func:`narx.kernels._kernel` does.
+    output lags in slot f (the built-in of kernel code ``pkind[f]`` of the
+    output at lags ``pla[f]`` and ``plb[f]``, :func:`narx.phi.phi_value`),
+    computed at each step as :func:`narx.kernels._kernel` does.
     """
     n = y.shape[0]
     B = np.empty((ml + L, W))
@@ -132,9 +128,9 @@ def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound,
             ra = B[pos - pla[f]]
             rb = B[pos - plb[f]]
             ph = PH[f]
+            c = pkind[f]
             for w in range(Wj):
-                d = ra[w] - rb[w]
-                ph[w] = d if pkind[f] == 1 else (1.0 if d > 0 else (-1.0 if d < 0 else 0.0))
+                ph[w] = phi_value(c, ra[w], rb[w])
         for i in range(n_dyn):
             t = dyn[i]
             th = theta[t]
@@ -251,9 +247,9 @@ def _term_info(t: Term):
     for f in t.output_factors:
         if isinstance(f, Lag):
             facs.append(f.lag)
-        elif (isinstance(f, PhiCall) and f.name in BUILTIN_KERNEL_CODES and len(f.args) == 2
-              and all(a.role == "y" for a in f.args)):
-            facs.append((BUILTIN_KERNEL_CODES[f.name], f.args[0].lag, f.args[1].lag))
+        elif (isinstance(f, PhiCall) and builtin_code(f.name) is not None
+              and len(f.args) == 2 and all(a.role == "y" for a in f.args)):
+            facs.append((builtin_code(f.name), f.args[0].lag, f.args[1].lag))
         else:
             return None                  # Φ mixing output and input: general kernel
     return "*".join(str(f) for f in t.input_factors), tuple(facs)

@@ -23,9 +23,10 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
+from numba import njit
+
 from .data import Data
-from .kernels import njit
-from .phi import PhiRegistry, _phi1, _phi2, default_registry
+from .phi import PhiRegistry, default_registry, phi_value
 from .terms import Lag, PhiCall, Term
 
 __all__ = ["shift", "signal_array", "factor_column", "input_part", "input_part_into",
@@ -59,30 +60,18 @@ def signal_array(lag: Lag, data: Data, y=None, noise=None) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True)
-def _lagged_difference(x1, a, x2, b, sign):
-    """``x1[k-a] - x2[k-b]`` (or its sign, as ``np.sign``: ±1, 0, NaN), NaN
-    before the larger lag: Phi1/Phi2 of two lags in one pass, without the
-    shifted copies and the temporary difference (bit for bit the same)."""
+def _lagged_builtin(code, x1, a, x2, b):
+    """The built-in of kernel ``code`` of ``x1[k-a]`` and ``x2[k-b]``
+    (:func:`narx.phi.phi_value`), NaN before the larger lag: in one pass,
+    without the shifted copies (bit for bit the row's numpy function)."""
     n = x1.shape[0]
     out = np.empty(n)
     m = min(max(a, b), n)
     for k in range(m):
         out[k] = np.nan
     for k in range(m, n):
-        d = x1[k - a] - x2[k - b]
-        if sign:
-            if d > 0.0:
-                d = 1.0
-            elif d < 0.0:
-                d = -1.0
-            elif d == 0.0:
-                d = 0.0
-        out[k] = d
+        out[k] = phi_value(code, x1[k - a], x2[k - b])
     return out
-
-
-#: built-in Φ-functions computed by :func:`_lagged_difference` (sign flag)
-_COMPILED = {_phi1: False, _phi2: True}
 
 
 def factor_column(f, data: Data, y=None, noise=None,
@@ -91,13 +80,13 @@ def factor_column(f, data: Data, y=None, noise=None,
     if isinstance(f, Lag):
         return shift(signal_array(f, data, y, noise), f.lag)
     fn = (registry or default_registry()).get(f.name)
-    sign = _COMPILED.get(fn.func)
-    if sign is not None and len(f.args) == 2:
+    if fn.builtin and len(f.args) == 2:
         (p, q) = f.args
-        return _lagged_difference(np.ascontiguousarray(signal_array(p, data, y, noise),
-                                                       dtype=np.float64), p.lag,
-                                  np.ascontiguousarray(signal_array(q, data, y, noise),
-                                                       dtype=np.float64), q.lag, sign)
+        return _lagged_builtin(fn.code,
+                               np.ascontiguousarray(signal_array(p, data, y, noise),
+                                                    dtype=np.float64), p.lag,
+                               np.ascontiguousarray(signal_array(q, data, y, noise),
+                                                    dtype=np.float64), q.lag)
     args = [shift(signal_array(a, data, y, noise), a.lag) for a in f.args]
     with np.errstate(invalid="ignore"):
         return np.asarray(fn.func(*args), dtype=np.float64)

@@ -25,14 +25,9 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy import signal
 
-try:  # pragma: no cover - depends on the environment
-    from numba import njit
-except ImportError:  # pragma: no cover
-    def njit(*args, **kwargs):
-        """Identity decorator used when numba is unavailable (pure Python)."""
-        return lambda func: func
 
 __all__ = ["piezo_bouc_wen", "training_input", "sine_input", "HeldSine", "held_sine",
            "prandtl_ishlinskii", "bouc_wen_discrete", "bouc_wen_discrete_narx"]

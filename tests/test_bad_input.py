@@ -27,7 +27,7 @@ from hypothesis import strategies as st
 from mggp.cli import main
 from narx.csvdata import read_csv
 from narx.data import DataError
-from narx.modelio import ModelFileError, load_model
+from narx import ModelFileError, load_model
 from narx.systems import piezo_bouc_wen, training_input
 
 N = 300

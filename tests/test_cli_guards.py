@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from narx import Model
-from narx.modelio import ModelFileError, load_model
+from narx import ModelFileError, load_model
 
 from conftest import first_order_record
 
