@@ -19,7 +19,9 @@ which gives the same solution as the textbook formula [1]_
 without forming :math:`(\\Psi^T\\Psi)^{-1}`: with :math:`\\theta_p` the
 minimum-norm solution of :math:`S\\theta=c` and :math:`Z` an orthonormal
 basis of the null space of S, :math:`\\theta = \\theta_p + Z z` and z is an
-ordinary LS solution.
+ordinary LS solution. The scaling, rank and solver rules are those of
+:mod:`narx.linalg`; this module validates the problem and names what is
+wrong with it.
 
 References
 ----------

@@ -207,7 +207,9 @@ def lstsq(A, b, *, rcond: Optional[float] = None,
 # ------------------------------------------------------------------ constraints
 @dataclass(frozen=True)
 class ConstraintSpace:
-    """Solutions of :math:`S\\theta = c`: :math:`\\theta = \\theta_p + Zw`.
+    """Solutions of :math:`S\\theta = c`: :math:`\\theta = \\theta_p + Zw`
+    (of :math:`(SD^{-1})z = c` when built with a ``scale``,
+    :func:`constraint_space`).
 
     Attributes
     ----------
