@@ -32,7 +32,7 @@ from .speed import piezo_record
 #: (phase, owner, attribute); owners are resolved in :func:`run`
 PHASES = (("Gram entries", "fitness", "_fill_gram"),
           ("MS kernel", "ms_kernel", "_ms_sse"),
-          ("LS solve", "fitness", "_solve_gelsy"),
+          ("LS solve", "linalg", "_gelsy"),
           ("columns", "ColumnStore", "get"),
           ("window-major copies", "WindowStore", "permute_into"))
 
@@ -55,8 +55,9 @@ def run(n=50_000, individuals=500, window=100, repeats=3, seed=0) -> dict:
     sets = random_term_sets(individuals, seed)
     acc: dict = {}
     import narx.fitness as fit
-    owners = {"fitness": fit, "ms_kernel": msk, "ColumnStore": fit.ColumnStore,
-              "WindowStore": msk.WindowStore}
+    import narx.linalg as linalg
+    owners = {"fitness": fit, "linalg": linalg, "ms_kernel": msk,
+              "ColumnStore": fit.ColumnStore, "WindowStore": msk.WindowStore}
     saved = []
     for key, owner, attr in PHASES:
         obj = owners[owner]

@@ -28,10 +28,10 @@ from __future__ import annotations
 from typing import Tuple
 
 import numpy as np
-import scipy.linalg
 
 from narx import Model
 from narx.estimate import t_statistics
+from narx.linalg import added_column_t
 from narx.model import ignore_rank_warnings
 from narx.regressors import regressor_matrix
 from narx.terms import parse_term
@@ -61,32 +61,13 @@ def els_t(data, terms, start, registry) -> np.ndarray:
 
 
 def _screen(data, terms, cands, noise, start, registry) -> np.ndarray:
-    r"""|t| of each candidate added alone to ``terms``, the noise held at
-    ``noise`` (one LS each, by projection on the fitted regressors):
-
-    .. math:: t_c = \frac{|c_\perp^T r|/c_\perp^T c_\perp}
-              {\sqrt{s^2/c_\perp^T c_\perp}},\quad
-              s^2 = \frac{r^T r - (c_\perp^T r)^2/c_\perp^T c_\perp}{n - p - 1}
-
-    with :math:`r` the residuals of ``terms`` and :math:`c_\perp` the
-    candidate's column minus its projection on theirs."""
+    """|t| of each candidate added alone to ``terms``, the noise held at
+    ``noise`` (one LS each, by projection on the fitted regressors:
+    :func:`narx.linalg.added_column_t`)."""
     Psi, target, _ = regressor_matrix(terms, data, noise=noise, start=start,
                                       registry=registry)
     C, _, _ = regressor_matrix(cands, data, noise=noise, start=start, registry=registry)
-    norms = np.linalg.norm(Psi, axis=0)
-    norms[norms == 0] = 1.0
-    Q, R, _ = scipy.linalg.qr(Psi / norms, mode="economic", pivoting=True)
-    d = np.abs(np.diag(R))
-    Q = Q[:, :int(np.sum(d > d[0] * max(Psi.shape) * np.finfo(float).eps))] if d.size else Q
-    r = target - Q @ (Q.T @ target)
-    Cp = C - Q @ (Q.T @ C)
-    cc = np.einsum("ij,ij->j", Cp, Cp)
-    cr = Cp.T @ r
-    dof = max(Psi.shape[0] - Q.shape[1] - 1, 1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s2 = (r @ r - cr ** 2 / cc) / dof
-        t = np.abs(cr / cc) / np.sqrt(s2 / cc)
-    return np.where(cc > 1e-12 * np.einsum("ij,ij->j", C, C), np.nan_to_num(t), 0.0)
+    return added_column_t(Psi, target, C)
 
 
 def full_ma(data, q: int, registry) -> Tuple:

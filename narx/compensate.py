@@ -72,6 +72,7 @@ from .compensate_args import (check_count, check_range, check_reference, past_va
                               training_magnitudes)
 from .inverse_check import (NonMinimumPhaseWarning, active_terms, input_lags,
                             inverse_stability, uninvertible_reason)
+from .linalg import DIVERGENCE_FACTOR
 from .phi import BUILTINS, phi_value
 from .terms import Lag
 
@@ -462,7 +463,7 @@ class RootCompensator:
                     + [abs(v) for v in (self.input_range or ())]
                     + [abs(v) for v in self.m + self.y if math.isfinite(v)]   # the past
                     + training_magnitudes(self.model))
-        bound, at = 1e4 * scale, -1
+        bound, at = DIVERGENCE_FACTOR * scale, -1
         for j in range(n):
             x = self.step(target[j])
             n_roots[j], sat[j] = self.last_

@@ -25,8 +25,9 @@ same terms again and again:
 * every Gram entry :math:`\\psi_i^T\\psi_j` and :math:`\\psi_i^T y` is
   computed once, in a fixed summation order (:mod:`narx.gram`); θ then
   comes from the small normal equations, solved on unit-diagonal scaling
-  by a rank-revealing pivoted-QR least-squares solve (``gelsy``), which is
-  the minimum-norm LS solution when columns are dependent. Final models
+  by a rank-revealing pivoted-QR least-squares solve
+  (:func:`narx.linalg.gram_lstsq`), which is the minimum-norm LS solution
+  when columns are dependent. Final models
   are refitted with :func:`narx.estimate.least_squares` on the regressor
   matrix itself (``Model.fit``);
 * the compiled kernel reads input parts straight from the store.
@@ -37,7 +38,6 @@ from collections import OrderedDict
 from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
-import scipy.linalg
 from numba import njit
 
 from .colbuild import ColumnBuilder
@@ -45,6 +45,7 @@ from .data import Data
 from .estimate import EstimationError
 from .gram import fill_gram as _fill_gram, fixed_dot
 from .kernels import Plan, run_windows
+from .linalg import divergence_bound, gram_lstsq
 from .ms_kernel import ms_mse, window_sse
 from .phi import PhiRegistry, default_registry
 from .regressors import factor_column, input_part_into
@@ -83,39 +84,10 @@ def _osa_sse(P, idx, theta, y, s):
         acc += r * r
     return acc
 
-_GELSY, _GELSY_LWORK = scipy.linalg.lapack.get_lapack_funcs(("gelsy", "gelsy_lwork"),
-                                                             (np.empty((1, 1)),))
-_LWORK: Dict[Tuple[int, int], int] = {}
-
-
-def _solve_gelsy(A: np.ndarray, b: np.ndarray, cond: float) -> np.ndarray:
-    """``scipy.linalg.lstsq(A, b, lapack_driver='gelsy', cond=cond)[0]``,
-    bit for bit, without its per-call checks and workspace query (the
-    workspace size depends only on the shape, so it is asked once): the
-    small normal equations of a structure search are solved ~10^5 times.
-    """
-    m, n = A.shape
-    lwork = _LWORK.get((m, n))
-    if lwork is None:
-        work, info = _GELSY_LWORK(m, n, 1, cond)
-        if info != 0:
-            raise ValueError(f"gelsy workspace query failed (info={info})")
-        lwork = _LWORK[(m, n)] = int(np.real(work))
-    if m < n:                              # room for the n unknowns, as scipy does
-        b = np.concatenate((b, np.zeros(n - m)))
-    jpvt = np.zeros((n, 1), dtype=np.int32)
-    _, x, _, _, info = _GELSY(A, b, jpvt, cond, lwork, False, False)
-    if info < 0:
-        raise ValueError(f"illegal value in argument {-info} of gelsy")
-    return x[:n]
-
 
 FITNESS = ("pem", "freerun", "ksa", "ms")
 #: default size of a scorer's column cache (bytes)
 SCORER_BUDGET = 160 * 2**20
-#: rank tolerance of the unit-diagonal Gram matrix (its condition number is
-#: the square of the regressors'): columns dependent to ~1e-6 are dropped
-_GRAM_COND = 1e-12
 
 
 class ColumnStore:
@@ -236,8 +208,7 @@ class StructureScorer:
         self._b = np.full(cap, np.nan)
         self._gram_start = -1
         self._out_cols: Dict[str, np.ndarray] = {}
-        scale = float(np.max(np.abs(self.y))) if self.y.size else 1.0
-        self.bound = 1e4 * (scale if scale > 0 else 1.0)
+        self.bound = divergence_bound(self.y)
         self.evaluations = 0
 
     def clear_cache(self):
@@ -324,24 +295,13 @@ class StructureScorer:
                              f"the terms' largest lag {ml} (start {s})")
         slots = np.array([self._reg_slot(t) for t in terms], dtype=np.int64)
         G, b = self._gram(slots, s)
-        d = np.sqrt(np.diag(G))
-        d[d == 0] = 1.0
-        Gs = G / np.outer(d, d)
-        bs = b / d
         if constraints is None:
-            z = _solve_gelsy(Gs, bs, _GRAM_COND)
-            return z / d, s
+            return gram_lstsq(G, b)[0], s
         cons = steady_state_constraints(terms, self.registry)
-        S = cons.S / d                                  # constraints on z = d*θ
-        zp = np.linalg.lstsq(S, cons.c, rcond=None)[0]
-        if np.max(np.abs(S @ zp - cons.c)) > 1e-9:
+        theta, space = gram_lstsq(G, b, cons.S, cons.c)
+        if not space.consistent:
             raise EstimationError("inconsistent steady-state constraints")
-        _, sv, Vt = np.linalg.svd(S)
-        Z = Vt[int(np.sum(sv > 1e-12 * sv[0])):].T
-        if Z.shape[1]:
-            w = _solve_gelsy(Z.T @ Gs @ Z, Z.T @ (bs - Gs @ zp), _GRAM_COND)
-            zp = zp + Z @ w
-        return zp / d, s
+        return theta, s
 
     # ------------------------------------------------------------ scoring
     def evaluate(self, terms: Sequence[Term]) -> Tuple[float, Optional[np.ndarray]]:

@@ -264,8 +264,8 @@ def run_windows(plan: Plan, P, U, y_meas, theta, starts, length: int,
         raise ValueError(f"a window starts at sample {starts.min()} but the "
                          f"model needs {plan.maxlag} initial samples")
     if bound is None:
-        scale = float(np.max(np.abs(y_meas))) if y_meas.size else 1.0
-        bound = 1e4 * (scale if scale > 0 else 1.0)
+        from .linalg import divergence_bound
+        bound = divergence_bound(y_meas)
     if out is None:
         out = np.full(y_meas.shape[0], np.nan)
     P = np.ascontiguousarray(P)

@@ -41,6 +41,8 @@ from typing import Optional
 
 import numpy as np
 
+from .linalg import null_space
+
 __all__ = ["refine", "refine_both", "Refinement"]
 
 #: simulated outputs beyond this many output ranges count as diverged
@@ -85,9 +87,7 @@ def _constraint_space(model):
     if np.max(np.abs(cons.S @ th - cons.c), initial=0.0) > 1e-8 * max(1.0, np.abs(th).max()):
         raise ValueError("the model was fitted under constraints other than the "
                          "continuum of steady states: refining it is not supported")
-    _, sv, vt = np.linalg.svd(cons.S)
-    rank = int(np.sum(sv > max(cons.S.shape) * np.finfo(float).eps * (sv[0] if sv.size else 0)))
-    z = vt[rank:].T
+    z = null_space(cons.S)
     return th - z @ (z.T @ th), z
 
 
