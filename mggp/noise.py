@@ -104,8 +104,8 @@ def select_noise(data, terms, start, registry, q: int, crit: float) -> Tuple:
     Each step ranks the remaining candidates by their t-statistic with the
     noise estimate held at the current model's (one projection each), fits
     the ``SCREEN_TOP`` best by ELS to convergence, and adds the one with
-    the largest converged |t| if it reaches ``crit``: an ELS fit of every
-    candidate at every step took minutes on 30,000 samples."""
+    the largest converged |t| if it reaches ``crit`` (an ELS fit of every
+    candidate at every step takes minutes on 30,000 samples)."""
     sig = data.signals
     cands = []
     for j in range(1, q + 1):

@@ -9,8 +9,8 @@ Typical use (``MGGPRegressor(screen="freerun")`` wires it in)::
 Multiple shooting scores a structure on windows of Δm samples, each
 started from measured data, so an instability that needs longer than Δm
 to grow is never seen: a search can converge to a family of structures
-that fit every window and diverge in free run over the record (seen on the
-piezo case study with Δm = 1000). The screen simulates the best structures
+that fit every window and diverge in free run over the record (on the
+piezo case study with Δm = 1000, for example). The screen simulates the best structures
 of each batch in free run over the whole training record, with the same
 LS (or CLS) parameters, and gives those whose output leaves the band
 
