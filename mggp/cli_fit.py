@@ -20,7 +20,7 @@ import warnings
 
 from .cli import CLIError, check_refine_args, fmt, mode_option, refinement_line
 from .exceptions import CLSRejectedWarning
-from .params import PATH, PARAMS, Bool, Param, add_options, check_options, options_given
+from .params import PATH, PARAMS, Bool, Param, add_options, check_params, options_given
 
 __all__ = ["register", "FIT_OPTIONS"]
 
@@ -78,23 +78,22 @@ def _cmd_fit(args) -> int:
     from narx.csvdata import read_csv
     from .estimator import MGGPRegressor
     from narx.atomic import check_writable
-    # rules of single options come from the table; what follows combines them
-    check_options(args, FIT_OPTIONS, fill=False)
-    mode_option(args.fitness or PARAMS["fitness"].default, {"ksa": "k", "ms": "window"},
-                args, "--fitness")
+    # the rules of the options, alone and combined, come from the table
+    # (mggp.params); what follows combines options with modes and files
+    est = MGGPRegressor(**options_given(args, [p for p in FIT_OPTIONS if p.estimator]))
+    check_params(est, cli=True)
+    mode_option(est.fitness, {"ksa": "k", "ms": "window"}, args, "--fitness")
     check_refine_args(args)
-    if args.phi_outputs and args.use_phi is False:
-        raise CLIError("--phi-outputs needs Φ-functions in the search: drop --no-phi")
     if args.resume and not args.checkpoint:
         raise CLIError("--resume needs --checkpoint FILE")
     if args.resume and not os.path.exists(args.checkpoint):
         print(f"note: no checkpoint at {args.checkpoint} yet: a new run starts (it is "
               f"written there every generation)", file=sys.stderr)
-    if args.backend == "dask" and not args.scheduler:
+    if est.backend == "dask" and not args.scheduler:
         raise CLIError("--backend dask needs --scheduler ADDRESS")
-    if args.scheduler and args.backend != "dask":
+    if args.scheduler and est.backend != "dask":
         raise CLIError(f"--scheduler {args.scheduler} needs --backend dask "
-                       f"(got --backend {args.backend or PARAMS['backend'].default})")
+                       f"(got --backend {est.backend})")
     # every destination is checked before the search, so no run is lost to it
     for opt, path in (("--out", args.out), ("--checkpoint", args.checkpoint)):
         if path:
@@ -103,8 +102,6 @@ def _cmd_fit(args) -> int:
         raise CLIError(f"--report {args.report}: exists and is not a folder")
     if args.report and args.out and os.path.abspath(args.report) == os.path.abspath(args.out):
         raise CLIError(f"--report and --out name the same path {args.out}")
-    given = options_given(args, [p for p in FIT_OPTIONS if p.estimator])
-    est = MGGPRegressor(**given)
     est.set_params(inputs=est.inputs or ["u"], callbacks=[
         _Progress(est.generations, sys.stderr, args.quiet)])
     data = read_csv(args.data, inputs=est.inputs, output=est.output, varying_inputs=True)

@@ -392,21 +392,23 @@ def check_value(name: str, v, label: Optional[str] = None) -> None:
     PARAMS[name].rule.check(label or name, v)
 
 
-#: rules that combine parameters: (test, message) on the estimator
+#: rules that combine parameters: (test, message, message on the command line)
 _COMBINED = (
     (lambda e: not (e.phi_outputs and not e.use_phi),
-     lambda e: f"phi_outputs=True needs Φ-functions in the search, got use_phi={e.use_phi}"),
+     lambda e: f"phi_outputs=True needs Φ-functions in the search, got use_phi={e.use_phi}",
+     "--phi-outputs needs Φ-functions in the search: drop --no-phi"),
 )
 
 
-def check_params(est) -> None:
+def check_params(est, cli: bool = False) -> None:
     """Raise ``ValueError`` for the first parameter of ``est`` out of its
-    rule, then for the first combination of parameters that is refused."""
+    rule, then for the first combination of parameters that is refused
+    (``cli``: named by their flags)."""
     for p in PARAMS.values():
-        p.check(getattr(est, p.name))
-    for ok, message in _COMBINED:
+        p.check(getattr(est, p.name), cli=cli and p.flag is not None)
+    for ok, message, cli_message in _COMBINED:
         if not ok(est):
-            raise ValueError(message(est))
+            raise ValueError(cli_message if cli else message(est))
 
 
 def context_of(est) -> dict:
