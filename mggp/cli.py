@@ -288,10 +288,11 @@ def _main(argv: Optional[List[str]]) -> int:
         args = build_parser().parse_args(argv)
         for mod in args.phi_module:
             _import_plugin(mod)
+        from .params import PARAMS
         for name in ("k", "window"):           # shared by every subcommand
             v = getattr(args, name, None)
-            if v is not None and v < 1:
-                raise CLIError(f"--{name} must be >= 1, got {v}")
+            if v is not None:
+                PARAMS[name].check(v, cli=True)
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)

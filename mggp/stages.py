@@ -228,7 +228,13 @@ def precision(terms, data, ctx):
 
 def cls_refit(terms, data, ctx):
     """``model_cls_`` (``constraints='steady-state'``), or ``cls_error_``
-    saying why the constrained fit is not possible."""
+    saying why the constrained fit is not possible.
+
+    .. math:: \\theta_{CLS} = \\theta_{LS} - (\\Psi^T\\Psi)^{-1} S^T
+              [S (\\Psi^T\\Psi)^{-1} S^T]^{-1} (S \\theta_{LS} - c)
+
+    with :math:`S \\theta = c` the continuum-of-steady-states equalities of
+    the terms (Abreu et al., Nonlinear Dynamics, 2020)."""
     est = ctx.est
     est.model_cls_ = None
     if est.constraints == "steady-state":
