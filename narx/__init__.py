@@ -29,5 +29,6 @@ from .metrics import mse, rmse, mape, rrse, nrmse
 from .model import Model
 from .modelio import ModelFileError, load_model, save_model
 from .refine import Refinement, refine
+from .quasistatic import QuasiStaticResult, quasistatic
 
 __version__ = "0.1.0"

@@ -65,7 +65,8 @@ unloading, 0 at rest (other inputs held at their mean). Every input factor
 ``bounding_step`` δ > 0 this is the input moving at δ per sample. With the
 default δ = 0 each factor takes its limit as the step goes to 0 from the
 branch's side (linear extrapolation to 0 from the steps δ₀ and 2δ₀,
-δ₀ = 1e-7 times the input's scale): Phi1 (the rate) is held at 0 on every
+δ₀ = 1e-7 times the input's scale; a value that cancels to within
+1e-6 of the two it comes from is 0): Phi1 (the rate) is held at 0 on every
 branch, Phi2 at ±1 (loading/unloading; the sign of the lags' order) and at
 0 at rest, a plug-in such as regressor (18) of [1]_ at its one-sided
 limit. For model (16), y_k = 0.9 y_{k-1} + 0.5 Φ2_{k-1}, this gives
@@ -207,8 +208,10 @@ class _Frozen:
     def extrapolate_from(self, other: "_Frozen"):
         """In place: 2 self − other for every frozen value (step → 0)."""
         for a, b in zip(list(self.arrays()), list(other.arrays())):
+            size = np.abs(a) + np.abs(b)
             a *= 2.0
             a -= b
+            a[np.abs(a) <= 1e-6 * size] = 0.0       # cancelled: the limit is 0
 
     def finish(self):
         n = self.rows.shape[0]
