@@ -29,7 +29,7 @@ from typing import List, Optional
 import numpy as np
 
 __all__ = ["plot_quasistatic", "summary_markdown", "conclusion", "loop_orientation",
-           "pulls", "model_figure", "probe_sine"]
+           "pulls", "model_figure", "diagnosis_figure", "probe_sine"]
 
 _COL = {"loading": "tab:red", "unloading": "tab:blue"}
 _SUB = {"loading": "L", "unloading": "U"}
@@ -185,25 +185,29 @@ def caption(qs, clipped: int = None) -> str:
 
 
 def _mark(ax, qs, branch, names, lo, hi):
-    """Output (first name) and its attracting solution (second) on the
-    sample of ``branch`` nearest the middle of the input's range whose
-    solution is in view."""
+    """Output (first name) and its attracting solution (second) on one
+    sample of ``branch`` in the settled half of the run: the one nearest the
+    middle of the input's range, or, when there the two are closer than 2 %
+    of the plot's height, the one where they are farthest apart."""
     k, r, s = pulls(qs, branch)
-    ok = (r > lo) & (r < hi) & (np.abs(r - qs.y[k]) > 0.05 * (hi - lo))
+    ok = (r > lo) & (r < hi) & (k >= qs.k.size // 2)
     if not ok.any():
         return
     k, r = k[ok], r[ok]
+    gap = np.abs(r - qs.y[k])
     mid = 0.5 * (np.nanmin(qs.u) + np.nanmax(qs.u))
-    last = k >= k.max() - (qs.k.size // 2)          # the settled part of the run
-    i = np.flatnonzero(last)[np.argmin(np.abs(qs.u[k[last]] - mid))]
+    i = int(np.argmin(np.abs(qs.u[k] - mid)))
+    if gap[i] < 0.02 * (hi - lo):
+        i = int(np.argmax(gap))
     x, ya, yb = qs.u[k[i]], qs.y[k[i]], r[i]
     col = _COL[branch]
     ax.annotate("", xy=(x, yb), xytext=(x, ya),
                 arrowprops=dict(arrowstyle="->", color=col, lw=1.3, ls="--"))
-    for yy, name in ((ya, names[0]), (yb, names[1])):
+    for yy, name, dx in ((ya, names[0], -18), (yb, names[1], 8)):
         ax.plot([x], [yy], "o", ms=5, mfc="white", mec=col, mew=1.3, zorder=6)
-        ax.annotate(name, (x, yy), xytext=(6, -4 if yy == ya else 4),
-                    textcoords="offset points", fontsize=10, fontweight="bold", color=col)
+        ax.annotate(name, (x, yy), xytext=(dx, -5), textcoords="offset points",
+                    fontsize=10, fontweight="bold", color=col, zorder=8,
+                    bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.85))
 
 
 def _arrows(ax, u, y, n=8):
@@ -232,9 +236,12 @@ def plot_quasistatic(path, qs, title: str = "Quasi-static analysis",
         ua, ya = qs.sets(name, True)
         ur, yr = qs.sets(name, False)
         sub = _SUB[name]
-        ax.plot(ua, ya, ".", ms=2.5, color=col, label=f"$\\hat y_{sub}^a$: attracting, {name}")
-        ax.plot(ur, yr, "x", ms=3, mew=0.7, color=col, alpha=0.7,
-                label=f"$\\hat y_{sub}^r$: repelling, {name}")
+        if ua.size:
+            ax.plot(ua, ya, ".", ms=2.5, color=col,
+                    label=f"$\\hat y_{sub}^a$: attracting, {name}")
+        if ur.size:
+            ax.plot(ur, yr, "x", ms=3, mew=0.7, color=col, alpha=0.7,
+                    label=f"$\\hat y_{sub}^r$: repelling, {name}")
         e = b.branch(name)
         for att, ls, word in ((True, "--", "attracting"), (False, ":", "repelling")):
             yb = np.where((e.roots > lo) & (e.roots < hi) & (e.attracting == att),
@@ -255,8 +262,9 @@ def plot_quasistatic(path, qs, title: str = "Quasi-static analysis",
                         label="rest: steady states" if j == 0 else None)
     if qs.y_data is not None:
         ax.plot(qs.u, qs.y_data, color="0.55", lw=0.8, label="data")
-    ax.plot(qs.u, qs.y, "k", lw=1.1, label="free-run loop")
-    _arrows(ax, qs.u, qs.y)
+    run = qs.solution != "initial"                 # from the end of the initial conditions
+    ax.plot(qs.u[run], qs.y[run], "k", lw=1.1, label="free-run loop")
+    _arrows(ax, qs.u[run], qs.y[run])
     _mark(ax, qs, "loading", ("A", "B"), lo, hi)
     _mark(ax, qs, "unloading", ("C", "D"), lo, hi)
     ax.set_ylim(lo, hi)
@@ -277,13 +285,13 @@ def plot_quasistatic(path, qs, title: str = "Quasi-static analysis",
 def probe_sine(u_train, periods: float = 2.0):
     """A sine over the range of ``u_train``: centre ± 0.9 half-range, period
     the record's mean zero-crossing period (2N / crossings of u − mean,
-    bounded to 20 .. N samples), ``periods`` periods."""
+    bounded to 100 .. N samples), ``periods`` periods."""
     u = np.asarray(u_train, float).ravel()
     c = 0.5 * (u.max() + u.min())
     a = 0.45 * (u.max() - u.min())
     x = np.sign(u - u.mean())
     cross = int(np.sum(x[1:] * x[:-1] < 0))
-    period = int(np.clip(round(2 * u.size / max(cross, 1)), 20, max(u.size, 20)))
+    period = int(np.clip(round(2 * u.size / max(cross, 1)), 100, max(u.size, 100)))
     n = int(round(periods * period))
     return c + a * np.sin(2 * np.pi * np.arange(n) / period), period
 
@@ -298,8 +306,17 @@ def model_figure(path, model, u_train, title: Optional[str] = None) -> Optional[
     U = U[:, None] if U.ndim == 1 else U
     if np.ptp(U[:, 0]) == 0:
         return None
-    s, period = probe_sine(U[:, 0])
+    s, period = probe_sine(U[:, 0], max(2.0, 2.0 * (model.max_lag + 2) / 100))
     cols = [s] + [np.full(s.size, float(np.mean(c))) for c in U[:, 1:].T]
     qs = narx.quasistatic(model, np.column_stack(cols) if len(cols) > 1 else s)
     return plot_quasistatic(path, qs, title or f"Quasi-static analysis (probe sine, period "
                             f"{period} samples)")
+
+
+def diagnosis_figure(path, dx) -> Optional[str]:
+    """:func:`model_figure` of the model a diagnosis recommends (the
+    extension when it lowered the RMSE, else the baseline), probed over the
+    range of the fitting samples' input."""
+    scored = dx.extended if dx.gain.recommended == "extended" else dx.baseline
+    return model_figure(path, scored.model, dx.fit_data.U.T,
+                        f"Quasi-static analysis of the {dx.gain.recommended} model")

@@ -304,3 +304,23 @@ def test_cli_bad_input_exit_2_one_line(capsys, tmp_path, m19_file, argv, needle)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], err
     assert not js.exists()
+
+
+# ------------------------------------------------------------------ report hooks
+def test_fit_and_diagnose_reports_show_the_quasistatic_figure(capsys, tmp_path):
+    from conftest import first_order_record
+    from mggp.diagnose import Budget, diagnose
+    from mggp.diagnose.report import write_report
+    u, y = first_order_record(600, 0)
+    csv = tmp_path / "d.csv"
+    csv.write_text("u,y\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(u, y)))
+    code, out, err = run(capsys, "fit", csv, "--population", 20, "--generations", 2,
+                         "--seed", 0, "--jobs", 1, "--quiet", "--report", tmp_path / "fit")
+    assert code == 0, err
+    assert (tmp_path / "fit" / "quasistatic.png").stat().st_size > 10_000
+    assert "](quasistatic.png)" in (tmp_path / "fit" / "summary.md").read_text()
+    dx = diagnose(narx.Data(u, y), budget=Budget(population=20, generations=2,
+                                                  max_height=3), seed=0)
+    text = open(write_report(tmp_path / "dx", dx)).read()
+    assert (tmp_path / "dx" / "quasistatic.png").stat().st_size > 10_000
+    assert "](quasistatic.png)" in text
