@@ -138,8 +138,8 @@ def summary_markdown(qs, title: str = "Quasi-static analysis",
           "attracts when the recursion linearised in the output lags is stable there "
           "(|∂ŷ_k/∂ŷ_{k-1}| < 1 for one lag). Branch: sign of the input's change. "
           "Bounding structure: the same equation with the input on a ramp through each "
-          "ū, the rate (Phi1) held at its limit 0 and Phi2 at +1 (loading), −1 "
-          "(unloading), 0 (rest)" + (f"; step {qs.bounding.step:g} per sample"
+          "ū, the rate (Phi1) held at its limit 0 and Phi2(u[k-a],u[k-b]), a < b, at +1 "
+          "(loading), −1 (unloading), 0 (rest)" + (f"; step {qs.bounding.step:g} per sample"
                                      if qs.bounding.step else "") + "."]
     if figure:
         L += ["", f"![quasi-static analysis]({figure})", "", caption(qs)]
@@ -148,8 +148,8 @@ def summary_markdown(qs, title: str = "Quasi-static analysis",
 
 def _view(qs):
     """y-limits: the loop's range (and the data's), extended to the median of
-    each attracting and repelling set, at most 3 loop spans from its centre,
-    padded by 8 %."""
+    each attracting and repelling set and to the bounding structure's
+    envelope, at most 3 loop spans from its centre, padded by 8 %."""
     y = qs.y[np.isfinite(qs.y)]
     if qs.y_data is not None:
         y = np.concatenate([y, qs.y_data])
@@ -158,12 +158,11 @@ def _view(qs):
     lo, hi = float(y.min()), float(y.max())
     span = hi - lo or max(abs(lo), 1.0)
     mid = 0.5 * (lo + hi)
-    for b in ("loading", "unloading"):
-        for a in (True, False):
-            r = qs.sets(b, a)[1]
-            if r.size:
-                m = float(np.clip(np.median(r), mid - 3 * span, mid + 3 * span))
-                lo, hi = min(lo, m), max(hi, m)
+    marks = [float(np.median(r)) for b in ("loading", "unloading") for a in (True, False)
+             for r in [qs.sets(b, a)[1]] if r.size]
+    for m in marks + [v for v in qs.bounding.envelope() if np.isfinite(v)]:
+        m = float(np.clip(m, mid - 3 * span, mid + 3 * span))
+        lo, hi = min(lo, m), max(hi, m)
     pad = 0.08 * (hi - lo)
     return lo - pad, hi + pad
 
@@ -180,8 +179,7 @@ def caption(qs, clipped: int = None) -> str:
             "ŷ_L) and unloading (blue, ŷ_U); dashed (dotted): the attracting (repelling) bounding "
             "structure, the equilibria with the rate at its limit 0. A → B and C → D: the output and the attracting solution pulling it "
             "on one loading and one unloading sample. "
-            + (f"{clipped} solutions lie outside the plotted range (they grow without bound "
-               f"where ∂ŷ_k/∂ŷ_{{k-1}} passes 1)." if clipped else ""))
+            + (f"{clipped} solutions lie outside the plotted range." if clipped else ""))
 
 
 def _mark(ax, qs, branch, names, lo, hi):
