@@ -81,7 +81,7 @@ def conclusion(qs) -> List[str]:
     parts = []
     for b, word in (("loading", "up"), ("unloading", "down")):
         n = c[b]["samples"]
-        if not n:
+        if not c[b]["attracting"]:
             continue
         k, r, s = pulls(qs, b)
         toward = int(np.sum(s > 0)) if b == "loading" else int(np.sum(s < 0))
@@ -92,6 +92,9 @@ def conclusion(qs) -> List[str]:
     if parts:
         out.append("The loop forms as the output is pulled toward the attracting set of "
                    "the current branch: " + "; ".join(parts) + ".")
+    elif c["loading"]["samples"] + c["unloading"]["samples"]:
+        out.append("No sample of the moving input has an attracting solution: nothing "
+                   "holds the output on either branch.")
     rep = sum(c[b]["repelling_only"] for b in ("loading", "unloading"))
     tot = sum(c[b]["samples"] for b in ("loading", "unloading"))
     if rep:
@@ -147,10 +150,14 @@ def summary_markdown(qs, title: str = "Quasi-static analysis",
 
 
 def _view(qs):
-    """y-limits: the loop's range (and the data's), extended to the median of
+    """y-limits: the loop's range (the sets' 5-95 % range when the free run
+    diverges; and the data's range), extended to the median of
     each attracting and repelling set and to the bounding structure's
     envelope, at most 3 loop spans from its centre, padded by 8 %."""
     y = qs.y[np.isfinite(qs.y)]
+    if qs.diverged:                           # the sets, not the run that leaves them
+        r = qs.roots[np.isfinite(qs.roots)]
+        y = np.percentile(r, [5, 95]) if r.size else np.zeros(0)
     if qs.y_data is not None:
         y = np.concatenate([y, qs.y_data])
     if not y.size:
@@ -208,8 +215,8 @@ def _mark(ax, qs, branch, names, lo, hi):
                     bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.85))
 
 
-def _arrows(ax, u, y, n=8):
-    ok = np.flatnonzero(np.isfinite(y))
+def _arrows(ax, u, y, lo, hi, n=8):
+    ok = np.flatnonzero(np.isfinite(y) & (y > lo) & (y < hi))
     if ok.size < 10:
         return
     half = ok[ok >= ok[0] + (ok.size // 2)]              # the settled half
@@ -261,8 +268,10 @@ def plot_quasistatic(path, qs, title: str = "Quasi-static analysis",
     if qs.y_data is not None:
         ax.plot(qs.u, qs.y_data, color="0.55", lw=0.8, label="data")
     run = qs.solution != "initial"                 # from the end of the initial conditions
-    ax.plot(qs.u[run], qs.y[run], "k", lw=1.1, label="free-run loop")
-    _arrows(ax, qs.u[run], qs.y[run])
+    yr = np.where(np.abs(qs.y) < 1e6 * (abs(lo) + abs(hi)), qs.y, np.nan)  # drawable
+    ax.plot(qs.u[run], yr[run], "k", lw=1.1, label="free-run loop" + (
+        " (diverges)" if qs.diverged else ""))
+    _arrows(ax, qs.u[run], qs.y[run], lo, hi)
     _mark(ax, qs, "loading", ("A", "B"), lo, hi)
     _mark(ax, qs, "unloading", ("C", "D"), lo, hi)
     ax.set_ylim(lo, hi)

@@ -32,11 +32,13 @@ collected per sample; all its real roots are found (closed form for degree
 root is real when its imaginary part is below 1e-6 (1 + |ỹ|), then polished
 by two Newton steps). Otherwise (a plug-in of outputs with a callable steady
 value, a mixed Φ-call other than Phi1) G_k is evaluated on a grid of
-``grid`` points over ``y_range`` (default: the free run's range widened by
-its span on each side) and every sign change is refined by 60 bisections;
-a sign change across a jump (|G_k| at the limit above 1e-6 of the size of
-its terms) is not a root. Roots outside ``y_range`` and roots where G_k
-touches 0 without changing sign are not found by this method.
+``grid`` points over ``y_range`` (default: the free run's range and 0,
+widened on each side by 5 times the largest of its span, its largest
+magnitude and 1) and every sign change is refined by 60 bisections; a sign
+change across a jump (|G_k| at the limit above 1e-6 of its larger
+magnitude at the two grid points) is not a root. Roots outside ``y_range``, roots where G_k touches 0
+without changing sign and pairs of roots within one grid step are not
+found by this method.
 
 **Continuum.** When every coefficient of G_k (or, numerically, G_k at every
 grid point) is below ``tol`` times the size of the terms that make it, the
@@ -98,7 +100,7 @@ __all__ = ["quasistatic", "QuasiStaticResult", "Equilibria", "BoundingStructure"
 BRANCHES = ("loading", "unloading", "rest")
 _SIGN = {"loading": 1, "unloading": -1, "rest": 0}
 _REAL = 1e-6         # |imag| / (1 + |root|) below which a companion eigenvalue is real
-_JUMP = 1e-6         # |G| / size above which a bisection limit is a jump, not a root
+_JUMP = 1e-6         # |G| at a bisection limit / |G| at the grid points: above, a jump
 _BISECT = 60
 
 
@@ -392,8 +394,9 @@ def _solve_numerical(fz: _Frozen, y_range, grid, tol):
             lo = np.where(same, mid, lo)
             hi = np.where(same, hi, mid)
         mid = 0.5 * (lo + hi)
-        gm, sm = fz.G(mid[:, None], pr)
-        root = np.abs(gm[:, 0]) <= _JUMP * sm[:, 0]
+        gm, _s = fz.G(mid[:, None], pr)
+        ends = np.maximum(np.abs(g[pr, pc]), np.abs(g[pr, pc + 1]))
+        root = np.abs(gm[:, 0]) <= _JUMP * ends
         for i, r in zip(pr[root], mid[root]):
             lists[i].append(r)
     lists = [_unique(np.asarray(r, float)) for r in lists]
@@ -642,7 +645,7 @@ def _check_int(name, v, low):
     return int(v)
 
 
-def quasistatic(model, u, y=None, *, y0=None, y_range=None, grid: int = 401,
+def quasistatic(model, u, y=None, *, y0=None, y_range=None, grid: int = 801,
                 bounding_points: int = 201, bounding_step: float = 0.0,
                 tol: float = 1e-9) -> QuasiStaticResult:
     """Quasi-static analysis of ``model`` on the input ``u`` (module doc).
@@ -710,7 +713,7 @@ def quasistatic(model, u, y=None, *, y0=None, y_range=None, grid: int = 401,
         fin = yfr[np.isfinite(yfr)]
         fin = np.concatenate([fin, [0.0]])
         span = max(float(np.ptp(fin)), float(np.max(np.abs(fin))), 1.0)
-        y_range = (float(fin.min()) - span, float(fin.max()) + span)
+        y_range = (float(fin.min()) - 5 * span, float(fin.max()) + 5 * span)
     else:
         y_range = tuple(float(v) for v in y_range)
         if len(y_range) != 2 or not (np.all(np.isfinite(y_range)) and y_range[0] < y_range[1]):

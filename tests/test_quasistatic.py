@@ -220,6 +220,52 @@ def test_mixed_phi2_jump_is_not_a_root():
         np.testing.assert_allclose(r, exp[u[k - 1]], rtol=1e-9, err_msg=f"k={k}")
 
 
+def test_two_inputs_phi_of_outputs_and_noise_terms():
+    """Phi1/Phi2 of output lags are 0 at ỹ (their steady value) but enter the
+    linearisation; a noise term is 0; the other input's lag keeps its value."""
+    U = np.column_stack([np.sin(np.linspace(0, 12, 400)), np.cos(np.linspace(0, 5, 400))])
+    m = narx.Model(["y[k-1]", "u1[k-1]", "u2[k-1]", "Phi2(u1[k-1],u1[k-2])", "1",
+                    "y[k-1]*e[k-1]", "Phi1(y[k-1],y[k-2])*u1[k-1]", "Phi2(y[k-1],y[k-2])"],
+                   [0.5, 1, 0.3, 0.2, 0.1, 0.4, 0.7, 0.3], inputs=["u1", "u2"])
+    qs = narx.quasistatic(m, U)
+    assert qs.method == "polynomial" and qs.lags == (1, 2)
+    k = np.arange(2, 400)
+    v = U[k - 1, 0]
+    ref = (v + 0.3 * U[k - 1, 1] + 0.2 * np.sign(v - U[k - 2, 0]) + 0.1) / 0.5
+    np.testing.assert_allclose(qs.roots[k, 0], ref, rtol=1e-12)
+    d1, d2 = 0.5 + 0.7 * v, -0.7 * v                      # ∂/∂y[k-1], ∂/∂y[k-2]
+    rad = np.array([np.max(np.abs(np.roots([1, -a, -b]))) for a, b in zip(d1, d2)])
+    np.testing.assert_allclose(qs.points.radius[k, 0], rad, rtol=1e-9)
+
+
+def test_numerical_default_range_finds_a_far_repelling_root():
+    """ỹ = 0.5 ỹ + u² − 0.1 Sq(ỹ) with a callable steady value: roots
+    (−0.5 ± √(0.25 + 0.4 u²)) / 0.2, the lower one (≈ −6.5) far outside the
+    free run's range, repelling (slope 0.5 − 0.2 ỹ > 1)."""
+    reg = narx.PhiRegistry()
+    reg.register("Sq", 1, np.square, steady=np.square)
+    u = np.sin(np.linspace(0, 6, 200))
+    qs = narx.quasistatic(narx.Model(["y[k-1]", "Sq(u[k-1])", "Sq(y[k-1])"],
+                                     [0.5, 1.0, -0.1], registry=reg), u)
+    assert qs.method == "numerical"
+    k = np.arange(1, 200)
+    w = np.sqrt(0.25 + 0.4 * u[k - 1] ** 2)
+    np.testing.assert_allclose(qs.roots[k, 0], (-0.5 - w) / 0.2, rtol=1e-9)
+    np.testing.assert_allclose(qs.roots[k, 1], (-0.5 + w) / 0.2, rtol=1e-9, atol=1e-12)
+    assert not qs.attracting[k, 0].any() and qs.attracting[k, 1].all()
+
+
+def test_diverging_free_run_json_and_figure(tmp_path):
+    from mggp.quasistatic_report import plot_quasistatic, summary_markdown
+    qs = narx.quasistatic(narx.Model(["y[k-1]", "u[k-1]"], [1.5, 1.0]),
+                          np.sin(np.linspace(0, 30, 3000)))
+    assert qs.diverged
+    json.dumps(qs.to_dict(), allow_nan=False)
+    assert (tmp_path / "d.png") == plot_quasistatic(tmp_path / "d.png", qs)
+    text = summary_markdown(qs)
+    assert "diverges" in text and "No sample of the moving input has an attracting" in text
+
+
 # ------------------------------------------------------------------ bad input
 def test_bad_arguments_raise_named_errors():
     m = model19()
