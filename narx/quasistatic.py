@@ -36,9 +36,9 @@ value, a mixed Φ-call other than Phi1) G_k is evaluated on a grid of
 widened on each side by 5 times the largest of its span, its largest
 magnitude and 1) and every sign change is refined by 60 bisections; a sign
 change across a jump (|G_k| at the limit above 1e-6 of its larger
-magnitude at the two grid points) is not a root. Roots outside ``y_range``, roots where G_k touches 0
-without changing sign and pairs of roots within one grid step are not
-found by this method.
+magnitude at the two grid points) is not a root. This method does not find
+roots outside ``y_range``, roots where G_k touches 0 without changing sign,
+or two roots within one grid step.
 
 **Continuum.** When every coefficient of G_k (or, numerically, G_k at every
 grid point) is below ``tol`` times the size of the terms that make it, the
@@ -68,10 +68,12 @@ unloading, 0 at rest (other inputs held at their mean). Every input factor
 default δ = 0 each factor takes its limit as the step goes to 0 from the
 branch's side (linear extrapolation to 0 from the steps δ₀ and 2δ₀,
 δ₀ = 1e-7 times the input's scale; a value that cancels to within
-1e-6 of the two it comes from is 0): Phi1 (the rate) is held at 0 on every
-branch, Phi2 at ±1 (loading/unloading; the sign of the lags' order) and at
-0 at rest, a plug-in such as regressor (18) of [1]_ at its one-sided
-limit. For model (16), y_k = 0.9 y_{k-1} + 0.5 Φ2_{k-1}, this gives
+1e-6 of the two it comes from is 0). So on every branch Phi1 (the rate)
+is held at 0; ``Phi2(u[k-a],u[k-b])`` is held at s·sign(b − a) (+1 under
+loading and −1 under unloading for the usual a < b; 0 at rest); a plug-in
+such as regressor (18) of [1]_ is held at its one-sided limit; at rest
+every Φ-call of inputs is its function at equal arguments (its steady
+value). For model (16), y_k = 0.9 y_{k-1} + 0.5 Φ2_{k-1}, this gives
 ỹ = ±Σ_{Φ2}/(1 − Σ_y) = ±5 and, at rest, ỹ = 0; a model under the
 continuum-of-steady-states constraints gives a continuum at rest.
 
