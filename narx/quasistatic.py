@@ -319,20 +319,16 @@ def _horner(G, x):
 
 
 # ------------------------------------------------------------ solving
-def _pad(lists, n):
-    width = max([1] + [len(r) for r in lists])
-    out = np.full((n, width), np.nan)
-    for i, r in enumerate(lists):
-        out[i, :len(r)] = np.sort(r)
-    return out
-
-
-def _unique(r, rel=1e-7):
-    if r.size < 2:
-        return r
-    r = np.sort(r)
-    keep = np.concatenate([[True], np.diff(r) > rel * (1 + np.abs(r[1:]))])
-    return r[keep]
+def _compact(x, rel=1e-7):
+    """Rows of roots (NaN: none): sorted, near-equal ones merged, NaN last,
+    trailing all-NaN columns dropped (at least one column kept)."""
+    x = np.sort(x, axis=1)
+    if x.shape[1] > 1:
+        dup = np.zeros(x.shape, dtype=bool)
+        dup[:, 1:] = np.diff(x, axis=1) <= rel * (1 + np.abs(x[:, 1:]))
+        x = np.sort(np.where(dup, np.nan, x), axis=1)
+    keep = max(1, int(np.max(np.sum(np.isfinite(x), axis=1), initial=0)))
+    return x[:, :keep]
 
 
 def _solve_polynomial(G, S, tol):
@@ -341,11 +337,9 @@ def _solve_polynomial(G, S, tol):
     Gz = np.where(np.abs(G) <= tol * S, 0.0, G)
     nz = Gz != 0.0
     deg = np.where(nz.any(axis=1), G.shape[1] - 1 - np.argmax(nz[:, ::-1], axis=1), -1)
-    kind = np.where(deg < 0, "continuum", "none").astype(object)
-    lists = [np.zeros(0)] * n
-    one = np.flatnonzero(deg == 1)
-    for i, r in zip(one, -Gz[one, 0] / Gz[one, 1]):
-        lists[i] = np.array([r])
+    roots = np.full((n, max(1, int(deg.max(initial=1)))), np.nan)
+    one = deg == 1
+    roots[one, 0] = -Gz[one, 0] / Gz[one, 1]
     for d in np.unique(deg[deg >= 2]):
         rows = np.flatnonzero(deg == d)
         monic = Gz[rows, :d] / Gz[rows, d:d + 1]
@@ -362,12 +356,11 @@ def _solve_polynomial(G, S, tol):
                 step = np.where(dv != 0, v / dv, 0.0)
                 better = np.isfinite(step) & (np.abs(step) <= 1e-3 * (1 + np.abs(x)))
                 x = np.where(better, x - step, x)
-        for i, xr in zip(rows, x):
-            lists[i] = _unique(xr[np.isfinite(xr)])
-    for i in range(n):
-        if lists[i].size:
-            kind[i] = "isolated"
-    return _pad(lists, n), kind
+        roots[rows, :d] = x
+    roots = _compact(roots)
+    kind = np.where(deg < 0, "continuum", "none").astype(object)
+    kind[np.any(np.isfinite(roots), axis=1)] = "isolated"
+    return roots, kind
 
 
 def _solve_numerical(fz: _Frozen, y_range, grid, tol):
@@ -380,10 +373,8 @@ def _solve_numerical(fz: _Frozen, y_range, grid, tol):
     fin = np.isfinite(g)
     small = fin & (np.abs(g) <= tol * s)
     kind = np.where(np.all(small, axis=1), "continuum", "none").astype(object)
-    lists = [[] for _ in range(n)]
     zr, zc = np.nonzero(small & (kind == "none")[:, None])
-    for i, j in zip(zr, zc):
-        lists[i].append(X[j])
+    rows, vals = [zr], [X[zc]]
     sg = np.sign(np.where(fin & ~small, g, 0.0))
     pr, pc = np.nonzero(sg[:, :-1] * sg[:, 1:] < 0)
     if pr.size:
@@ -399,13 +390,18 @@ def _solve_numerical(fz: _Frozen, y_range, grid, tol):
         gm, _s = fz.G(mid[:, None], pr)
         ends = np.maximum(np.abs(g[pr, pc]), np.abs(g[pr, pc + 1]))
         root = np.abs(gm[:, 0]) <= _JUMP * ends
-        for i, r in zip(pr[root], mid[root]):
-            lists[i].append(r)
-    lists = [_unique(np.asarray(r, float)) for r in lists]
-    for i in range(n):
-        if lists[i].size:
-            kind[i] = "isolated"
-    return _pad(lists, n), kind
+        rows.append(pr[root])
+        vals.append(mid[root])
+    rows, vals = np.concatenate(rows), np.concatenate(vals)
+    order = np.lexsort((vals, rows))
+    rows, vals = rows[order], vals[order]
+    count = np.bincount(rows, minlength=n)
+    pos = np.arange(rows.size) - np.repeat(np.cumsum(count) - count, count)
+    roots = np.full((n, max(1, int(count.max(initial=0)))), np.nan)
+    roots[rows, pos] = vals
+    roots = _compact(roots)
+    kind[np.any(np.isfinite(roots), axis=1)] = "isolated"
+    return roots, kind
 
 
 # ------------------------------------------------------------ results
@@ -439,11 +435,16 @@ class Equilibria:
         return ([float(v) for v in self.roots[i][ok]],
                 [bool(v) for v in self.attracting[i][ok]])
 
+    def lists(self) -> Tuple[list, list]:
+        """(roots, attracting) of every sample as lists of Python lists."""
+        rs, at = self.roots.tolist(), self.attracting.tolist()
+        keep = [[v == v for v in r] for r in rs]            # NaN pads dropped
+        return ([[v for v, k in zip(r, kk) if k] for r, kk in zip(rs, keep)],
+                [[a for a, k in zip(r, kk) if k] for r, kk in zip(at, keep)])
+
     def to_dict(self) -> dict:
-        rs, at = zip(*(self.at(i) for i in range(self.roots.shape[0]))) \
-            if self.roots.shape[0] else ((), ())
-        return {"roots": list(rs), "attracting": list(at),
-                "solution": [str(s) for s in self.solution]}
+        rs, at = self.lists()
+        return {"roots": rs, "attracting": at, "solution": [str(s) for s in self.solution]}
 
 
 @dataclass(frozen=True)
@@ -570,16 +571,13 @@ class QuasiStaticResult:
 
     def to_dict(self) -> dict:
         """JSON-able: ``{"points": [...], "bounding": {...}, ...}``."""
-        pts = []
-        one = self.U.shape[1] == 1
-        for i in range(self.k.size):
-            r, a = self.points.at(i)
-            y = float(self.y[i])
-            pts.append({"k": int(self.k[i]),
-                        "u": float(self.U[i, 0]) if one else [float(v) for v in self.U[i]],
-                        "branch": str(self.branch[i]), "roots": r, "attracting": a,
-                        "solution": str(self.solution[i]),
-                        "y": y if np.isfinite(y) else None})
+        rs, at = self.points.lists()
+        us = self.U[:, 0].tolist() if self.U.shape[1] == 1 else self.U.tolist()
+        ys = [v if np.isfinite(v) else None for v in self.y.tolist()]
+        pts = [{"k": k, "u": u, "branch": b, "roots": r, "attracting": a, "solution": s,
+                "y": y} for k, u, b, r, a, s, y in
+               zip(self.k.tolist(), us, self.branch.tolist(), rs, at,
+                   self.solution.tolist(), ys)]
         return {"output": self.output, "inputs": list(self.inputs), "method": self.method,
                 "output_lags": list(self.lags), "diverged": bool(self.diverged),
                 "points": pts, "bounding": self.bounding.to_dict()}
