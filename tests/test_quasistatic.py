@@ -266,6 +266,56 @@ def test_diverging_free_run_json_and_figure(tmp_path):
     assert "diverges" in text and "No sample of the moving input has an attracting" in text
 
 
+def _F(model, data, k, ylags):
+    """ŷ_k of the model evaluated by the regressor code (not the frozen
+    polynomial), with output lag j at ``ylags[j]``; inputs from the record."""
+    from narx.regressors import regressor_matrix
+    y = np.zeros(data.n)
+    for j, v in ylags.items():
+        y[k - j] = v
+    Psi, _, start = regressor_matrix(model.terms, data, y=y)
+    return float(Psi[k - start] @ model.theta)
+
+
+def test_ms_model33_roots_and_classes_by_the_regressors(model33_terms):
+    """Model (33) (output lags 1..5 and 8, products of two output lags,
+    Phi2 with reversed lags) with θ drawn at random: at every checked
+    sample each root solves F_k(ỹ) = ỹ evaluated by the regressor code, the
+    quadratic through three evaluations has exactly the real roots found, and
+    the class follows from the characteristic polynomial of finite
+    differences of that code in each lag."""
+    rng = np.random.default_rng(3)
+    th = rng.normal(0, 1, len(model33_terms)) * np.array(
+        [1e-4, .05, 1e-4, 1e-5, 1e-3, 1e-3, .6, .05, .5, 1e-3, 1e-3, 1e-4, 1e-5, 1e-4, .05])
+    th[6] = 0.5                                            # y[k-1]
+    m = narx.Model(model33_terms, th)
+    u = sine(70.0, 1.0, 1e-3, 1)
+    qs = narx.quasistatic(m, u)
+    data = narx.Data(u)
+    lags = (1, 2, 3, 4, 5, 8)
+    n_roots, classes = 0, set()
+    for k in range(10, u.size, 37):
+        g = [_F(m, data, k, {j: x for j in lags}) - x for x in (-1.0, 0.0, 1.0)]
+        c2, c1, c0 = (g[0] + g[2]) / 2 - g[1], (g[2] - g[0]) / 2, g[1]
+        exp = np.sort(np.roots([c2, c1, c0]).real[np.abs(np.roots([c2, c1, c0]).imag) < 1e-9])
+        r, att = qs.points.at(k)
+        np.testing.assert_allclose(r, exp, rtol=1e-6, atol=1e-9, err_msg=f"k={k}")
+        for x, a in zip(r, att):
+            base = {j: x for j in lags}
+            h = 1e-6 * max(1.0, abs(x))
+            d = np.zeros(8)
+            for j in lags:
+                hi, lo = dict(base), dict(base)
+                hi[j], lo[j] = x + h, x - h
+                d[j - 1] = (_F(m, data, k, hi) - _F(m, data, k, lo)) / (2 * h)
+            radius = np.max(np.abs(np.roots(np.concatenate([[1.0], -d]))))
+            assert abs(radius - 1) < 1e-6 or a == (radius < 1), (k, x, radius)
+            n_roots += 1
+            classes.add(a)
+    assert n_roots > 10 and classes == {True, False}
+    assert set(qs.solution[10:]) == {"isolated", "none"}
+
+
 # ------------------------------------------------------------------ bad input
 def test_bad_arguments_raise_named_errors():
     m = model19()
