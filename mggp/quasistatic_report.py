@@ -251,10 +251,11 @@ def plot_quasistatic(path, qs, title: str = "Quasi-static analysis",
         for att, ls, word in ((True, "--", "attracting"), (False, ":", "repelling")):
             yb = np.where((e.roots > lo) & (e.roots < hi) & (e.attracting == att),
                           e.roots, np.nan)
+            label = f"bounding structure, {name} ({word})"
             for j in range(yb.shape[1]):
                 if np.any(np.isfinite(yb[:, j])):
-                    ax.plot(b.u, yb[:, j], ls, lw=1.2, color=col, label=None if j else
-                            f"bounding structure, {name} ({word})")
+                    ax.plot(b.u, yb[:, j], ls, lw=1.2, color=col, label=label)
+                    label = None
     if np.all(b.rest.solution == "continuum"):
         ax.axvspan(b.u[0], b.u[-1], color="0.93", zorder=0,
                    label="rest: every point a steady state (continuum)")
