@@ -231,7 +231,22 @@ def _arrows(ax, u, y, lo, hi, n=8):
 
 def plot_quasistatic(path, qs, title: str = "Quasi-static analysis",
                      xlabel: Optional[str] = None, ylabel: Optional[str] = None) -> str:
-    """Write the figure (PNG) of a :class:`narx.quasistatic.QuasiStaticResult`."""
+    """Write the figure (PNG) of a :class:`narx.quasistatic.QuasiStaticResult`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        PNG file to write.
+    qs : QuasiStaticResult
+    title : str
+    xlabel, ylabel : str, optional
+        Axis labels with units, e.g. ``"u (V)"``, ``"y (µm)"`` (default: the
+        signal names).
+
+    Returns
+    -------
+    path
+    """
     from .report import figure
     fig, ax = figure(figsize=(8.2, 6.4))
     lo, hi = _view(qs)

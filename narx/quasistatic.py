@@ -703,6 +703,9 @@ def quasistatic(model, u, y=None, *, y0=None, y_range=None, grid: int = 801,
     if n <= ml + 1:
         raise DataError(f"record of {n} samples is too short for the model's largest "
                         f"lag {ml} (need at least {ml + 2})")
+    if data.y is not None and y0 is not None:
+        raise ValueError("give the measured output y or the initial outputs y0, not both "
+                         "(y's first samples start the free run)")
     if data.y is None:
         y0 = np.zeros(ml) if y0 is None else np.asarray(y0, float).ravel()
         sim = model.simulate(data, mode="freerun", y0=y0)
@@ -715,9 +718,13 @@ def quasistatic(model, u, y=None, *, y0=None, y_range=None, grid: int = 801,
         span = max(float(np.ptp(fin)), float(np.max(np.abs(fin))), 1.0)
         y_range = (float(fin.min()) - 5 * span, float(fin.max()) + 5 * span)
     else:
-        y_range = tuple(float(v) for v in y_range)
-        if len(y_range) != 2 or not (np.all(np.isfinite(y_range)) and y_range[0] < y_range[1]):
+        try:
+            lo, hi = (float(v) for v in y_range)
+        except (TypeError, ValueError):
+            lo = hi = np.nan
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise ValueError(f"y_range must be two finite numbers LOW < HIGH, got {y_range!r}")
+        y_range = (lo, hi)
     U = data.U.T
     rows = np.arange(ml, n)
     fz = _Frozen(model, data, rows)
