@@ -201,7 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_signal_args(s)
     s.set_defaults(func=_cmd_simulate)
 
-    for name in ("cli_fit", "cli_diagnose", "cli_compensate"):
+    for name in ("cli_fit", "cli_diagnose", "cli_compensate", "cli_quasistatic"):
         try:
             mod = __import__(f"mggp.{name}", fromlist=["register"])
         except ModuleNotFoundError as exc:

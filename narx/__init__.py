@@ -28,5 +28,6 @@ from .steady import (Cluster, SteadyStateConstraints, clusters, cluster_sums,
 from .metrics import mse, rmse, mape, rrse, nrmse
 from .model import Model, ModelFileError, load_model, save_model
 from .refine import Refinement, refine
+from .quasistatic import QuasiStaticResult, quasistatic
 
 from .version import __version__

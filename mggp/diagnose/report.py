@@ -24,6 +24,7 @@ import numpy as np
 
 from narx.atomic import atomic_write_text
 
+from ..quasistatic_report import diagnosis_figure
 from ..report import _save, figure
 from .evidence import direction_of_change, simulation_residual
 from .findings import EXTENSIONS, VOCABULARY
@@ -273,7 +274,9 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data")
              _plot_direction(j(folder, "residual_direction.png"), dx)),
             ("Correlation tests with their bands", _plot_correlation(
                 j(folder, "correlation.png"), dx)),
-            ("Held-input responses", _plot_holds(j(folder, "holds.png"), dx))]
+            ("Held-input responses", _plot_holds(j(folder, "holds.png"), dx)),
+            ("Quasi-static analysis of the recommended model (probe sine over the fitting "
+             "input's range)", diagnosis_figure(j(folder, "quasistatic.png"), dx))]
     L = [f"# mggp diagnose: {title}", ""]
     if command:
         L += ["Command:", "", f"    {command}", ""]
