@@ -259,8 +259,7 @@ class StructureScorer:
         self.shooting = None
         if self.fitness == "ms" and self.start is not None:
             self.shooting = MultipleShooting(
-                self.y, self.window, self.input_column,
-                min(MS_BUDGET, self.store.capacity * 8 * data.n))
+                self.y, self.window, min(MS_BUDGET, self.store.capacity * 8 * data.n))
         self.evaluations = 0
 
     @property
@@ -433,7 +432,7 @@ class StructureScorer:
             mse = _osa_sse(self.store.array, idx, theta, y, s) / (n - s)
             return mse if np.isfinite(mse) else float("inf")
         if self.shooting is not None:            # window-major fast path
-            mse = self.shooting.mse(terms, theta, s, self.bound)
+            mse = self.shooting.mse(terms, theta, s, self.bound, self.input_column)
             if mse is not None:
                 return mse
         horizon = self.window if self.fitness == "ms" else self.k

@@ -4,9 +4,9 @@ Typical use (internal: :class:`narx.fitness.StructureScorer` creates one
 :class:`MultipleShooting` for its record and calls it first)::
 
     from narx.ms_kernel import MultipleShooting
-    ms = MultipleShooting(y, window=100, input_column=scorer.input_column,
-                          budget_bytes=128 * 2**20)
-    mse = ms.mse(terms, theta, s, bound)   # None: not handled, use run_windows
+    ms = MultipleShooting(y, window=100, budget_bytes=128 * 2**20)
+    mse = ms.mse(terms, theta, s, bound, scorer.input_column)
+    # None: not handled, use run_windows
 
 Multiple shooting is ``W`` independent windows of Δm steps. The general
 kernel (:mod:`narx.kernels`) runs them one after the other, so every step
@@ -249,22 +249,18 @@ class MultipleShooting:
         The measured output (initial conditions and targets).
     window : int
         Δm, samples per window.
-    input_column : callable
-        ``input_column(term)`` -> the term's input part on the record, a
-        length-N array (read at once, not kept).
     budget_bytes : int
         Bytes of the window-major store (default :data:`BUDGET`).
 
     The window-major store is laid out for one first row ``s``; a call
-    with another ``s`` starts a new store.
+    with another ``s`` starts a new store. It holds no reference to its
+    owner (the input parts come with each call), so an owner that drops it
+    frees it at once.
     """
 
-    def __init__(self, y: np.ndarray, window: int,
-                 input_column: Callable[[Term], np.ndarray],
-                 budget_bytes: int = BUDGET):
+    def __init__(self, y: np.ndarray, window: int, budget_bytes: int = BUDGET):
         self.y = np.ascontiguousarray(y, dtype=np.float64)
         self.window = int(window)
-        self.input_column = input_column
         self.budget_bytes = int(budget_bytes)
         self.store: Optional[WindowStore] = None
         self.info: Dict[Term, Optional[tuple]] = {}
@@ -284,10 +280,12 @@ class MultipleShooting:
             self.store.permute_into(self.y, self.YT)
         return self.store
 
-    def mse(self, terms: Sequence[Term], theta, s: int, bound: float) -> Optional[float]:
+    def mse(self, terms: Sequence[Term], theta, s: int, bound: float,
+            input_column: Callable[[Term], np.ndarray]) -> Optional[float]:
         """Multiple-shooting MSE of ``terms`` with ``theta`` from row ``s``.
 
-        Same value, bit for bit, as :func:`narx.kernels.run_windows` over
+        ``input_column(term)`` gives the term's input part on the record, a
+        length-N array, read at once and not kept. Same value, bit for bit, as :func:`narx.kernels.run_windows` over
         the windows followed by :func:`window_sse`; ``inf`` when a window
         leaves ``bound``; ``None`` when not handled here (or when
         :data:`ENABLED` is False).
@@ -308,7 +306,7 @@ class MultipleShooting:
         idx = np.empty(len(terms), dtype=np.int64)
         static, dyn, lag_rows, phis = [], [], [], {}
         for i, (t, (key, facs)) in enumerate(zip(terms, infos)):
-            idx[i] = ws.slot(key, lambda t=t: self.input_column(t))
+            idx[i] = ws.slot(key, lambda t=t: input_column(t))
             if facs:
                 dyn.append(i)
                 # a lag, or -slot of a Φ-call of output lags (slots 0, 1, ...)

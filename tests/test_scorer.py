@@ -86,9 +86,27 @@ def test_scorer_owns_its_multiple_shooting_kernel(monkeypatch):
     fast = sc.score(terms)
     assert sc.shooting.store.builds == 3
     monkeypatch.setattr(msk, "ENABLED", False)
-    assert sc.shooting.mse(terms, sc.fit(terms)[0], 3, sc.bound) is None
+    assert sc.shooting.mse(terms, sc.fit(terms)[0], 3, sc.bound, sc.input_column) is None
     assert StructureScorer(d, "ms", start=3, window=40).score(terms) == fast
     monkeypatch.setattr(msk, "ENABLED", True)
     sc.clear_cache()
     assert not sc.shooting.store.slots and not sc.shooting.info
     assert sc.score(terms) == fast and sc.shooting.store.builds == 6
+
+
+@pytest.mark.parametrize("fitness", ["pem", "freerun", "ms"])
+def test_a_dropped_scorer_is_freed_at_once(fitness):
+    # no reference cycle: a fit builds several scorers one after the other,
+    # and each must release its stores when dropped, not at the next GC
+    import gc
+    import weakref
+    d = _record(2000)
+    gc.disable()
+    try:
+        sc = StructureScorer(d, fitness, start=3, window=40)
+        sc.score(narx.parse_terms(["y[k-1]", "u[k-1]", "Phi2(y[k-1],y[k-2])"]))
+        ref = weakref.ref(sc)
+        del sc
+        assert ref() is None
+    finally:
+        gc.enable()
