@@ -36,12 +36,10 @@ from typing import Optional
 import numpy as np
 import scipy.linalg
 
+from .exceptions import EstimationError
+
 __all__ = ["Estimate", "EstimationError", "least_squares",
            "constrained_least_squares", "t_statistics"]
-
-
-class EstimationError(ValueError):
-    """The estimation problem is ill-posed (constraints, shapes, data)."""
 
 
 @dataclass(frozen=True)

@@ -12,9 +12,9 @@ whole search so results are comparable and cacheable), then returns
 
 .. math::  J = \\frac{1}{|K|}\\sum_{k\\in K} (y_k - \\hat y_k)^2
 
-where ŷ is the one-step (``pem``), free-run, k-steps-ahead (``ksa``) or
-multiple-shooting (``ms``) simulation and K its valid samples; a diverging
-simulation scores ``inf``.
+where ŷ is the one-step (``osa``, alias ``pem``), free-run, k-steps-ahead
+(``ksa``) or multiple-shooting (``ms``) simulation and K its valid samples; a
+diverging simulation scores ``inf``.
 
 Speed comes from caching across term sets, as a structure search meets the
 same terms again and again:
@@ -47,13 +47,13 @@ from numba import njit
 
 from .colbuild import ColumnBuilder
 from .data import Data
-from .estimate import EstimationError
+from .exceptions import EstimationError
 from .gram import fill_gram as _fill_gram, fixed_dot
 from .kernels import Plan, run_windows
 from .ms_kernel import BUDGET as MS_BUDGET, MultipleShooting, window_sse
 from .phi import PhiRegistry, default_registry
 from .regressors import factor_column, input_part_into
-from .simulate import recursion_windows
+from .simulate import MODES, mode_name, recursion_windows
 from .steady import steady_state_constraints
 from .terms import Term
 
@@ -115,7 +115,9 @@ def _solve_gelsy(A: np.ndarray, b: np.ndarray, cond: float) -> np.ndarray:
     return x[:n]
 
 
-FITNESS = ("pem", "freerun", "ksa", "ms")
+#: the fitness names: the simulation modes (``pem`` is accepted for ``osa``,
+#: :data:`narx.simulate.MODE_TABLE`)
+FITNESS = MODES
 #: default size of a scorer's column cache (bytes)
 SCORER_BUDGET = 160 * 2**20
 #: rank tolerance of the unit-diagonal Gram matrix (its condition number is
@@ -187,7 +189,7 @@ class StructureScorer:
     ----------
     data : Data
         The record (inputs and measured output).
-    fitness : {'pem', 'freerun', 'ksa', 'ms'}
+    fitness : {'osa', 'freerun', 'ksa', 'ms'} or an alias ('pem' for 'osa')
     window : int
         Δm for ``ms`` (default 100).
     k : int
@@ -224,10 +226,7 @@ class StructureScorer:
                  start: Optional[int] = None, registry: Optional[PhiRegistry] = None,
                  budget_bytes: int = SCORER_BUDGET, bound: Optional[float] = None,
                  prefault: bool = False):
-        if fitness == "osa":
-            fitness = "pem"
-        if fitness not in FITNESS:
-            raise ValueError(f"fitness must be one of {', '.join(FITNESS)}, got {fitness!r}")
+        fitness = mode_name(fitness, "fitness")
         if constraints not in (None, "steady-state"):
             raise ValueError(f"constraints must be None or 'steady-state', got {constraints!r}")
         self.data = data
@@ -427,7 +426,7 @@ class StructureScorer:
 
     def _simulate_mse(self, terms, theta, s) -> float:
         n, y = self.data.n, self.y
-        if self.fitness == "pem":
+        if self.fitness == "osa":
             idx = np.array([self._reg_slot(t) for t in terms], dtype=np.int64)
             mse = _osa_sse(self.store.array, idx, theta, y, s) / (n - s)
             return mse if np.isfinite(mse) else float("inf")
