@@ -103,7 +103,7 @@ class StabilityScreen:
         self.lo = float(np.min(y) - band * np.ptp(y))
         self.hi = float(np.max(y) + band * np.ptp(y))
         # the kernels' symmetric divergence guard, containing the band
-        self.scorer.bound = max(abs(self.lo), abs(self.hi))
+        self.scorer.set_bound(max(abs(self.lo), abs(self.hi)))
         self.checked = 0
         self.rejected = 0
         self.rejected_hold = 0
