@@ -303,7 +303,7 @@ def test_the_summary_describes_the_extension_that_was_chosen(base_diagnosis):
 
 
 def test_a_diverging_augmentation_is_said_so_not_a_drop_of_inf():
-    from mggp.diagnose.findings import _g
+    from mggp.diagnose.findings import number_text as _g
     from mggp.diagnose.report import _g as rg
     assert _g(float("-inf")) == "-inf" and rg(float("-inf")) == "-inf"
     assert _g(float("nan")) == "undefined" and rg(float("inf")) == "inf"

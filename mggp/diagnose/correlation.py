@@ -7,6 +7,12 @@ Typical use::
     for t in tests:
         print(t.label, t.max_abs, t.band, t.significant)
 
+As the diagnose test :data:`CORRELATION` (effects ``unmodelled-dynamics``
+for φ_ee, φ_ue and ``unmodelled-nonlinearity`` for φ_u²'e, φ_u²'e²), each
+test's threshold is the larger of its Bonferroni band and the resolution
+floor in correlation units, floor / RMS of the residual tested: a
+correlation must explain at least the floor of that residual.
+
 For an adequate NARX model the one-step residuals :math:`\\varepsilon_k`
 are unpredictable from past inputs and residuals, so [1]_
 
@@ -60,10 +66,13 @@ from dataclasses import dataclass, replace
 from typing import Dict, List, Optional
 
 import numpy as np
-from scipy.stats import norm
 
-__all__ = ["CorrelationTest", "correlation_tests", "cross_correlation",
-           "bonferroni_z", "TEST_LABELS", "model_tests", "completed_residual"]
+from .findings import Check, number_text as _g
+from .registry import DiagnosticTest, Outcome
+from .thresholds import bonferroni_z
+
+__all__ = ["CorrelationTest", "correlation_tests", "cross_correlation", "TEST_LABELS",
+           "model_tests", "completed_residual", "correlation_checks", "CORRELATION"]
 
 #: test key -> label shown in reports
 TEST_LABELS = {"ee": "φ_ee", "ue": "φ_ue", "u2e": "φ_u²'e", "u2e2": "φ_u²'e²"}
@@ -132,11 +141,6 @@ class CorrelationTest:
                 f"= ±{self.band95:.3g} (≈{0.05 * self.lags.size:.1f} expected by chance); "
                 f"max |φ| = {self.max_abs:.3g} at τ = {self.worst_lag}, "
                 f"Bonferroni band ±{self.band:.3g}")
-
-
-def bonferroni_z(alpha: float, m: int) -> float:
-    """Two-sided normal quantile with a Bonferroni correction over m tests."""
-    return float(norm.ppf(1.0 - alpha / (2.0 * max(int(m), 1))))
 
 
 def _centred(x):
@@ -267,3 +271,56 @@ def model_tests(model, data, max_lag: int = 20, alpha: float = 0.01
     order = {n: i for i, n in enumerate(data.inputs)}
     return sorted(out, key=lambda t: (order.get(t.signal, -1),
                                       ("ee", "ue", "u2e", "u2e2").index(t.key)))
+
+
+_EFFECT = {"ee": "unmodelled-dynamics", "ue": "unmodelled-dynamics",
+           "u2e": "unmodelled-nonlinearity", "u2e2": "unmodelled-nonlinearity"}
+
+
+def correlation_checks(tests: List[CorrelationTest], floor: float, osa_rms: float
+                       ) -> List[Check]:
+    """A check per test: max |φ| against max(Bonferroni band, floor / RMS).
+
+    Parameters
+    ----------
+    tests : list of CorrelationTest
+    floor : float
+        Resolution floor in output units.
+    osa_rms : float
+        RMS of the model's own one-step residual (for a test whose ``rms``
+        is None).
+
+    Returns
+    -------
+    list of Check
+        Ceiling 1; a check whose threshold is 1 or more has no power and
+        says why.
+    """
+    out = []
+    for t in tests:
+        r_rms = osa_rms if t.rms is None else t.rms          # of the residual tested
+        floor_r = floor / r_rms if r_rms > 0 else float("inf")
+        thr = max(t.band, floor_r)
+        detail = (t.describe() + f"; resolution floor {_g(floor_r)} in correlation units "
+                  f"(floor {_g(floor)} / RMS {_g(r_rms)} of the residual tested)")
+        why = ""
+        if thr >= 1.0:
+            why = (f"the residual tested, RMS {_g(r_rms)}, is no larger than the resolution "
+                   f"floor {_g(floor)}" if floor_r >= 1.0 else
+                   f"the Bonferroni band of {t.n} samples is that wide")
+            detail += (f"; no power: the threshold {_g(thr)} is at least 1, the largest "
+                       f"correlation there is, because {why}: this test could not fire")
+        out.append(Check(t.label, _EFFECT[t.key], t.max_abs, thr, detail, 1.0, why))
+    return out
+
+
+def _run(ctx) -> Outcome:
+    tests = model_tests(ctx.model, ctx.fit, ctx.budget.corr_lags, ctx.alpha)
+    if not tests:
+        return Outcome(missing="correlation tests (fewer than 21 one-step residuals)")
+    return Outcome(correlation_checks(tests, ctx.floor, ctx.osa_rms), tests)
+
+
+#: Billings–Voon tests of the completed one-step residuals.
+CORRELATION = DiagnosticTest("correlation", ("unmodelled-dynamics",
+                                             "unmodelled-nonlinearity"), _run)
