@@ -72,7 +72,8 @@ from .registry import DiagnosticTest, Outcome
 from .thresholds import bonferroni_z
 
 __all__ = ["CorrelationTest", "correlation_tests", "cross_correlation", "TEST_LABELS",
-           "model_tests", "completed_residual", "correlation_checks", "CORRELATION"]
+           "model_tests", "completed_residual", "correlation_checks", "no_power_reason",
+           "CORRELATION"]
 
 #: test key -> label shown in reports
 TEST_LABELS = {"ee": "φ_ee", "ue": "φ_ue", "u2e": "φ_u²'e", "u2e2": "φ_u²'e²"}
@@ -277,8 +278,8 @@ _EFFECT = {"ee": "unmodelled-dynamics", "ue": "unmodelled-dynamics",
            "u2e": "unmodelled-nonlinearity", "u2e2": "unmodelled-nonlinearity"}
 
 
-def correlation_checks(tests: List[CorrelationTest], floor: float, osa_rms: float
-                       ) -> List[Check]:
+def correlation_checks(tests: List[CorrelationTest], floor: float, osa_rms: float,
+                       resolution: Optional[float] = None) -> List[Check]:
     """A check per test: max |φ| against max(Bonferroni band, floor / RMS).
 
     Parameters
@@ -289,12 +290,15 @@ def correlation_checks(tests: List[CorrelationTest], floor: float, osa_rms: floa
     osa_rms : float
         RMS of the model's own one-step residual (for a test whose ``rms``
         is None).
+    resolution : float, optional
+        The resolution that made ``floor`` (fraction of the output's range),
+        to say which resolution would give a test without power its power.
 
     Returns
     -------
     list of Check
         Ceiling 1; a check whose threshold is 1 or more has no power and
-        says why.
+        says why in one line (:func:`no_power_reason`).
     """
     out = []
     for t in tests:
@@ -305,20 +309,41 @@ def correlation_checks(tests: List[CorrelationTest], floor: float, osa_rms: floa
                   f"(floor {_g(floor)} / RMS {_g(r_rms)} of the residual tested)")
         why = ""
         if thr >= 1.0:
-            why = (f"the residual tested, RMS {_g(r_rms)}, is no larger than the resolution "
-                   f"floor {_g(floor)}" if floor_r >= 1.0 else
-                   f"the Bonferroni band of {t.n} samples is that wide")
+            why = no_power_reason(t, r_rms, floor, resolution)
             detail += (f"; no power: the threshold {_g(thr)} is at least 1, the largest "
                        f"correlation there is, because {why}: this test could not fire")
         out.append(Check(t.label, _EFFECT[t.key], t.max_abs, thr, detail, 1.0, why))
     return out
 
 
+def no_power_reason(t: CorrelationTest, r_rms: float, floor: float,
+                    resolution: Optional[float] = None) -> str:
+    """Why test ``t`` cannot fire, with the numbers that would change it.
+
+    Either the residual tested is no larger than the resolution floor (then
+    floor / RMS >= 1 and no correlation can explain the floor; the
+    resolution below which it could is resolution × RMS / floor), or its
+    Bonferroni band z/√N is 1 or more (then more than z² samples are needed).
+    """
+    if floor >= r_rms:
+        text = f"the residual tested, RMS {_g(r_rms)}, is no larger than the resolution floor "
+        if r_rms <= 0:
+            return text + f"{_g(floor)}: it is zero, there is nothing to correlate"
+        text += f"{_g(floor)}, {_g(floor / r_rms)} times that RMS"
+        if resolution:
+            text += (f" (a correlation could reach the floor only with a resolution below "
+                     f"{_g(resolution * r_rms / floor)} instead of {resolution:g})")
+        return text
+    z = t.band * np.sqrt(t.n)
+    return (f"the Bonferroni band z/√N = {_g(t.band)} of N = {t.n} samples is at least 1 "
+            f"(more than z² = {_g(z * z)} samples are needed)")
+
+
 def _run(ctx) -> Outcome:
     tests = model_tests(ctx.model, ctx.fit, ctx.budget.corr_lags, ctx.alpha)
     if not tests:
         return Outcome(missing="correlation tests (fewer than 21 one-step residuals)")
-    return Outcome(correlation_checks(tests, ctx.floor, ctx.osa_rms), tests)
+    return Outcome(correlation_checks(tests, ctx.floor, ctx.osa_rms, ctx.resolution), tests)
 
 
 #: Billings–Voon tests of the completed one-step residuals.
