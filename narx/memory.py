@@ -245,11 +245,7 @@ def play(x, r, init=None):
     -------
     v : ndarray, shape (N,)
     """
-    x = _as_sequence(x)
-    (r,) = get_operator("Play").check_params((r,))
-    if x.size == 0:
-        return x.copy()
-    return _run_play(x, r, float(x[0]) if init is None else float(init))
+    return get_operator("Play").sequence(x, (r,), init)
 
 
 def deng_tan(x, init=None):
@@ -257,8 +253,14 @@ def deng_tan(x, init=None):
 
     ``init`` is the origin's input (default 0); the origin's value is 0.
     """
-    x = _as_sequence(x)
-    return _run_deng_tan(x, _deng_tan_init(0.0, (), init))
+    return get_operator("DengTan").sequence(x, (), init)
+
+
+#: compiled whole-sequence runs of the built-ins: (x, params, init) -> values
+_COMPILED_RUN = {
+    "Play": lambda x, p, init: _run_play(x, p[0], float(x[0]) if init is None else float(init)),
+    "DengTan": lambda x, p, init: _run_deng_tan(x, _deng_tan_init(0.0, (), init)),
+}
 
 
 def play_reference(x, r, init=None):
@@ -358,11 +360,14 @@ class MemoryOperator:
         return tuple(out)
 
     def sequence(self, x, params=(), init=None) -> np.ndarray:
-        """The operator over a whole sequence, by repeated :attr:`step`."""
+        """The operator over a whole sequence (compiled for the built-ins,
+        else by repeated :attr:`step`)."""
         x = _as_sequence(x)
         p = np.asarray(self.check_params(params), dtype=np.float64)
         if x.size == 0:
             return x.copy()
+        if self.builtin:
+            return _COMPILED_RUN[self.name](x, p, init)
         state = np.asarray(self.init(float(x[0]), tuple(p), init), dtype=np.float64)
         return np.array([self.step(state, float(xk), p) for xk in x])
 

@@ -172,3 +172,172 @@ def test_operator_record_noise_level_and_seed():
     assert a.u_val.size == a.y_val.size > 500
     with pytest.raises(ValueError, match="name must be one of"):
         operator_record("piezo")
+
+
+# ------------------------------------------------- terms with operators
+from narx import Model  # noqa: E402
+from narx.data import as_data  # noqa: E402
+from narx.simulate import simulate  # noqa: E402
+from narx.steady import (cluster_sums, clusters, held_outputs,  # noqa: E402
+                         steady_state_constraints)
+from narx.terms import OpCall, TermError, parse_term  # noqa: E402
+
+ISSUE_TERMS = ("y[k-1]", "Play(u[k-1],0.3)", "Play(u[k-1],0.8)", "u[k-1]*Play(u[k-1],0.3)")
+ISSUE_THETA = (0.8, 0.15, 0.1, -0.2)
+
+
+def _issue_model_loop(u, theta=ISSUE_THETA):
+    """Independent plain-Python loop of the issue's model (y_0 = 0)."""
+    p3, p8 = play_reference(u, 0.3), play_reference(u, 0.8)
+    y = [0.0]
+    for k in range(1, len(u)):
+        y.append(theta[0] * y[-1] + theta[1] * p3[k - 1] + theta[2] * p8[k - 1]
+                 + theta[3] * u[k - 1] * p3[k - 1])
+    return np.array(y)
+
+
+@pytest.mark.parametrize("text, canonical", [
+    ("Play(u[k-1],0.30)", "Play(u[k-1],0.3)"),
+    ("Play(u[k-1],0.3)*y[k-1]", "y[k-1]*Play(u[k-1],0.3)"),
+    ("Play(y[k-1],1e-1)", "Play(y[k-1],0.1)"),
+    ("DengTan(u[k-1])*u[k-2]", "u[k-2]*DengTan(u[k-1])"),
+    ("Play(u[k-1],2.0)^2", "Play(u[k-1],2)*Play(u[k-1],2)"),
+    ("Play(u[k-2],.5)*Phi1(u[k-1],u[k-2])", "Phi1(u[k-1],u[k-2])*Play(u[k-2],0.5)"),
+])
+def test_operator_terms_print_canonically(text, canonical):
+    t = parse_term(text)
+    assert str(t) == canonical and str(parse_term(str(t))) == canonical
+    assert any(isinstance(f, OpCall) for f in t.factors)
+
+
+@pytest.mark.parametrize("text, match", [
+    ("Play(u[k-1])", "takes 1 parameter"),
+    ("Play(u[k-1],-1)", "radius must be a finite number >= 0"),
+    ("Play(u[k-1],abc)", "must be a finite number, got 'abc'"),
+    ("Play(u[k-1],inf)", "must be a finite number"),
+    ("Play(Play(u[k-1],0.3),0.1)", "nested calls"),
+    ("Phi1(Play(u[k-1],0.3),u[k-1])", "nested Φ-calls"),
+    ("DengTan(u[k-1],1)", "takes 0 parameter"),
+    ("Play(e[k-1],0.3)", "noise"),
+    ("Play", "needs arguments"),
+])
+def test_bad_operator_texts_raise_term_error(text, match):
+    with pytest.raises(TermError, match=match):
+        parse_term(text)
+
+
+def test_issue_model_columns_equal_the_plain_loop_and_ls_recovers_theta():
+    u = operator_record("pi", n=1500, seed=2).u
+    y = _issue_model_loop(u)
+    m = Model(ISSUE_TERMS).fit(u, y)
+    np.testing.assert_allclose(m.theta, ISSUE_THETA, rtol=1e-8)
+    for mode, kw in (("freerun", {}), ("osa", {}), ("ksa", {"k": 7}), ("ms", {"window": 50})):
+        r = simulate(m.terms, ISSUE_THETA, as_data(u, y), mode=mode, **kw)
+        ok = np.isfinite(r.y_hat)
+        assert ok.sum() >= u.size - 8, mode
+        np.testing.assert_allclose(r.y_hat[ok], y[ok], rtol=0, atol=1e-12)
+
+
+def test_operator_clusters_are_held_state_symbols():
+    terms = ("y[k-1]", "Play(u[k-1],0.3)", "Play(u[k-2],0.3)",
+             "u[k-1]*Play(u[k-2],0.3)", "Play(u[k-1],0)", "u[k-1]", "Play(y[k-1],0.1)")
+    keys = [c.key for c in clusters(terms)]
+    assert keys == ["y", "Play(u,0.3)", "u*Play(u,0.3)", "u", "Play(y,0.1)"]
+    sums = cluster_sums(terms, [1, 2, 3, 4, 5, 6, 7])
+    assert sums["Play(u,0.3)"] == 5 and sums["u"] == 11      # radius 0 is u
+    cons = steady_state_constraints(terms)
+    assert "Σ_Play(u,0.3) = 0" in cons.labels and "Σ_y = 1" in cons.labels
+
+
+def test_cls_with_operator_terms_recovers_a_static_backlash():
+    """y_k = b P_r(u)_k-1 + c, i.e. y_k = y_k-1 + b P_k-1 - b P_k-2: Σ_y = 1
+    and Σ_Play = 0 hold, CLS keeps them exactly on noisy data, and the
+    model's held output rests anywhere in c + b [ū - r, ū + r]."""
+    rec = operator_record("pi", n=2000, seed=4)
+    b, c, r = 0.7, 0.2, 0.3
+    rng = np.random.default_rng(0)
+    y = c + b * np.concatenate([[0.0], play(rec.u, r)[:-1]])
+    y[0] = y[1]
+    y = y + 1e-4 * rng.standard_normal(y.size)
+    terms = ("y[k-1]", "Play(u[k-1],0.3)", "Play(u[k-2],0.3)")
+    ls = Model(terms).fit(rec.u, y)
+    cls = Model(terms).fit(rec.u, y, constraints="steady-state")
+    cons = steady_state_constraints(terms)
+    assert cons.satisfied(cls.theta, tol=1e-12)
+    assert not cons.satisfied(ls.theta, tol=1e-9)           # control: LS does not
+    np.testing.assert_allclose(cls.theta, [1.0, b, -b], atol=5e-3)
+
+
+def test_held_outputs_closed_form_matches_simulation():
+    """y_k = a y_k-1 + b1 P.3 + b2 P.8 + c u P.3: held at ū the output rests
+    at (b1 w1 + b2 w2 + c ū w1)/(1 - a), w at ū ∓ r after an approach from
+    below / above, and in between after a reversal."""
+    ubar, n_hold = 0.1, 300
+    lo, hi = held_outputs(ISSUE_TERMS, ISSUE_THETA, ubar)
+    a, b1, b2, c = ISSUE_THETA
+
+    def closed(w1, w2):
+        return (b1 * w1 + b2 * w2 + c * ubar * w1) / (1 - a)
+
+    assert (lo, hi) == pytest.approx((closed(ubar - 0.3, ubar - 0.8),
+                                      closed(ubar + 0.3, ubar + 0.8)))
+    rests = []
+    for path in (np.linspace(-1, ubar, 100), np.linspace(1, ubar, 100),
+                 np.concatenate([np.linspace(-1, 0.5, 100), np.linspace(0.5, ubar, 20)])):
+        u = np.concatenate([path, np.full(n_hold, ubar)])
+        y = simulate(parse_terms_(ISSUE_TERMS), ISSUE_THETA,
+                     as_data(u, _issue_model_loop(u)), mode="freerun").y_hat
+        assert np.ptp(y[-50:]) < 1e-12                       # it holds
+        rests.append(y[-1])
+    assert rests[:2] == pytest.approx([lo, hi], abs=1e-12)
+    assert min(lo, hi) < rests[2] < max(lo, hi)
+    # rise to 0.5 then fall to ū: the 0.3-play stays at 0.2, the 0.8-play at -0.3
+    assert rests[2] == pytest.approx(closed(0.5 - 0.3, 0.5 - 0.8), abs=1e-12)
+
+
+def parse_terms_(texts):
+    return tuple(parse_term(t) for t in texts)
+
+
+# ------------------------------------------------------------ command line
+def _cli(capsys, *argv):
+    from mggp.cli import main
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_cli_estimate_and_simulate_issue_model(capsys, tmp_path):
+    u = operator_record("pi", n=2000, seed=0).u
+    y = _issue_model_loop(u)
+    data = tmp_path / "op.csv"
+    np.savetxt(data, np.c_[u, y], delimiter=",", header="u,y", comments="", fmt="%.17g")
+    model = tmp_path / "m.json"
+    code, out, err = _cli(capsys, "estimate", data, "--terms", *ISSUE_TERMS, "--out", model)
+    assert code == 0, err
+    import json
+    spec = json.loads(model.read_text())
+    assert spec["terms"] == list(ISSUE_TERMS)
+    np.testing.assert_allclose(spec["theta"], ISSUE_THETA, rtol=1e-8)
+    spec["theta"] = list(ISSUE_THETA)
+    model.write_text(json.dumps(spec))
+    for mode in ("freerun", "osa", "ksa", "ms"):
+        pred = tmp_path / f"p_{mode}.csv"
+        code, out, err = _cli(capsys, "simulate", model, data, "--mode", mode, "--out", pred)
+        assert code == 0, err
+        got = np.genfromtxt(pred, delimiter=",", names=True)["y_hat"]
+        ok = np.isfinite(got)
+        assert ok.sum() >= u.size - 11
+        np.testing.assert_allclose(got[ok], y[ok], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("bad", ["Play(u[k-1])", "Play(u[k-1],-1)", "Play(u[k-1],abc)",
+                                 "Play(Play(u[k-1],0.3),0.1)"])
+def test_cli_bad_operator_text_exits_2_with_one_line(capsys, tmp_path, bad):
+    data = tmp_path / "d.csv"
+    u = np.sin(np.arange(50) / 5.0)
+    np.savetxt(data, np.c_[u, u], delimiter=",", header="u,y", comments="")
+    code, out, err = _cli(capsys, "estimate", data, "--terms", "y[k-1]", bad)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and bad in lines[0]
