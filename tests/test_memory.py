@@ -341,3 +341,47 @@ def test_cli_bad_operator_text_exits_2_with_one_line(capsys, tmp_path, bad):
     assert code == 2
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:") and bad in lines[0]
+
+
+# ------------------------------------------------------------------ search
+def test_search_pset_with_operators_decodes_and_keeps_phi_only_set():
+    import random
+    from mggp.operators import random_individual
+    from mggp.primitives import (Decoder, make_pset, play_radii, search_operators,
+                                 tree_from_tokens)
+    assert play_radii(np.linspace(-1, 1, 5)) == (0.1, 0.2, 0.4, 0.7)
+    ops = search_operators(("play", "dengtan"), np.linspace(-1, 1, 5)[None, :])
+    pset = make_pset(operators=ops)
+    tree = tree_from_tokens(["mul", "y[k-1]", "Play@0.2", "q1", "u[k-1]"], pset)
+    assert str(Decoder().decode(tree)) == "y[k-1]*Play(u[k-2],0.2)"
+    tree = tree_from_tokens(["q2", "DengTan", "u[k-1]"], pset)
+    assert str(Decoder().decode(tree)) == "DengTan(u[k-3])"
+    # control: without operators the set is the Φ-only one, node for node
+    base = make_pset()
+    assert [p.name for t in base.primitives for p in base.primitives[t]] == \
+        [p.name for t in make_pset(operators={}).primitives
+         for p in make_pset(operators={}).primitives[t]]
+    # the plays of all radii are one choice: about as frequent as DengTan
+    rng, dec, count = random.Random(0), Decoder(), {"Play": 0, "DengTan": 0}
+    for _ in range(300):
+        for t in dec.decode_individual(random_individual(pset, rng, 5, 4)):
+            for f in t.operator_factors:
+                count[f.name] += 1
+    assert 0.6 < count["Play"] / count["DengTan"] < 1.6
+    with pytest.raises(ValueError, match="operators must name"):
+        search_operators(("hysteron",), np.zeros((1, 3)))
+
+
+def test_fit_with_operators_finds_play_terms(capsys, tmp_path):
+    rec = operator_record("pi", n=1500, seed=0, snr_db=40)
+    data = tmp_path / "pi.csv"
+    np.savetxt(data, np.c_[rec.u, rec.y], delimiter=",", header="u,y", comments="")
+    model = tmp_path / "m.json"
+    code, out, err = _cli(capsys, "fit", data, "--operators", "play", "--population", "30",
+                          "--generations", "3", "--seed", "1", "--quiet", "--out", model)
+    assert code == 0, err
+    import json
+    spec = json.loads(model.read_text())
+    assert any("Play(" in t for t in spec["terms"]) and spec["meta"]["operators"] == ["play"]
+    code, out, err = _cli(capsys, "fit", data, "--operators", "play,hysteron")
+    assert code == 2 and err.startswith("error: --operators")
