@@ -25,6 +25,16 @@ the built-in Φ-functions are compiled (numba, cached on disk); a user
 Φ-function with output arguments runs in a numpy loop vectorised over
 windows. A window whose output leaves ``bound`` or becomes non-finite
 flags the simulation as diverged and stops quietly.
+
+A memory operator of an output lag (``Play(y[k-1],0.1)``, see
+:mod:`narx.memory`) carries a state. Each window starts it from the state
+the operator reaches on the *measured* output before the window's first
+sample :math:`s_w` (its initial state, then one step per measured sample
+:math:`y_0..y_{s_w-1}`); from there it steps on the simulated output.
+Free run therefore starts it on the measured initial conditions, and every
+multiple-shooting or k-steps-ahead window on the measured history before
+it, as its lags start on measured values. Operators of outputs run in the
+numpy loop.
 """
 from __future__ import annotations
 
@@ -36,7 +46,8 @@ import numpy as np
 from numba import njit
 
 from .phi import PhiRegistry, builtin_code, check_codes, default_registry, phi_value
-from .terms import Lag, Term
+from .memory import default_operators
+from .terms import Lag, OpCall, Term
 
 __all__ = ["Plan", "run_windows", "KIND_USER"]
 
@@ -140,6 +151,7 @@ class Plan:
     p_lag: np.ndarray
     noise_terms: np.ndarray     # bool: term has e[k-j] (zero in simulation)
     inputs: Tuple[str, ...]
+    out_operators: tuple = ()   # memory operators of output lags (OpCall)
 
     @classmethod
     def from_terms(cls, terms: Sequence[Term], inputs: Sequence[str],
@@ -157,7 +169,8 @@ class Plan:
                     facs.append(f)
                 t_fac.append(index[f])
             t_ptr.append(len(t_fac))
-        phis = [f for f in facs if not isinstance(f, Lag)]
+        phis = [f for f in facs if not isinstance(f, (Lag, OpCall))]
+        ops = [f for f in facs if isinstance(f, OpCall)]
         arity = max([2] + [len(f.args) for f in phis])
         kind = np.zeros(len(phis), dtype=np.int64)
         sig = np.full((len(phis), arity), -1, dtype=np.int64)
@@ -175,19 +188,21 @@ class Plan:
         for i in dyn:
             for fi in t_fac[t_ptr[i]:t_ptr[i + 1]]:
                 f = facs[fi]
-                d_code.append(f.lag if isinstance(f, Lag) else -(1 + phis.index(f)))
+                d_code.append(f.lag if isinstance(f, Lag) else
+                              -(1 + len(phis) + ops.index(f)) if isinstance(f, OpCall)
+                              else -(1 + phis.index(f)))
             d_ptr.append(len(d_code))
         ml = max((t.max_lag for t in terms), default=0)
         return cls(terms, ml, tuple(facs), np.asarray(t_ptr, dtype=np.int64),
                    np.asarray(t_fac, dtype=np.int64),
                    np.asarray(static, dtype=np.int64), np.asarray(dyn, dtype=np.int64),
                    np.asarray(d_ptr, dtype=np.int64), np.asarray(d_code, dtype=np.int64),
-                   kind, sig, lag, noise, inputs)
+                   kind, sig, lag, noise, inputs, tuple(ops))
 
     @property
     def compiled(self) -> bool:
         """True when every output-dependent factor runs in the kernel."""
-        return not np.any(self.p_kind == KIND_USER)
+        return not np.any(self.p_kind == KIND_USER) and not self.out_operators
 
     def input_parts(self, data, registry: Optional[PhiRegistry] = None) -> np.ndarray:
         """(T, N) matrix of input parts (row i: term i)."""
@@ -208,6 +223,7 @@ def _run_python(plan, P, idx, U, y_meas, theta, starts, length, write_from, boun
     if ml:
         buf[:, :ml] = y_meas[starts[:, None] - ml + np.arange(ml)[None, :]]
     rows = np.arange(W)
+    ops = {f: _OperatorWindows(f, y_meas, starts) for f in plan.out_operators}
     for j in range(length):
         k = starts + j
         live = k < n
@@ -219,6 +235,9 @@ def _run_python(plan, P, idx, U, y_meas, theta, starts, length, write_from, boun
         for f in plan.out_factors:
             if isinstance(f, Lag):
                 fv.append(buf[:, pos - f.lag])
+                continue
+            if isinstance(f, OpCall):
+                fv.append(ops[f].value(j, buf[:, pos - f.arg.lag], live))
                 continue
             args = []
             for a in f.args:
@@ -241,6 +260,35 @@ def _run_python(plan, P, idx, U, y_meas, theta, starts, length, write_from, boun
         if j >= write_from:
             out[kk[live]] = acc[live]
     return False
+
+
+class _OperatorWindows:
+    """Values of an operator of an output lag, ``f = Op(y[k-d], ...)``, in
+    every window: at step ``j`` of window ``w`` (sample ``k = s_w + j``)
+    the operator's value at sample ``k - d``, from the measured output
+    while ``j < d``, else stepped on the simulated ``y[k-d]``."""
+
+    def __init__(self, f: OpCall, y_meas, starts):
+        self.op = default_operators().get(f.name)
+        self.p = np.asarray(f.params, dtype=np.float64)
+        self.d = f.arg.lag
+        self.measured = self.op.sequence(y_meas, f.params)
+        self.starts = starts
+        self.state = self.op.states_after(y_meas, f.params, starts)
+        self.play = self.op.builtin and f.name == "Play"
+
+    def value(self, j, y_sim, live):
+        if j < self.d:
+            return self.measured[self.starts + j - self.d]
+        if self.play:                       # vectorised over the windows
+            r = self.p[0]
+            v = np.maximum(np.minimum(y_sim + r, self.state[:, 0]), y_sim - r)
+            self.state[:, 0] = np.where(live, v, self.state[:, 0])
+            return v
+        out = np.zeros(y_sim.shape[0])
+        for w in np.flatnonzero(live):
+            out[w] = self.op.step(self.state[w], float(y_sim[w]), self.p)
+        return out
 
 
 def run_windows(plan: Plan, P, U, y_meas, theta, starts, length: int,

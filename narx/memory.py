@@ -371,6 +371,25 @@ class MemoryOperator:
         state = np.asarray(self.init(float(x[0]), tuple(p), init), dtype=np.float64)
         return np.array([self.step(state, float(xk), p) for xk in x])
 
+    def states_after(self, x, params, ends) -> np.ndarray:
+        """States after the samples ``x[0..e-1]`` for every ``e`` of ``ends``
+        (each >= 1), one row each: where a window of a simulation whose
+        first simulated sample is ``e`` starts the operator (the measured
+        history before it)."""
+        x = _as_sequence(x)
+        p = np.asarray(self.check_params(params), dtype=np.float64)
+        ends = np.asarray(ends, dtype=np.int64)
+        order = np.argsort(ends, kind="stable")
+        state = np.asarray(self.init(float(x[0]), tuple(p)), dtype=np.float64)
+        out = np.empty((ends.size, state.size))
+        done = 0
+        for i in order:
+            for k in range(done, int(ends[i])):
+                self.step(state, float(x[k]), p)
+            done = max(done, int(ends[i]))
+            out[i] = state
+        return out
+
     def steady_set(self, xbar, params=()) -> Tuple[float, float]:
         """Interval of rest values with the argument held at ``xbar``."""
         lo, hi = self.steady(float(xbar), self.check_params(params))

@@ -385,3 +385,50 @@ def test_fit_with_operators_finds_play_terms(capsys, tmp_path):
     assert any("Play(" in t for t in spec["terms"]) and spec["meta"]["operators"] == ["play"]
     code, out, err = _cli(capsys, "fit", data, "--operators", "play,hysteron")
     assert code == 2 and err.startswith("error: --operators")
+
+
+# ----------------------------------------------- operators of output lags
+OUT_TERMS = ("y[k-1]", "Play(y[k-1],0.1)", "u[k-1]", "u[k-1]*Play(y[k-2],0.05)",
+             "DengTan(y[k-1])")
+OUT_THETA = (0.5, 0.3, 0.2, -0.1, 0.05)
+
+
+def _window_loop(u, y_meas, s, length, theta=OUT_THETA):
+    """Plain-Python window from sample s: the operators run over the measured
+    output before s, then over the simulated output (the documented rule)."""
+    z = [float(v) for v in y_meas[:s]]
+    for k in range(s, min(s + length, len(u))):
+        p1 = play_reference(z, 0.1)[k - 1]
+        p2 = play_reference(z, 0.05)[k - 2]
+        d = deng_tan_reference(z)[k - 1]
+        z.append(theta[0] * z[k - 1] + theta[1] * p1 + theta[2] * u[k - 1]
+                 + theta[3] * u[k - 1] * p2 + theta[4] * d)
+    return np.array(z[s:])
+
+
+@pytest.mark.parametrize("mode, kw", [("freerun", {}), ("osa", {}), ("ksa", {"k": 4}),
+                                      ("ms", {"window": 25})])
+def test_output_operators_every_mode_equals_plain_window_loop(mode, kw):
+    from narx.simulate import recursion_windows
+    rec = operator_record("backlash", n=150, seed=5, snr_db=30)
+    u, y = rec.u, rec.y                      # not the model's output: windows matter
+    r = simulate(tuple(parse_term(t) for t in OUT_TERMS), OUT_THETA, as_data(u, y),
+                 mode=mode, **kw)
+    ref = np.full(u.size, np.nan)
+    if mode == "osa":
+        for k in range(2, u.size):
+            ref[k] = _window_loop(u, y, k, 1)[0]
+    else:
+        horizon = kw.get("k", kw.get("window"))
+        starts, length, wf, _ = recursion_windows(mode, u.size, 2, horizon)
+        for s in starts:
+            w = _window_loop(u, y, s, length)
+            ref[s + wf:s + w.size] = w[wf:]
+    ok = np.isfinite(ref)
+    assert ok.sum() >= u.size - 6
+    np.testing.assert_allclose(r.y_hat[ok], ref[ok], rtol=0, atol=1e-12)
+    # control: starting the operators of every window from the simulated
+    # output instead (one free run) differs for windowed modes
+    if mode in ("ksa", "ms"):
+        fr = simulate(tuple(parse_term(t) for t in OUT_TERMS), OUT_THETA, as_data(u, y))
+        assert np.abs(fr.y_hat[ok] - ref[ok]).max() > 1e-4
