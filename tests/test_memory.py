@@ -432,3 +432,19 @@ def test_output_operators_every_mode_equals_plain_window_loop(mode, kw):
     if mode in ("ksa", "ms"):
         fr = simulate(tuple(parse_term(t) for t in OUT_TERMS), OUT_THETA, as_data(u, y))
         assert np.abs(fr.y_hat[ok] - ref[ok]).max() > 1e-4
+
+
+# ------------------------------------------------------------ compensation
+def test_compensate_refuses_operator_terms_naming_the_term(capsys, tmp_path):
+    from narx.compensate import RootCompensator
+    m = Model(("y[k-1]", "Play(u[k-1],0.3)", "u[k-1]"), theta=(0.5, 0.2, 0.3))
+    with pytest.raises(ValueError, match=r"Play\(u\[k-1\],0.3\) cannot be inverted"):
+        RootCompensator(m)
+    RootCompensator(Model(("y[k-1]", "u[k-1]"), theta=(0.5, 0.3)))    # control
+    model, ref = tmp_path / "m.json", tmp_path / "r.csv"
+    m.save(str(model))
+    np.savetxt(ref, np.sin(np.arange(50) / 5.0), header="r", comments="")
+    code, out, err = _cli(capsys, "compensate", model, ref)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and "Play(u[k-1],0.3)" in lines[0] \
+        and lines[0].startswith("error:")
