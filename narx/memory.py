@@ -99,7 +99,7 @@ __all__ = ["MemoryOperator", "OperatorRegistry", "register_operator",
            "unregister_operator", "get_operator", "default_operators",
            "play", "deng_tan", "play_step", "deng_tan_step",
            "deng_tan_state", "play_reference", "deng_tan_reference",
-           "DENG_TAN_DEPTH", "BUILTIN_OPERATOR_CODES"]
+           "DENG_TAN_DEPTH", "BUILTIN_OPERATOR_CODES", "operator_step"]
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
@@ -186,6 +186,17 @@ def deng_tan_step(state, x, params):  # pragma: no cover - compiled
     state[2] = d
     state[3] = m
     return h
+
+
+@njit(cache=True, nogil=True)
+def operator_step(code, state, x, params):  # pragma: no cover - compiled
+    """One step of the built-in operator of kernel ``code``
+    (:data:`BUILTIN_OPERATOR_CODES`); raises ``ValueError`` on another code."""
+    if code == 1:
+        return play_step(state, x, params)
+    if code == 2:
+        return deng_tan_step(state, x, params)
+    raise ValueError("unknown memory-operator kernel code")
 
 
 def _deng_tan_init(x0, params, init=None):

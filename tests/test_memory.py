@@ -448,3 +448,46 @@ def test_compensate_refuses_operator_terms_naming_the_term(capsys, tmp_path):
     lines = err.strip().splitlines()
     assert code == 2 and len(lines) == 1 and "Play(u[k-1],0.3)" in lines[0] \
         and lines[0].startswith("error:")
+
+
+def test_output_operators_compiled_equals_numpy_loop_and_plugin_runs():
+    from narx.kernels import Plan, run_windows
+    from narx.memory import OperatorRegistry, default_operators
+    rec = operator_record("backlash", n=300, seed=6, snr_db=30)
+    terms = tuple(parse_term(t) for t in OUT_TERMS)
+    plan = Plan.from_terms(terms, ("u",))
+    assert plan.compiled
+    data = as_data(rec.u, rec.y)
+    P = plan.input_parts(data)
+    starts = np.arange(2, 300, 20)
+    a, da = run_windows(plan, P, data.U, rec.y, OUT_THETA, starts, 20)
+    b, db = run_windows(plan, P, data.U, rec.y, OUT_THETA, starts, 20, force_python=True)
+    np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-15)  # sums in another order
+    assert not da and not db
+    # a plug-in operator of an output runs in the numpy loop: a stop of
+    # radius r is the input minus its play, so the model is the same
+    reg = default_operators()
+
+    def init(x0, p, init=None):
+        return np.array([x0, 0.0])
+
+    def step(s, x, p):
+        s[1] = min(p[0], max(-p[0], s[1] + x - s[0]))
+        s[0] = x
+        return s[1]
+
+    reg.register("StopT", ("r",), init, step, steady=lambda xb, p: (-p[0], p[0]))
+    try:
+        t2 = tuple(parse_term(t) for t in ("y[k-1]", "StopT(y[k-1],0.1)", "u[k-1]"))
+        t3 = tuple(parse_term(t) for t in ("y[k-1]", "Play(y[k-1],0.1)", "u[k-1]"))
+        p2 = Plan.from_terms(t2, ("u",))
+        assert not p2.compiled
+        # y - Play(y) - (y_0 - Play(y)_0) = Stop(y); Play(y)_0 = y_0
+        th2, th3 = (0.5, 0.3, 0.2), (0.8, -0.3, 0.2)
+        c, _ = run_windows(p2, p2.input_parts(data), data.U, rec.y, th2, starts, 20)
+        p3 = Plan.from_terms(t3, ("u",))
+        d, _ = run_windows(p3, p3.input_parts(data), data.U, rec.y, th3, starts, 20)
+        ok = np.isfinite(c)
+        np.testing.assert_allclose(c[ok], d[ok], rtol=0, atol=1e-12)
+    finally:
+        reg.unregister("StopT")
