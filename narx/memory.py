@@ -99,15 +99,17 @@ __all__ = ["MemoryOperator", "OperatorRegistry", "register_operator",
            "unregister_operator", "get_operator", "default_operators",
            "play", "deng_tan", "play_step", "deng_tan_step",
            "deng_tan_state", "play_reference", "deng_tan_reference",
-           "DENG_TAN_DEPTH", "BUILTIN_OPERATOR_CODES", "operator_step"]
+           "DENG_TAN_DEPTH", "OPERATOR_BUILTINS", "BUILTIN_OPERATOR_CODES",
+           "operator_step"]
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+#: kernel codes of the built-in operators (rows of OPERATOR_BUILTINS)
+_PLAY, _DENG_TAN = 1, 2
 
 #: reversal points kept by the compiled Deng-Tan step above the origin
 DENG_TAN_DEPTH = 256
 
-#: numeric codes of the built-in operators in compiled kernels
-BUILTIN_OPERATOR_CODES = {"Play": 1, "DengTan": 2}
 
 
 # ------------------------------------------------------------------ play
@@ -192,9 +194,9 @@ def deng_tan_step(state, x, params):  # pragma: no cover - compiled
 def operator_step(code, state, x, params):  # pragma: no cover - compiled
     """One step of the built-in operator of kernel ``code``
     (:data:`BUILTIN_OPERATOR_CODES`); raises ``ValueError`` on another code."""
-    if code == 1:
+    if code == _PLAY:
         return play_step(state, x, params)
-    if code == 2:
+    if code == _DENG_TAN:
         return deng_tan_step(state, x, params)
     raise ValueError("unknown memory-operator kernel code")
 
@@ -332,8 +334,11 @@ class MemoryOperator:
         ``check(params)`` raises ``ValueError`` naming the rule and value
         for parameters outside the operator's domain (every parameter is
         first checked to be a finite number).
-    builtin : bool
-        True for Play and DengTan (compiled steps with kernel codes).
+    doc : str
+        What the operator computes.
+    code : int or None
+        Kernel code of a built-in (its branch of :func:`operator_step`);
+        None for a plug-in.
     """
 
     name: str
@@ -342,8 +347,13 @@ class MemoryOperator:
     step: Callable
     steady: Callable
     check: Optional[Callable] = None
-    builtin: bool = False
     doc: str = ""
+    code: Optional[int] = None
+
+    @property
+    def builtin(self) -> bool:
+        """True for a row of :data:`OPERATOR_BUILTINS` (compiled in the kernels)."""
+        return self.code is not None
 
     @property
     def arity(self) -> int:
@@ -407,18 +417,24 @@ class MemoryOperator:
         return float(lo), float(hi)
 
 
+#: the built-in operators, one row each; :func:`operator_step` steps the
+#: row's code in the compiled kernels
+OPERATOR_BUILTINS = (
+    MemoryOperator("Play", ("r",), _play_init, play_step, _play_steady, _play_check,
+                   "play (backlash) operator of radius r", code=_PLAY),
+    MemoryOperator("DengTan", (), _deng_tan_init, deng_tan_step, _unbounded, _no_params,
+                   "Deng-Tan operator (dominant-extremum memory)", code=_DENG_TAN),
+)
+
+#: built-in operator name -> kernel code
+BUILTIN_OPERATOR_CODES = {op.name: op.code for op in OPERATOR_BUILTINS}
+
+
 class OperatorRegistry:
     """Mapping name -> :class:`MemoryOperator`; Play and DengTan always there."""
 
     def __init__(self, operators=None):
-        self._o: Dict[str, MemoryOperator] = {
-            "Play": MemoryOperator("Play", ("r",), _play_init, play_step,
-                                   _play_steady, _play_check, True,
-                                   "play (backlash) operator of radius r"),
-            "DengTan": MemoryOperator("DengTan", (), _deng_tan_init,
-                                      deng_tan_step, _unbounded, _no_params, True,
-                                      "Deng-Tan operator (dominant-extremum memory)"),
-        }
+        self._o: Dict[str, MemoryOperator] = {op.name: op for op in OPERATOR_BUILTINS}
         for op in (operators or ()):
             self._o.setdefault(op.name, op)
 
@@ -450,7 +466,7 @@ class OperatorRegistry:
         if old is not None and (old.builtin or not overwrite):
             raise ValueError(f"operator {name!r} is already registered"
                              + ("" if old.builtin else " (pass overwrite=True to replace it)"))
-        op = MemoryOperator(name, params, init, step, steady, check, False, doc)
+        op = MemoryOperator(name, params, init, step, steady, check, doc)
         self._o[name] = op
         return op
 

@@ -491,3 +491,18 @@ def test_output_operators_compiled_equals_numpy_loop_and_plugin_runs():
         np.testing.assert_allclose(c[ok], d[ok], rtol=0, atol=1e-12)
     finally:
         reg.unregister("StopT")
+
+
+def test_every_builtin_operator_row_steps_by_its_code():
+    from narx.memory import OPERATOR_BUILTINS, operator_step
+    x = _walk(500, seed=9)
+    for op in OPERATOR_BUILTINS:
+        params = (0.3,) if op.params else ()
+        p = np.asarray(params, dtype=np.float64)
+        s1 = op.init(float(x[0]), params)
+        s2 = op.init(float(x[0]), params)
+        a = [operator_step(op.code, s1, xi, p) for xi in x]
+        b = [op.step(s2, xi, p) for xi in x]
+        assert a == b and op.builtin
+    with pytest.raises(ValueError, match="unknown memory-operator kernel code"):
+        operator_step(7, np.zeros(1), 0.0, np.zeros(1))
