@@ -506,3 +506,10 @@ def test_every_builtin_operator_row_steps_by_its_code():
         assert a == b and op.builtin
     with pytest.raises(ValueError, match="unknown memory-operator kernel code"):
         operator_step(7, np.zeros(1), 0.0, np.zeros(1))
+
+
+def test_export_writes_operator_parameters():
+    from narx.export import to_latex
+    m = Model(("y[k-1]", "Play(u[k-1],0.3)", "DengTan(u[k-2])"), theta=(0.5, 0.2, 0.1))
+    tex = to_latex(m)
+    assert r"P_{0.3}(u_{k-1})" in tex and r"\mathrm{DengTan}(u_{k-2})" in tex
