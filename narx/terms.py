@@ -392,9 +392,10 @@ class _Parser:
     def phi_call(self, name) -> PhiCall:
         if name not in self.reg:
             raise TermError(f"unknown Φ-function {name!r} in term {self.text!r} "
-                            f"(registered: {', '.join(self.reg.names())}; register "
-                            f"yours with narx.register_phi, or give the mggp command "
-                            f"--phi-module MODULE)")
+                            f"(registered: {', '.join(self.reg.names())}; memory "
+                            f"operators: {', '.join(self.ops)}; register yours with "
+                            f"narx.register_phi or narx.memory.register_operator, or "
+                            f"give the mggp command --phi-module MODULE)")
         fn = self.reg.get(name)
         self.take("op", "(")
         args = []
