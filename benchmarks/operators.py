@@ -88,7 +88,7 @@ def _val_error(model, val, metric):
 
 
 def run(cases=CASES, seeds=(1, 2, 3), population=100, generations=20, max_terms=10,
-        max_height=4, jobs=1, piezo_n=10_000, log=print):
+        max_height=4, jobs=1, piezo_n=10_000, select="fitness", log=print):
     """Run the comparison; returns ``{"rows": [...], "markdown": str}``."""
     from mggp import MGGPRegressor
     rows = []
@@ -104,7 +104,7 @@ def run(cases=CASES, seeds=(1, 2, 3), population=100, generations=20, max_terms=
                                     generations=generations, max_terms=max_terms,
                                     max_height=max_height, use_phi=use_phi, operators=ops,
                                     inputs=train.inputs, output=train.output,
-                                    random_state=seed, n_jobs=jobs)
+                                    select=select, random_state=seed, n_jobs=jobs)
                 t0 = time.perf_counter()
                 est.fit(train)
                 dt = time.perf_counter() - t0
@@ -146,10 +146,12 @@ def main(argv=None):
     p.add_argument("--max-height", type=int, default=4)
     p.add_argument("--piezo-n", type=int, default=10_000)
     p.add_argument("--jobs", type=int, default=1)
+    p.add_argument("--select", choices=["fitness", "freerun", "hold"], default="fitness",
+                   help="final structure among the best of each run (MGGPRegressor select)")
     p.add_argument("--json", metavar="PATH", help="write the rows as JSON")
     a = p.parse_args(argv)
     res = run(a.cases, a.seeds, a.population, a.generations, a.max_terms, a.max_height,
-              a.jobs, a.piezo_n)
+              a.jobs, a.piezo_n, a.select)
     print()
     print(res["markdown"])
     if a.json:

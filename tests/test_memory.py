@@ -513,3 +513,11 @@ def test_export_writes_operator_parameters():
     m = Model(("y[k-1]", "Play(u[k-1],0.3)", "DengTan(u[k-2])"), theta=(0.5, 0.2, 0.1))
     tex = to_latex(m)
     assert r"P_{0.3}(u_{k-1})" in tex and r"\mathrm{DengTan}(u_{k-2})" in tex
+
+
+def test_benchmark_operators_runs_and_tabulates(capsys):
+    from benchmarks.operators import main
+    assert main(["--cases", "pi", "--seeds", "1", "--population", "10",
+                 "--generations", "1", "--max-terms", "4", "--max-height", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "| pi | RMSE |" in out and "ops/Φ" in out
