@@ -252,6 +252,7 @@ def rest_actuator(model, level: float, actuator: str, low: float, high: float,
     mid = 0.5 * (low + high)
     return float(min(roots, key=lambda x: abs(x - mid)))
 
+
 def held_outputs(terms: Sequence[Term], theta, u_bar: float,
                  registry: Optional[PhiRegistry] = None) -> Tuple[float, float]:
     r"""Rest outputs of a model whose memory is in plays of its input.
