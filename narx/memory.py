@@ -90,10 +90,12 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import Callable, Dict, Iterator, Optional, Sequence, Tuple
+from typing import Callable, Optional, Sequence, Tuple
 
 import numpy as np
 from numba import njit
+
+from .registry import NamedRegistry
 
 __all__ = ["MemoryOperator", "OperatorRegistry", "register_operator",
            "unregister_operator", "get_operator", "default_operators",
@@ -430,13 +432,15 @@ OPERATOR_BUILTINS = (
 BUILTIN_OPERATOR_CODES = {op.name: op.code for op in OPERATOR_BUILTINS}
 
 
-class OperatorRegistry:
+class OperatorRegistry(NamedRegistry):
     """Mapping name -> :class:`MemoryOperator`; Play and DengTan always there."""
 
+    what = "memory operator"
+
     def __init__(self, operators=None):
-        self._o: Dict[str, MemoryOperator] = {op.name: op for op in OPERATOR_BUILTINS}
+        super().__init__(OPERATOR_BUILTINS)
         for op in (operators or ()):
-            self._o.setdefault(op.name, op)
+            self._items.setdefault(op.name, op)
 
     def register(self, name: str, params: Sequence[str], init: Callable,
                  step: Callable, steady: Callable, *, check: Optional[Callable] = None,
@@ -462,35 +466,13 @@ class OperatorRegistry:
                 raise ValueError(f"{what} must be callable, got {type(f).__name__}")
         if check is not None and not callable(check):
             raise ValueError(f"check must be callable or None, got {type(check).__name__}")
-        old = self._o.get(name)
-        if old is not None and (old.builtin or not overwrite):
-            raise ValueError(f"operator {name!r} is already registered"
-                             + ("" if old.builtin else " (pass overwrite=True to replace it)"))
+        self._check_free(name, overwrite)
         op = MemoryOperator(name, params, init, step, steady, check, doc)
-        self._o[name] = op
+        self._items[name] = op
         return op
 
-    def unregister(self, name: str) -> None:
-        op = self.get(name)
-        if op.builtin:
-            raise ValueError(f"cannot unregister built-in operator {name!r}")
-        del self._o[name]
-
-    def get(self, name: str) -> MemoryOperator:
-        try:
-            return self._o[name]
-        except KeyError:
-            raise KeyError(f"unknown memory operator {name!r} (registered: "
-                           f"{', '.join(sorted(self._o))})") from None
-
-    def __contains__(self, name) -> bool:
-        return name in self._o
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(sorted(self._o))
-
     def user_operators(self):
-        return [op for op in self._o.values() if not op.builtin]
+        return self.user_entries()
 
     def snapshot(self) -> "OperatorRegistry":
         """An independent copy (shipped to worker processes)."""
