@@ -466,17 +466,11 @@ class OperatorRegistry(NamedRegistry):
                 raise ValueError(f"{what} must be callable, got {type(f).__name__}")
         if check is not None and not callable(check):
             raise ValueError(f"check must be callable or None, got {type(check).__name__}")
-        self._check_free(name, overwrite)
-        op = MemoryOperator(name, params, init, step, steady, check, doc)
-        self._items[name] = op
-        return op
+        return self._add(MemoryOperator(name, params, init, step, steady, check, doc),
+                         overwrite)
 
     def user_operators(self):
         return self.user_entries()
-
-    def snapshot(self) -> "OperatorRegistry":
-        """An independent copy (shipped to worker processes)."""
-        return OperatorRegistry(self.user_operators())
 
 
 _DEFAULT = OperatorRegistry()

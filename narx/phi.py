@@ -221,17 +221,10 @@ class PhiRegistry(NamedRegistry):
                                  f"{steady!r}") from None
             if not np.isfinite(steady):
                 raise ValueError(f"steady must be finite, got {steady!r}")
-        self._check_free(name, overwrite)
-        f = PhiFunction(name, int(arity), func, steady, doc)
-        self._items[name] = f
-        return f
+        return self._add(PhiFunction(name, int(arity), func, steady, doc), overwrite)
 
     def user_functions(self):
         return self.user_entries()
-
-    def snapshot(self) -> "PhiRegistry":
-        """An independent copy (shipped to worker processes)."""
-        return PhiRegistry(self.user_functions())
 
 
 _DEFAULT = PhiRegistry()

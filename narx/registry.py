@@ -22,13 +22,15 @@ class NamedRegistry:
     def __init__(self, builtins=()):
         self._items: Dict[str, object] = {e.name: e for e in builtins}
 
-    def _check_free(self, name: str, overwrite: bool) -> None:
-        """``ValueError`` when ``name`` is taken by a built-in, or by a
-        plug-in and ``overwrite`` is false."""
-        old = self._items.get(name)
+    def _add(self, entry, overwrite: bool):
+        """Store a new plug-in and return it; ``ValueError`` when its name
+        is taken by a built-in, or by a plug-in and ``overwrite`` is false."""
+        old = self._items.get(entry.name)
         if old is not None and (old.builtin or not overwrite):
-            raise ValueError(f"{self.what} {name!r} is already registered"
+            raise ValueError(f"{self.what} {entry.name!r} is already registered"
                              + ("" if old.builtin else " (pass overwrite=True to replace it)"))
+        self._items[entry.name] = entry
+        return entry
 
     def unregister(self, name: str) -> None:
         """Remove a plug-in (``KeyError`` if unknown, ``ValueError`` for a built-in)."""
@@ -55,3 +57,7 @@ class NamedRegistry:
     def user_entries(self):
         """The plug-ins, in registration order."""
         return [e for e in self._items.values() if not e.builtin]
+
+    def snapshot(self):
+        """An independent copy (shipped to worker processes)."""
+        return type(self)(self.user_entries())
