@@ -183,8 +183,11 @@ def main(argv=None):
     p.add_argument("--seeds", type=int, nargs="+")
     p.add_argument("--window", type=int, help="MS window Δm (samples)")
     p.add_argument("--jobs", type=int, default=2)
-    p.add_argument("--peers", choices=["auto", "yes", "no"], default="auto",
-                   help="auto: run peer tools whose environments are installed")
+    p.add_argument("--peers", choices=["auto", "yes", "no"], default="yes",
+                   help="yes: run the peer tools (sysidentpy FROLS, the published "
+                        "toolbox), installing each into its own environment under "
+                        "benchmarks/.peers/ on first use; auto: only those installed; "
+                        "no: none (default yes)")
     p.add_argument("--no-damper", action="store_true", help="skip the MR damper study")
     p.add_argument("--no-screen", action="store_true",
                    help="search without the free-run stability screen (mggp.screen)")

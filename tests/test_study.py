@@ -8,6 +8,19 @@ from benchmarks import pem_vs_ms, published_structures
 from benchmarks.casestudy import case_data, model19, score_model
 
 
+def uncaptioned_figures(markdown: str) -> list:
+    """Images of a Markdown report not followed by an italic 'Figure N.' caption."""
+    lines = [ln for ln in markdown.splitlines() if ln.strip()]
+    return [ln for i, ln in enumerate(lines) if ln.startswith("![")
+            and not (i + 1 < len(lines) and lines[i + 1].startswith("*Figure "))]
+
+
+def test_uncaptioned_figures_are_found():
+    assert uncaptioned_figures("![a](a.png)\n\n*Figure 1. A.*\n") == []
+    assert uncaptioned_figures("![a](a.png)\n\ntext\n![b](b.png)") == ["![a](a.png)",
+                                                                        "![b](b.png)"]
+
+
 def test_study_runs_end_to_end_and_writes_report(tmp_path):
     out = tmp_path / "rep"
     js = tmp_path / "s.json"
@@ -20,6 +33,9 @@ def test_study_runs_end_to_end_and_writes_report(tmp_path):
         assert name in text
     for fig in ("loops.png", "freerun.png", "held.png", "convergence.png"):
         assert os.path.getsize(out / fig) > 1000
+    assert text.split("\n")[2].startswith("**Conclusion.**")     # first, under the title
+    assert uncaptioned_figures(text) == []
+    assert text.count("![") == 4
     doc = json.loads(js.read_text())
     assert {r["name"] for r in doc["summary"]} >= {"PEM-LS", "MS-LS", "model (19) CLS"}
     assert doc["settings"]["filter_order"] == 4 and "low-pass of order 4 (data seed 0)" in text
