@@ -31,19 +31,26 @@ import numpy as np
 from narx import Data, PhiRegistry, rrse
 from narx.csvdata import read_columns
 
-__all__ = ["load_damper", "run_damper", "damper_path", "data_path"]
+__all__ = ["load_damper", "run_damper", "damper_path", "data_path", "data_dirs"]
 
 PUBLISHED = {"FROLS (sysidentpy tutorial)": 0.0451, "MetaMSS": 0.0557}
 
 
-def data_path(name):
-    """Path of the shared data file ``name`` from ``$MGGP_SHARED_DATA`` if
-    set, else the copy shipped in ``benchmarks/data``, else the project's
-    ``shared/data`` beside the repository; None if none has it."""
+def data_dirs():
+    """Folders searched for shared data files, in order: ``$MGGP_SHARED_DATA``
+    if set, the copies shipped in ``benchmarks/data``, and ``../shared/data``
+    from the project root (where the project's shared data sit beside a
+    clone)."""
     env = os.environ.get("MGGP_SHARED_DATA")
     here = os.path.dirname(os.path.abspath(__file__))
-    for folder in ([env] if env else []) + [os.path.join(here, "data"),
-                                            os.path.join(here, "..", "..", "shared", "data")]:
+    return ([env] if env else []) + [os.path.join(here, "data"), os.path.normpath(
+        os.path.join(here, "..", "..", "shared", "data"))]
+
+
+def data_path(name):
+    """Path of the shared data file ``name`` in the first of
+    :func:`data_dirs` that has it; None if none has it."""
+    for folder in data_dirs():
         p = os.path.join(folder, name)
         if os.path.exists(p):
             return os.path.normpath(p)

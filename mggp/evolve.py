@@ -246,13 +246,13 @@ def _evaluate(pop, toolbox, decoder, state: EvolutionState, evaluate_batch):
     return len(pending), hits
 
 
-def _record(state: EvolutionState, decoder, nevals, hits):
+def _record(state: EvolutionState, decoder, nevals, hits, structure=None):
     fits = [ind.fitness.values[0] for ind in state.population]
     ibest = min(range(len(fits)), key=lambda i: (fits[i], i))
+    terms = decoder.decode_individual(state.population[ibest])
     state.logbook.record(gen=state.generation, nevals=nevals, cache_hits=hits,
                          best=fits[ibest], median=float(np.median(fits)),
-                         best_terms=len(decoder.decode_individual(
-                             state.population[ibest])))
+                         best_terms=len(terms if structure is None else structure(terms)))
 
 
 def _step(state: EvolutionState, toolbox, s: EvolutionSettings):
@@ -296,7 +296,9 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
            toolbox: Optional[base.Toolbox] = None,
            on_generation: Optional[Callable[[EvolutionState], None]] = None,
            checkpoint=None, resume: bool = False, checkpoint_every: int = 1,
-           context: Optional[dict] = None, **params) -> EvolutionResult:
+           context: Optional[dict] = None,
+           structure: Optional[Callable[[Tuple[Term, ...]], Tuple[Term, ...]]] = None,
+           **params) -> EvolutionResult:
     """Run MGGP structure search.
 
     Parameters
@@ -328,6 +330,11 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         data, the fitness mode and its settings...); stored with the
         settings, so a checkpoint is resumed only by a run that scores
         structures the same way.
+    structure : callable, optional
+        ``structure(terms)``: the structure actually scored for an
+        individual's decoded terms (terms dropped, a constant added); the
+        logbook's ``best_terms`` counts its terms (default: the decoded
+        terms as they are).
 
     Returns
     -------
@@ -383,7 +390,7 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         state.logbook.header = list(LOG_FIELDS)
         nevals, hits = _evaluate(state.population, toolbox, decoder, state,
                                  evaluate_batch)
-        _record(state, decoder, nevals, hits)
+        _record(state, decoder, nevals, hits, structure)
         save(state)
         if on_generation is not None:
             on_generation(state)
@@ -393,7 +400,7 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         state.generation += 1
         nevals, hits = _evaluate(state.population, toolbox, decoder, state,
                                  evaluate_batch)
-        _record(state, decoder, nevals, hits)
+        _record(state, decoder, nevals, hits, structure)
         if state.generation % checkpoint_every == 0 or state.generation == s.generations:
             save(state)
         if on_generation is not None:
