@@ -49,8 +49,8 @@ from deap import base, tools
 
 from narx.terms import Term
 
-from .checkpoint import (EvolutionState, checkpoint_settings, load_checkpoint,
-                         save_checkpoint, settings_fingerprint)
+from .checkpoint import (CHECKPOINT_SHARE, CheckpointWriter, EvolutionState,
+                         checkpoint_settings, load_checkpoint, settings_fingerprint)
 from .individual import Individual, ParetoArchive, ParetoRow
 from .operators import (cx_high_level, cx_low_level, mut_high_level,
                         mut_low_level, random_individual, sel_tournament)
@@ -295,7 +295,7 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
            decoder: Optional[Decoder] = None,
            toolbox: Optional[base.Toolbox] = None,
            on_generation: Optional[Callable[[EvolutionState], None]] = None,
-           checkpoint=None, resume: bool = False, checkpoint_every: int = 1,
+           checkpoint=None, resume: bool = False, checkpoint_every: Optional[int] = None,
            context: Optional[dict] = None,
            structure: Optional[Callable[[Tuple[Term, ...]], Tuple[Term, ...]]] = None,
            **params) -> EvolutionResult:
@@ -321,7 +321,12 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         ``on_generation(state)`` after every generation (0 included), after
         the checkpoint is written; for progress bars and logging.
     checkpoint : path, optional
-        Written every ``checkpoint_every`` generations and at the end.
+        Written after the initial population, then every
+        ``checkpoint_every`` generations, and at the end; with
+        ``checkpoint_every=None`` (default) whenever the writes so far leave
+        it within :data:`mggp.checkpoint.CHECKPOINT_SHARE` (10 %) of the
+        wall time (:class:`mggp.checkpoint.CheckpointWriter`), which is every
+        generation while a write is cheap beside a generation.
     resume : bool
         Continue from ``checkpoint`` if the file exists (its settings, the
         number of generations aside, must match); otherwise start anew.
@@ -347,7 +352,8 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         ``evaluate_batch`` returning the wrong number of results.
     """
     s = dataclasses.replace(settings or EvolutionSettings(), **params)
-    if not isinstance(checkpoint_every, int) or checkpoint_every < 1:
+    if checkpoint_every is not None and (not isinstance(checkpoint_every, int)
+                                         or checkpoint_every < 1):
         raise ValueError(f"checkpoint_every must be an integer >= 1, got {checkpoint_every!r}")
     if s.seed is None:
         s = dataclasses.replace(s, seed=random.SystemRandom().randrange(2 ** 32))
@@ -358,9 +364,12 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         sdict["context"] = dict(context)
     fingerprint = settings_fingerprint(sdict, pset)
 
-    def save(state):
-        if checkpoint is not None:
-            save_checkpoint(checkpoint, state)
+    writer = None if checkpoint is None else CheckpointWriter(
+        checkpoint, share=1.0 if checkpoint_every else CHECKPOINT_SHARE)
+
+    def save(state, force=False):
+        if writer is not None:
+            writer(state, force=force)
 
     if resume and checkpoint is not None and os.path.exists(checkpoint):
         try:
@@ -401,8 +410,9 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         nevals, hits = _evaluate(state.population, toolbox, decoder, state,
                                  evaluate_batch)
         _record(state, decoder, nevals, hits, structure)
-        if state.generation % checkpoint_every == 0 or state.generation == s.generations:
-            save(state)
+        last = state.generation == s.generations
+        if checkpoint_every is None or last or state.generation % checkpoint_every == 0:
+            save(state, force=last)
         if on_generation is not None:
             on_generation(state)
 
