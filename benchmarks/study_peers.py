@@ -92,7 +92,7 @@ def _toolbox(cs, args, log):
                val_rmse=rmse(cs.yv[-yh.size:], yh) if yh.size and np.all(np.isfinite(yh))
                else float("inf"), y_val=yh if yh.size == cs.yv.size else None)
     log(f"  toolbox: {r.get('generations_completed')} generations in {r.get('fit_seconds', 0):.0f} s "
-        f"(limit {limit:.0f} s), val MAPE {row['val_mape']}")
+        f"(limit {limit:.0f} s), val MAPE {float(row['val_mape'] if row['val_mape'] is not None else 'nan'):.3g} %")
     return row
 
 

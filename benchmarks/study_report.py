@@ -23,7 +23,7 @@ from mggp.report import (error_groups, figure, figure_lines, plot_convergence, p
 
 from .casestudy import PUBLISHED
 
-__all__ = ["write_figures", "write_report", "conclusion", "peer_table"]
+__all__ = ["write_figures", "write_report", "conclusion", "peer_table", "fmt"]
 
 _ORDER = ("PEM-LS", "MS-LS", "MS-CLS", "model (19) CLS")
 
@@ -114,12 +114,27 @@ def write_figures(folder, cs, rows, extras, peers):
     return figs
 
 
+def fmt(v, digits=3):
+    """A figure of the study's tables: ``digits`` decimals (significant
+    digits below 1e-3), ``diverged`` for inf, ``—`` when missing."""
+    if v is None or (isinstance(v, float) and np.isnan(v)):
+        return "—"
+    if isinstance(v, float) and not np.isfinite(v):
+        return "diverged"
+    return f"{v:.{digits}g}" if abs(v) < 1e-3 and v != 0 else f"{v:.{digits}f}"
+
+
 def _f(v, d=3):
+    """A figure in running text: ``d`` significant digits, or ``diverged``."""
     if v is None or (isinstance(v, float) and np.isnan(v)):
         return "—"
     if not np.isfinite(v):
         return "diverged"
     return f"{v:.{d}g}"
+
+
+def _pct(v) -> str:
+    return _f(v) + (" %" if v is not None and np.isfinite(v) else "")
 
 
 def conclusion(summary, peers) -> str:
@@ -143,7 +158,7 @@ def conclusion(summary, peers) -> str:
     if cls is not None:
         drift = max(cls["drift_loading"], cls["drift_unloading"])
         line = (f"Refitted by CLS, the MS structure holds its output when the input stops "
-                f"(drift {drift:.1g} µm")
+                f"(drift {drift:.2g} µm")
         if pem is not None:
             line += (f", against {_f(max(pem['drift_loading'], pem['drift_unloading']))} µm "
                      f"for PEM-LS")
@@ -151,8 +166,8 @@ def conclusion(summary, peers) -> str:
                           f"(published MS-CLS: {PUBLISHED['MS-CLS']['val']} %).")
     avail = [p for p in peers if p.get("available") and p.get("val_mape") is not None]
     if avail:
-        out.append("Peer tools on the same data: " + ", ".join(
-            f"{p['name']} {_f(p['val_mape'])} %" for p in avail) + ".")
+        out.append("Peer tools on the same data, validation MAPE: " + ", ".join(
+            f"{p['name']} {_pct(p['val_mape'])}" for p in avail) + ".")
     out.append("What to do: identify a hysteretic actuator with multiple-shooting fitness and "
                "steady-state constraints (`mggp fit DATA.csv --fitness ms --window W "
                "--constraints steady-state`, the MS-CLS row), and judge a model by its free "
@@ -211,9 +226,9 @@ def peer_table(peers) -> list:
                          if p.get("timed_out") else
                          f"{p.get('generations_completed')} generations within its "
                          f"{p['time_limit']:.0f} s limit")
-        lines.append(f"| {p['name']} | {_versions(p.get('versions'))} | {_f(p.get('val_mape'))} "
-                     f"| {_f(p.get('val_rmse'))} | {p.get('n_terms', '—')} "
-                     f"| {_f(p.get('fit_time'), 2)} | {'; '.join(notes)} |")
+        lines.append(f"| {p['name']} | {_versions(p.get('versions'))} | {fmt(p.get('val_mape'))} "
+                     f"| {fmt(p.get('val_rmse'))} | {p.get('n_terms', '—')} "
+                     f"| {fmt(p.get('fit_time'), 1)} | {'; '.join(notes)} |")
     return lines
 
 

@@ -67,9 +67,10 @@ def error_groups(y, sims: dict, ratio: float = 10.0) -> list:
     """The simulations split into groups of similar error size, largest first.
 
     The size of a simulation's error is the 99.9 % quantile of
-    :math:`|\\hat y - y|`; a new group starts where the next size is more
-    than ``ratio`` times smaller, so that errors of 0.2 and 20 are never
-    drawn on one axis (the small ones would look like zero).
+    :math:`|\\hat y - y|`; a new group starts at the first size more than
+    ``ratio`` times smaller than the largest of the current group, so that
+    errors of 0.2 and 20 are never drawn on one axis (the small ones would
+    look like zero).
     """
     size = {}
     for name, yh in sims.items():
@@ -79,7 +80,7 @@ def error_groups(y, sims: dict, ratio: float = 10.0) -> list:
     order = sorted(size, key=lambda n: -size[n] if np.isfinite(size[n]) else -np.inf)
     groups = []
     for name in order:
-        if groups and size[name] * ratio >= size[groups[-1][-1]]:
+        if groups and size[name] * ratio >= size[groups[-1][0]]:
             groups[-1].append(name)
         else:
             groups.append([name])
