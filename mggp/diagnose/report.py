@@ -217,11 +217,14 @@ def _plot_correlation(path, dx, inputs):
                        squeeze=False)
     for i, (line, row) in enumerate(zip(axes, rows)):
         cells = (ee[:1] if i == 0 else [None]) + row
+        first = True
         for ax, t in zip(line, cells + [None] * (ncol - len(cells))):
             if t is None:
                 ax.axis("off")
                 continue
             _correlation_panel(ax, t, dx)
+            ax.tick_params(labelleft=first)          # each row's first panel has the scale
+            first = False
     axes[0][0].legend(loc="upper right", fontsize=7)
     return _save(fig, path)
 
