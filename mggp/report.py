@@ -209,8 +209,9 @@ def write_fit_report(folder, est, data, data_name: str = "data",
                      f"the free run of each fit; a hysteretic system traces a loop, "
                      f"and a good model's loop lies on the data's."))
     figs.append((plot_convergence(j(folder, "convergence.png"), {est.fitness: est.logbook_},
-                                  ylabels={est.fitness: f"best fitness\n({est.criterion}, "
-                                                        f"log scale)"}),
+                                  ylabels={est.fitness: f"best {est.fitness} fitness\n" + (
+                                      f"MSE ({out} units², log)" if est.criterion == "mse"
+                                      else est.criterion.upper())}),
                  f"The best fitness of each generation of the search (lower is better): "
                  f"{words}. A flat tail means more generations would not have helped."))
     lines = [f"# mggp fit: {data_name}", ""]
