@@ -37,9 +37,9 @@ def add_signal_args(p, inputs: str = "u", output: str = "y"):
     """``--input NAME [NAME ...]`` and ``--output NAME``; ``inputs`` and
     ``output`` describe the defaults in the help."""
     p.add_argument("--input", nargs="+", metavar="NAME", default=None,
-                   help=f"input column name(s) of DATA.csv (default: {inputs})")
+                   help=f"input column name(s) in the CSV files (default: {inputs})")
     p.add_argument("--output", metavar="NAME", default=None,
-                   help=f"output column name of DATA.csv (default: {output})")
+                   help=f"output column name in the CSV files (default: {output})")
 
 
 def fmt(v: float) -> str:
