@@ -64,6 +64,15 @@ def _held_figure(path, cs, sims):
     return path
 
 
+def _overlap(sims, a, b) -> str:
+    """A caption sentence when two simulations lie within a line width."""
+    if a not in sims or b not in sims:
+        return ""
+    gap = float(np.max(np.abs(np.asarray(sims[a]) - np.asarray(sims[b]))))
+    return (f" {a} and {b} lie within {gap:.2g} µm of each other on this sine, so one "
+            f"curve hides the other.")
+
+
 def write_figures(folder, cs, rows, extras, peers):
     """Write the study's PNGs; returns ``(path, caption)`` pairs."""
     sims = {n: r["y_val"] for n in _ORDER if (r := _first(rows, n)) and _finite(r["y_val"])}
@@ -84,7 +93,8 @@ def write_figures(folder, cs, rows, extras, peers):
              "Free-run simulation on the validation sine (top) and the error ŷ − y in µm "
              "below; models whose errors differ by more than ten times are drawn in "
              "separate error panels, each scaled to its own largest error, so that errors "
-             "of a few tenths of a µm stay visible beside errors of tens of µm.")]
+             "of a few tenths of a µm stay visible beside errors of tens of µm."
+             + _overlap(sims, "MS-LS", "MS-CLS"))]
     held = {n: r["y_held"] for n in _ORDER
             if (r := _first(rows, n)) is not None and _finite(r["y_held"])}
     figs.append((_held_figure(j(folder, "held.png"), cs, held),
@@ -92,7 +102,7 @@ def write_figures(folder, cs, rows, extras, peers):
                  "while falling (shaded); the true actuator then holds its displacement. "
                  "The output (µm) and the errors ŷ − y (µm, one panel per error size) show "
                  "which models hold too: a model without a continuum of steady states "
-                 "drifts or oscillates in the shaded intervals."))
+                 "drifts (its error ramps) or oscillates in the shaded intervals."))
     lbs = extras.get("logbooks", {})
     if lbs:
         seed = sorted(lbs)[0]
@@ -149,9 +159,9 @@ def conclusion(summary, peers) -> str:
     if best["name"] != "PEM-LS" and pem is not None:
         ratio = pem["val_mape"] / best["val_mape"]
         out.append(f"Multiple-shooting (MS) fitness won: the {best['name']} model reproduces "
-                   f"the validation sine in free run with a MAPE of {_f(best['val_mape'])} %, "
+                   f"the validation sine in free run with a MAPE of {fmt(best['val_mape'])} %, "
                    f"{ratio:.0f} times lower than the one-step-ahead (PEM-LS) model's "
-                   f"{_f(pem['val_mape'])} %.")
+                   f"{fmt(pem['val_mape'])} %.")
     else:
         out.append(f"In this run the best model is {best['name']}, validation MAPE "
                    f"{_f(best['val_mape'])} %.")
@@ -162,7 +172,7 @@ def conclusion(summary, peers) -> str:
         if pem is not None:
             line += (f", against {_f(max(pem['drift_loading'], pem['drift_unloading']))} µm "
                      f"for PEM-LS")
-        out.append(line + f") at a validation MAPE of {_f(cls['val_mape'])} % "
+        out.append(line + f") at a validation MAPE of {fmt(cls['val_mape'])} % "
                           f"(published MS-CLS: {PUBLISHED['MS-CLS']['val']} %).")
     avail = [p for p in peers if p.get("available") and p.get("val_mape") is not None]
     if avail:
@@ -211,7 +221,10 @@ def peer_table(peers) -> list:
             lines.append(f"| {p['name']} | — | — | — | — | — | not run: {p.get('reason')} |")
             continue
         notes = []
-        if p.get("settings"):
+        finite = [q for q in p.get("grid") or [] if np.isfinite(q["val_mape"])]
+        if p.get("grid") and not finite:
+            notes.append("every setting of its grid diverged in free run")
+        elif p.get("settings"):
             st = p["settings"]
             notes.append(f"best of a grid: degree {st['degree']}, lags {st['ylag']}/"
                          f"{st['xlag']}" + (", inputs Δu and sign Δu" if st["phi"] else ""))

@@ -324,7 +324,7 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         Written after the initial population, then every
         ``checkpoint_every`` generations, and at the end; with
         ``checkpoint_every=None`` (default) whenever the writes so far leave
-        it within :data:`mggp.checkpoint.CHECKPOINT_SHARE` (10 %) of the
+        it within :data:`mggp.checkpoint.CHECKPOINT_SHARE` (5 %) of the
         wall time (:class:`mggp.checkpoint.CheckpointWriter`), which is every
         generation while a write is cheap beside a generation.
     resume : bool
