@@ -42,6 +42,7 @@ from narx.phi import default_registry
 from narx.terms import Term
 
 from .checkpoint import checkpoint_seed, data_digest
+from .choices import Choice, heldout_rmse, phi_choice
 from .evaluate import Evaluator
 from .evolve import evolve
 from .params import PARAMS, check_params, context_of, params_doc
@@ -129,10 +130,10 @@ class MGGPRegressor:
                  constraints=None, search_constraints=None, population=500,
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
-                 max_terms=15, max_height=5, use_phi=True, phi_names=None,
+                 max_terms=15, max_height=5, use_phi="auto", phi_names=None,
                  phi_outputs=False, constant=False, max_lag=None, max_degree=None,
-                 select="fitness", select_candidates=20,
-                 screen=None, screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
+                 select="auto", select_candidates=20,
+                 screen="freerun", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
@@ -248,24 +249,57 @@ class MGGPRegressor:
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
                                  registry=registry)
+        half = self.population // 2 if self.use_phi == "auto" else None
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
-                         screen=self._make_screen(data, start, registry))
-        ctx.seed, ctx.result = self._search(ctx)
+                         screen=self._make_screen(data, start, registry, half))
+        evaluations = self._searches(ctx)
         run_stages(ctx.shape(ctx.result.best.terms), data, ctx)
         res = ctx.result
+        self.choices_ = {name: c.to_dict() for name, c in ctx.choices.items()}
         self.logbook_ = res.logbook
         self.screen_rejected_ = None if ctx.screen is None else ctx.screen.rejected
         self.screen_rejected_hold_ = None if ctx.screen is None else ctx.screen.rejected_hold
-        self.n_evaluations_ = res.evaluations
+        self.n_evaluations_ = evaluations
         self.seed_ = ctx.seed
         self.result_ = res
         self.fit_time_ = time.perf_counter() - t0
         return self
 
-    def _search(self, ctx: FitContext):
-        """The evolution: ``(seed, EvolutionResult)``."""
-        data, screen, shape = ctx.data, ctx.screen, ctx.shape
-        pset = make_pset(data.signals, ctx.registry, use_phi=self.use_phi,
+    def _searches(self, ctx: FitContext) -> int:
+        """The search, or with ``use_phi='auto'`` (and no checkpoint) one
+        search with Φ and one without at half the population each, the one
+        kept whose best structure has the lower held-out free-run error
+        (:mod:`mggp.choices`). Sets ``ctx.seed``, ``ctx.result``,
+        ``ctx.screen`` and the choice; returns the structures evaluated."""
+        if self.use_phi != "auto":
+            ctx.seed, ctx.result = self._search(ctx, bool(self.use_phi), self.population,
+                                                ctx.screen)
+            return ctx.result.evaluations
+        if self.checkpoint is not None:
+            ctx.choices["use_phi"] = Choice(
+                "use_phi", True, "Φ: a checkpointed run is one search (with Φ), not "
+                "compared with one without", {})
+            ctx.seed, ctx.result = self._search(ctx, True, self.population, ctx.screen)
+            return ctx.result.evaluations
+        half = max(2, self.population // 2)
+        screens = (ctx.screen, self._make_screen(ctx.data, ctx.start, ctx.registry, half))
+        runs = []
+        seed = None
+        for use, scr in zip((True, False), screens):
+            seed, res = self._search(ctx, use, half, scr, seed)
+            err = heldout_rmse(ctx.shape(res.best.terms), ctx.data, ctx.registry)
+            runs.append((res, scr, err))
+        choice = phi_choice(runs[1][2], runs[0][2])
+        ctx.choices["use_phi"] = choice
+        ctx.seed = seed
+        ctx.result, ctx.screen, _ = runs[0] if choice.value else runs[1]
+        return sum(r.evaluations for r, _, _ in runs)
+
+    def _search(self, ctx: FitContext, use_phi: bool, population: int, screen,
+                seed: Optional[int] = None):
+        """One evolution: ``(seed, EvolutionResult)``."""
+        data, shape = ctx.data, ctx.shape
+        pset = make_pset(data.signals, ctx.registry, use_phi=use_phi,
                          phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
                               constraints=self.search_constraints, start=ctx.start,
@@ -282,12 +316,12 @@ class MGGPRegressor:
         def on_generation(state):
             for cb in callbacks:
                 cb(state)
-        seed = self._seed()
+        seed = self._seed() if seed is None else seed
         if self.resume and self.checkpoint is not None and self.random_state is None:
             seed = checkpoint_seed(self.checkpoint) or seed   # continue its run
         context = {"data": data_digest(data), **context_of(self)}
         try:
-            res = evolve(pset, evaluate_batch, seed=seed, population_size=self.population,
+            res = evolve(pset, evaluate_batch, seed=seed, population_size=population,
                          generations=self.generations, cxpb=self.cxpb, mutpb=self.mutpb,
                          high_level_cx_rate=self.high_level_cx_rate,
                          high_level_mut_rate=self.high_level_mut_rate,
@@ -303,12 +337,12 @@ class MGGPRegressor:
                              "candidate diverged; try fitness='pem' or a shorter window")
         return seed, res
 
-    def _make_screen(self, data, start, registry):
-        if self.screen is None:
+    def _make_screen(self, data, start, registry, population=None):
+        if self.screen in (None, "none"):
             return None
         top = self.screen_top
         if top is None:
-            top = max(1, int(round(self.elite_fraction * self.population)))
+            top = max(1, int(round(self.elite_fraction * (population or self.population))))
         return StabilityScreen(data, start, top, band=self.screen_band,
                                constraints=self.search_constraints, registry=registry,
                                hold=self.screen == "hold")
