@@ -249,7 +249,8 @@ class MGGPRegressor:
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
                                  registry=registry)
-        half = self.population // 2 if self.use_phi == "auto" else None
+        half = self.population // 2 if (self.use_phi == "auto"
+                                        and not self.phi_outputs) else None
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
                          screen=self._make_screen(data, start, registry, half))
         evaluations = self._searches(ctx)
@@ -271,8 +272,9 @@ class MGGPRegressor:
         kept whose best structure has the lower held-out free-run error
         (:mod:`mggp.choices`). Sets ``ctx.seed``, ``ctx.result``,
         ``ctx.screen`` and the choice; returns the structures evaluated."""
-        if self.use_phi != "auto":
-            ctx.seed, ctx.result = self._search(ctx, bool(self.use_phi), self.population,
+        if self.use_phi != "auto" or self.phi_outputs:      # Φ of outputs: Φ asked for
+            ctx.seed, ctx.result = self._search(ctx, self.use_phi is not False,
+                                                self.population,
                                                 ctx.screen)
             return ctx.result.evaluations
         if self.checkpoint is not None:
