@@ -28,7 +28,7 @@ Held-out free-run error
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
 
@@ -88,14 +88,27 @@ def resolve_select(est) -> Choice:
     return Choice("select", "fitness", "select fitness: no constraints to hold", {})
 
 
-def phi_choice(err_plain: float, err_phi: float) -> Choice:
+def phi_choice(err_plain: float, err_phi: float, holds_plain: Optional[bool] = None,
+               holds_phi: Optional[bool] = None) -> Choice:
     """``use_phi='auto'``: Φ-terms only when the Φ search's structure has
     a held-out free-run error more than :data:`PHI_GAIN` below the plain
-    one's (else no Φ, the simpler class)."""
-    use = bool(err_phi < (1.0 - PHI_GAIN) * err_plain) or (
-        np.isinf(err_plain) and np.isfinite(err_phi))
+    one's (else no Φ, the simpler class). ``holds_*`` (with the hold
+    selection): whether the search has a structure whose CLS refit holds;
+    a search that has one wins over one that has none, whatever the error."""
+    if holds_phi is not None and holds_phi != holds_plain:
+        use = bool(holds_phi)
+    else:
+        use = bool(err_phi < (1.0 - PHI_GAIN) * err_plain) or (
+            np.isinf(err_plain) and np.isfinite(err_phi))
     figs = {"heldout_rmse_phi": err_phi, "heldout_rmse_no_phi": err_plain,
             "holdout": HOLDOUT}
+    if holds_phi is not None:
+        figs.update(holds_phi=holds_phi, holds_no_phi=holds_plain)
+        if holds_phi != holds_plain:
+            return Choice("use_phi", use, ("Φ" if use else "no Φ") + ": only the search "
+                          + ("with" if use else "without") + " Φ has a structure whose CLS "
+                          f"refit holds its output (held-out free-run RMSE {err_phi:.4g} "
+                          f"with Φ, {err_plain:.4g} without)", figs)
     if use:
         why = (f"Φ: held-out free-run RMSE {err_phi:.4g} against {err_plain:.4g} "
                f"without Φ")

@@ -42,7 +42,8 @@ from narx.phi import default_registry
 from narx.terms import Term
 
 from .checkpoint import checkpoint_seed, data_digest
-from .choices import Choice, heldout_rmse, phi_choice
+from .choices import Choice, heldout_rmse, phi_choice, resolve_select
+from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import evolve
 from .params import PARAMS, check_params, context_of, params_doc
@@ -132,7 +133,7 @@ class MGGPRegressor:
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi="auto", phi_names=None,
                  phi_outputs=False, constant=False, max_lag=None, max_degree=None,
-                 select="auto", select_candidates=20,
+                 select="auto", select_candidates=50,
                  screen="freerun", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
@@ -287,15 +288,29 @@ class MGGPRegressor:
         screens = (ctx.screen, self._make_screen(ctx.data, ctx.start, ctx.registry, half))
         runs = []
         seed = None
+        holding = []
         for use, scr in zip((True, False), screens):
             seed, res = self._search(ctx, use, half, scr, seed)
-            err = heldout_rmse(ctx.shape(res.best.terms), ctx.data, ctx.registry)
-            runs.append((res, scr, err))
-        choice = phi_choice(runs[1][2], runs[0][2])
+            terms, holds = self._held_candidate(ctx, res)
+            holding.append(holds)
+            runs.append((res, scr, heldout_rmse(terms, ctx.data, ctx.registry)))
+        choice = phi_choice(runs[1][2], runs[0][2], holding[1], holding[0])
         ctx.choices["use_phi"] = choice
         ctx.seed = seed
         ctx.result, ctx.screen, _ = runs[0] if choice.value else runs[1]
         return sum(r.evaluations for r, _, _ in runs)
+
+    def _held_candidate(self, ctx: FitContext, res):
+        """The structure of ``res`` the hold selection would take (when
+        ``select`` is or resolves to 'hold') and whether its CLS refit
+        holds (None: no hold selection); else the best-fitness one."""
+        best = ctx.shape(res.best.terms)
+        if self.select not in ("hold", "auto") or (
+                self.select == "auto" and resolve_select(self).value != "hold"):
+            return best, None
+        cands = run_candidates(res, ctx.data.signals, ctx.shape, self.select_candidates)
+        chosen, _ = select_hold(cands, ctx.data, ctx.start, ctx.registry, self.screen_band)
+        return (chosen or best), chosen is not None
 
     def _search(self, ctx: FitContext, use_phi: bool, population: int, screen,
                 seed: Optional[int] = None):

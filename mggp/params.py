@@ -304,7 +304,7 @@ _ROWS = (
           "constrained refit holds its output on a held input; auto: hold with "
           "--constraints steady-state, else fitness", "selection", "--select",
           meta=True),
-    Param("select_candidates", 20, Int(1), "structures compared by --select freerun and "
+    Param("select_candidates", 50, Int(1), "structures compared by --select freerun and "
           "hold", "selection"),
     Param("screen", "freerun", OneOf(("freerun", "hold", "none", None)),
           "stability screen in every generation: the leaders whose free run over the "

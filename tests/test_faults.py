@@ -123,7 +123,7 @@ def test_dask_worker_loss_is_retried(piezo, monkeypatch):
     assert distributed
 
 
-FIT = dict(fitness="ms", window=50, population=24, generations=4, max_terms=6,
+FIT = dict(use_phi=True, fitness="ms", window=50, population=24, generations=4, max_terms=6,
            max_height=3, random_state=2)
 
 
