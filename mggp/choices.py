@@ -36,7 +36,7 @@ from narx import Model
 from narx.data import Data
 from narx.model import ignore_rank_warnings
 
-__all__ = ["Choice", "HOLDOUT", "PHI_GAIN", "heldout_rmse", "resolve_select", "phi_choice"]
+__all__ = ["Choice", "HOLDOUT", "PHI_GAIN", "heldout_rmse", "resolve_screen", "resolve_select", "phi_choice"]
 
 #: share of the record (its tail) on which the held-out free-run error is measured
 HOLDOUT = 0.3
@@ -78,6 +78,18 @@ def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT) -> 
     return float(np.sqrt(np.mean(err ** 2)))
 
 
+def resolve_screen(est) -> Choice:
+    """``screen='auto'``: 'hold' when the model is refitted under the
+    steady-state constraints (leaders whose CLS refit does not hold are
+    screened out in every generation), else 'freerun' (leaders whose free
+    run leaves the output band are)."""
+    if est.constraints == "steady-state":
+        return Choice("screen", "hold", "screen hold: constraints='steady-state': leaders "
+                      "whose CLS refit does not hold are screened out", {})
+    return Choice("screen", "freerun", "screen freerun: leaders whose free run leaves the "
+                  "output band are screened out", {})
+
+
 def resolve_select(est) -> Choice:
     """``select='auto'``: 'hold' when the model is refitted under the
     steady-state constraints (the structure whose CLS refit holds its
@@ -98,8 +110,8 @@ def phi_choice(err_plain: float, err_phi: float, holds_plain: Optional[bool] = N
     if holds_phi is not None and holds_phi != holds_plain:
         use = bool(holds_phi)
     else:
-        use = bool(err_phi < (1.0 - PHI_GAIN) * err_plain) or (
-            np.isinf(err_plain) and np.isfinite(err_phi))
+        use = bool(err_phi < (1.0 - PHI_GAIN) * err_plain
+                   or (np.isinf(err_plain) and np.isfinite(err_phi)))
     figs = {"heldout_rmse_phi": err_phi, "heldout_rmse_no_phi": err_plain,
             "holdout": HOLDOUT}
     if holds_phi is not None:

@@ -42,7 +42,7 @@ from narx.phi import default_registry
 from narx.terms import Term
 
 from .checkpoint import checkpoint_seed, data_digest
-from .choices import Choice, heldout_rmse, phi_choice, resolve_select
+from .choices import Choice, heldout_rmse, phi_choice, resolve_screen, resolve_select
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import evolve
@@ -51,7 +51,7 @@ from .pareto import ParetoFront
 from .precision import data_warnings
 from .primitives import identically_zero, make_pset, max_lag_for_height
 from .screen import StabilityScreen
-from .stages import FitContext, run_stages
+from .stages import FitContext, run_stages, screened
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
 
@@ -134,7 +134,7 @@ class MGGPRegressor:
                  max_terms=15, max_height=5, use_phi="auto", phi_names=None,
                  phi_outputs=False, constant=False, max_lag=None, max_degree=None,
                  select="auto", select_candidates=50,
-                 screen="freerun", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
+                 screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
@@ -252,8 +252,10 @@ class MGGPRegressor:
                                  registry=registry)
         half = self.population // 2 if (self.use_phi == "auto"
                                         and not self.phi_outputs) else None
-        ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
-                         screen=self._make_screen(data, start, registry, half))
+        ctx = FitContext(self, data, registry, start, scorer, shape=self._structure)
+        if self.screen == "auto":
+            ctx.choices["screen"] = resolve_screen(self)
+        ctx.screen = self._make_screen(data, start, registry, half, ctx)
         evaluations = self._searches(ctx)
         run_stages(ctx.shape(ctx.result.best.terms), data, ctx)
         res = ctx.result
@@ -285,7 +287,8 @@ class MGGPRegressor:
             ctx.seed, ctx.result = self._search(ctx, True, self.population, ctx.screen)
             return ctx.result.evaluations
         half = max(2, self.population // 2)
-        screens = (ctx.screen, self._make_screen(ctx.data, ctx.start, ctx.registry, half))
+        screens = (ctx.screen, self._make_screen(ctx.data, ctx.start, ctx.registry, half,
+                                                 ctx))
         runs = []
         seed = None
         holding = []
@@ -354,15 +357,16 @@ class MGGPRegressor:
                              "candidate diverged; try fitness='pem' or a shorter window")
         return seed, res
 
-    def _make_screen(self, data, start, registry, population=None):
-        if self.screen in (None, "none"):
+    def _make_screen(self, data, start, registry, population=None, ctx=None):
+        how = self.screen if ctx is None else screened(ctx)
+        if how in (None, "none"):
             return None
         top = self.screen_top
         if top is None:
             top = max(1, int(round(self.elite_fraction * (population or self.population))))
         return StabilityScreen(data, start, top, band=self.screen_band,
                                constraints=self.search_constraints, registry=registry,
-                               hold=self.screen == "hold")
+                               hold=how == "hold")
 
     def _structure(self, terms) -> tuple:
         """The scored structure of decoded terms: the allowed ones, after

@@ -252,7 +252,8 @@ _ROWS = (
     Param("constraints", None, OneOf((None, "steady-state")),
           "also refit the chosen structure by constrained least squares so that every "
           "constant output is an equilibrium when the input is held (continuum of steady "
-          "states)", "model class", "--constraints", default_text="least squares only"),
+          "states)", "model class", "--constraints", context="if set",
+          default_text="least squares only"),
     Param("search_constraints", None, OneOf((None, "steady-state")),
           "score every structure of the search by its constrained fit (continuum of "
           "steady states) instead of least squares", "selection", "--search-constraints",
@@ -306,11 +307,12 @@ _ROWS = (
           meta=True),
     Param("select_candidates", 50, Int(1), "structures compared by --select freerun and "
           "hold", "selection"),
-    Param("screen", "freerun", OneOf(("freerun", "hold", "none", None)),
+    Param("screen", "auto", OneOf(("auto", "freerun", "hold", "none", None)),
           "stability screen in every generation: the leaders whose free run over the "
           "training record leaves the output band get no fitness (hold: also those whose "
-          "constrained refit does not hold its output on a held input; none or None: no "
-          "screen)", "selection", "--screen", context=True, meta=True),
+          "constrained refit does not hold its output on a held input; none: no screen; "
+          "auto: hold with --constraints steady-state, else freerun)",
+          "selection", "--screen", context=True, meta=True),
     Param("screen_top", None, Int(1, none=True), "leaders screened per generation "
           "(default: the elite size)", "selection", context=True),
     Param("screen_band", 1.0, Real(0), "widening of the screen's band beyond [min y, max "
@@ -343,7 +345,8 @@ _ROWS = (
           metavar="NAME", default_text="u"),
     Param("output", "y", Kind("a name", lambda v: isinstance(v, str)), "output column "
           "name", "data", "--output", metavar="NAME"),
-    Param("checkpoint", None, PATH, "save the search state to this file every generation",
+    Param("checkpoint", None, PATH, "save the search state to this file every generation "
+          "(one search: with Φ unless --no-phi, no automatic Φ choice)",
           "output", "--checkpoint", metavar="FILE", default_text="none"),
     Param("resume", False, Bool(), "continue the run saved in --checkpoint", "output",
           "--resume", const=True, default_text="start anew"),

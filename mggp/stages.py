@@ -135,6 +135,12 @@ class FitContext:
 
 
 # ---------------------------------------------------------------- stages
+def screened(ctx) -> str:
+    """The stability screen of the search: ``screen``, or what 'auto' chose."""
+    c = ctx.choices.get("screen")
+    return ctx.est.screen if c is None else c.value
+
+
 def selected(ctx) -> str:
     """How the structure is chosen: ``select``, or what 'auto' chose."""
     c = ctx.choices.get("select")
@@ -308,7 +314,7 @@ def cls_verdict(terms, data, ctx):
     (``screen='hold'``, or ``select='hold'`` with a candidate that holds)
     is not rejected for its error alone."""
     est = ctx.est
-    held = est.screen == "hold" or (selected(ctx) == "hold" and any(
+    held = screened(ctx) == "hold" or (selected(ctx) == "hold" and any(
         ok for ok, _ in getattr(est, "selection_", ())))
     est.cls_rejected_ = None if est.model_cls_ is None else cls_rejection(
         est.model_, est.model_cls_, data, held)

@@ -26,7 +26,7 @@ def record():
     ("search_constraints", "foo", "search_constraints must be one of None, 'steady-state'"),
     ("generations", -1, "generations must be an integer >= 0, got -1"),
     ("population", 1, "population must be an integer >= 2, got 1"),
-    ("screen", "fast", "screen must be one of 'freerun', 'hold', 'none', None, got 'fast'"),
+    ("screen", "fast", "screen must be one of 'auto', 'freerun', 'hold', 'none', None, got 'fast'"),
     ("phi_outputs", "yes", "phi_outputs must be one of False, True, got 'yes'"),
     ("phi_outputs", True, "phi_outputs=True needs Φ-functions in the search, got use_phi=False"),
 ])

@@ -75,7 +75,7 @@ def test_screen_bad_parameters(kw, text):
 
 def test_estimator_rejects_unknown_screen():
     u, y = _piezo()
-    with pytest.raises(ValueError, match="screen must be one of 'freerun', 'hold', 'none', None, got 'x'"):
+    with pytest.raises(ValueError, match="screen must be one of 'auto', 'freerun', 'hold', 'none', None, got 'x'"):
         MGGPRegressor(screen="x", population=4, generations=0).fit(u, y)
 
 
@@ -180,7 +180,8 @@ def test_select_hold_warns_when_no_candidate_holds():
     u = training_input(20000)
     y = piezo_bouc_wen(u)
     kw = dict(fitness="ms", window=500, population=60, generations=10,
-              constraints="steady-state", select="hold", screen=None, use_phi=True)
+              constraints="steady-state", select="hold", screen=None, use_phi=True,
+              select_candidates=20)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         est = MGGPRegressor(random_state=1, **kw).fit(u, y)
