@@ -36,7 +36,7 @@ from narx import Model
 from narx.data import Data
 from narx.model import ignore_rank_warnings
 
-__all__ = ["Choice", "HOLDOUT", "PHI_GAIN", "heldout_rmse", "resolve_screen", "resolve_select", "phi_choice"]
+__all__ = ["Choice", "HOLDOUT", "PHI_GAIN", "SIZE_TOLERANCE", "size_choice", "heldout_rmse", "resolve_screen", "resolve_select", "phi_choice"]
 
 #: share of the record (its tail) on which the held-out free-run error is measured
 HOLDOUT = 0.3
@@ -76,6 +76,33 @@ def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT) -> 
     if sim.diverged or not np.all(np.isfinite(err)):
         return float("inf")
     return float(np.sqrt(np.mean(err ** 2)))
+
+
+#: the smallest structure whose held-out error is within this share of the least is taken
+SIZE_TOLERANCE = 0.05
+
+
+def size_choice(rows) -> Choice:
+    """``size='auto'``: among ``rows`` ``(n_terms, held-out RMSE, terms)``
+    (the chosen structure first, then the run's Pareto front), the fewest
+    terms whose error is within :data:`SIZE_TOLERANCE` of the least
+    (ties: the chosen structure, then lower error)."""
+    best = min(r[1] for r in rows)
+    ok = [(r[0], i > 0, r[1], i) for i, r in enumerate(rows)
+          if np.isfinite(r[1]) and r[1] <= (1.0 + SIZE_TOLERANCE) * best]
+    if not ok:
+        return Choice("size", rows[0][2], "size: the chosen structure (every held-out free "
+                      "run diverges)", {"candidates": len(rows)})
+    n, _, err, i = min(ok)
+    figs = {"terms": n, "heldout_rmse": err, "searched_terms": rows[0][0],
+            "searched_heldout_rmse": rows[0][1], "candidates": len(rows)}
+    if i == 0:
+        why = (f"size {n} terms: the chosen structure (held-out free-run RMSE {err:.4g}; "
+               f"no smaller one of the Pareto front within {SIZE_TOLERANCE:.0%})")
+    else:
+        why = (f"size {n} terms: Pareto-front structure with held-out free-run RMSE "
+               f"{err:.4g} against {rows[0][1]:.4g} for the {rows[0][0]}-term chosen one")
+    return Choice("size", rows[i][2], why, figs)
 
 
 def resolve_screen(est) -> Choice:

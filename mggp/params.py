@@ -305,6 +305,12 @@ _ROWS = (
           "constrained refit holds its output on a held input; auto: hold with "
           "--constraints steady-state, else fitness", "selection", "--select",
           meta=True),
+    Param("size", "auto", OneOf(("auto", "search")),
+          "number of terms: search (the chosen structure as it is), or auto: the "
+          "smallest structure of the run's Pareto front (complexity against fitness) whose "
+          "held-out free-run error (θ on the first 70 % of the record, error on the last "
+          "30 %) is within 5 % of the least; the hold selection keeps its structure",
+          "selection", "--size", meta=True),
     Param("select_candidates", 50, Int(1), "structures compared by --select freerun and "
           "hold", "selection"),
     Param("screen", "auto", OneOf(("auto", "freerun", "hold", "none", None)),

@@ -16,6 +16,9 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
     The structure among the best of the run (``select``; 'auto': the one
     whose CLS refit holds with ``constraints``, else the best fitness);
     sets ``selection_`` and ``search_terms_``.
+``size``
+    'auto': the smallest structure of the run's Pareto front whose
+    held-out free-run error is within 5 % of the least (``size``).
 ``prune``
     Backward elimination by BIC of the fitness or by t-statistics
     (``prune``; :mod:`mggp.pruning`).
@@ -57,7 +60,7 @@ from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
 
-from .choices import resolve_select
+from .choices import Choice, heldout_rmse, resolve_select, size_choice
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -178,6 +181,26 @@ def select(terms, data, ctx):
         terms = chosen or terms
     est.search_terms_ = terms
     return terms
+
+
+def size(terms, data, ctx):
+    """``size='auto'``: the smallest structure of the run's Pareto front
+    whose held-out free-run error is within 5 % of the least, the chosen
+    structure included (:func:`mggp.choices.size_choice`). A structure
+    chosen for its holding (``select`` 'hold') is kept."""
+    est = ctx.est
+    if est.size != "auto" or selected(ctx) == "hold":
+        return terms
+    rows = [(len(terms), heldout_rmse(terms, data, ctx.registry), terms)]
+    seen = {frozenset(terms)}
+    for r in ctx.result.pareto:
+        ts = ctx.shape(r.terms)
+        if ts and len(ts) < len(terms) and frozenset(ts) not in seen:
+            seen.add(frozenset(ts))
+            rows.append((len(ts), heldout_rmse(ts, data, ctx.registry), ts))
+    c = size_choice(rows)
+    ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
+    return c.value
 
 
 def prune(terms, data, ctx):
@@ -335,7 +358,7 @@ def pareto(terms, data, ctx):
 
 
 #: the stages of ``fit`` after the search, in order
-STAGES = (("select", select), ("prune", prune), ("noise", noise), ("record", record),
+STAGES = (("select", select), ("size", size), ("prune", prune), ("noise", noise), ("record", record),
           ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
           ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))
 

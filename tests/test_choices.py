@@ -51,7 +51,8 @@ def test_defaults_choose_and_record_with_figures():
 
 def test_explicit_values_disable_the_choices():
     d = system_by_name("S1", n=500, seed=0)
-    est = MGGPRegressor(use_phi=False, select="fitness", screen="freerun", **_KW).fit(d.u, d.y)
+    est = MGGPRegressor(use_phi=False, select="fitness", screen="freerun", size="search",
+                        **_KW).fit(d.u, d.y)
     assert est.choices_ == {} and "choices" not in est.model_.meta
 
 
@@ -89,3 +90,13 @@ def test_screen_follows_the_constraints():
     held = MGGPRegressor(use_phi=False, constraints="steady-state", **_KW).fit(d.u, d.y)
     assert plain.choices_["screen"]["value"] == "freerun"
     assert held.choices_["screen"]["value"] == "hold" and held.model_.meta["screen"] == "hold"
+
+
+def test_size_takes_the_fewest_terms_within_the_tolerance():
+    from mggp.choices import SIZE_TOLERANCE, size_choice
+    big, small, tiny = ("a", "b", "c"), ("a", "b"), ("a",)
+    within = 1.0 * (1 + SIZE_TOLERANCE / 2)
+    c = size_choice([(3, 1.0, big), (2, within, small), (1, 2.0, tiny)])
+    assert c.value == small and c.figures["terms"] == 2
+    # control: the smaller one is clearly worse, the chosen structure stays
+    assert size_choice([(3, 1.0, big), (2, 1.5, small)]).value == big
