@@ -64,7 +64,7 @@ def register(sub):
 
 def _cmd_compensate(args) -> int:
     from narx import load_model
-    from narx.compensate import NonMinimumPhaseWarning, RootCompensator
+    from narx.compensate import NonMinimumPhaseWarning, RootCompensator, operator_refusal
     from narx.csvdata import read_columns
     from narx.atomic import atomic_writer
     from .compensate import INVERSE_KIND, InverseCompensator
@@ -90,6 +90,8 @@ def _cmd_compensate(args) -> int:
         args.y_past = float(r[0])
     info = model.meta.get("compensator")
     inverse = isinstance(info, dict) and info.get("kind") == INVERSE_KIND
+    if not inverse and operator_refusal(model):
+        raise CLIError(f"{args.model}: {operator_refusal(model)}")
     if args.u_past is None:
         args.u_past = _rest_input(model, args.y_past, inverse)
     if inverse:

@@ -49,7 +49,7 @@ from .evolve import evolve
 from .params import PARAMS, check_params, context_of, params_doc
 from .pareto import ParetoFront
 from .precision import data_warnings
-from .primitives import identically_zero, make_pset, max_lag_for_height
+from .primitives import identically_zero, make_pset, max_lag_for_height, search_operators
 from .screen import StabilityScreen
 from .stages import FitContext, run_stages, screened
 
@@ -132,8 +132,8 @@ class MGGPRegressor:
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi="auto", phi_names=None,
-                 phi_outputs=False, constant=False, max_lag=None, max_degree=None,
-                 select="auto", size="auto", select_candidates=50,
+                 phi_outputs=False, operators=None, constant=False, max_lag=None,
+                 max_degree=None, select="auto", size="auto", select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
@@ -158,6 +158,7 @@ class MGGPRegressor:
         self.use_phi = use_phi
         self.phi_names = phi_names
         self.phi_outputs = phi_outputs
+        self.operators = operators
         self.constant = constant
         self.max_lag = max_lag
         self.max_degree = max_degree
@@ -321,7 +322,8 @@ class MGGPRegressor:
         """One evolution: ``(seed, EvolutionResult)``."""
         data, shape = ctx.data, ctx.shape
         pset = make_pset(data.signals, ctx.registry, use_phi=use_phi,
-                         phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs))
+                         phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs),
+                         operators=search_operators(self.operators, data.U))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
                               constraints=self.search_constraints, start=ctx.start,
                               criterion=self.criterion, n_jobs=self.n_jobs,

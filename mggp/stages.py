@@ -233,8 +233,9 @@ def noise(terms, data, ctx):
 
 def record(terms, data, ctx):
     """``terms_``, ``fitness_`` and the meta of the fit's models."""
-    from . import versions
+    from .version import versions
     from .params import meta_of
+    from .primitives import operator_names
     est = ctx.est
     est.terms_ = terms
     est.fitness_ = ctx.result.best.fitness if terms == est.search_terms_ else \
@@ -246,6 +247,8 @@ def record(terms, data, ctx):
                     search_fitness_value=est.fitness_, versions=versions())
     if ctx.choices:
         ctx.meta["choices"] = {name: c.to_dict() for name, c in ctx.choices.items()}
+    if est.operators:
+        ctx.meta["operators"] = list(operator_names(est.operators))
     return terms
 
 
