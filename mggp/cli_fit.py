@@ -121,6 +121,7 @@ def _cmd_fit(args) -> int:
     try:
         with warnings.catch_warnings():       # said below, for the model written
             warnings.simplefilter("ignore", CLSRejectedWarning)
+            warnings.filterwarnings("ignore", "select='hold': none of")   # a note below
             est.fit(data)
     except DataError as exc:                  # e.g. too few samples for the lags
         raise CLIError(f"{args.data}: {exc}") from None
