@@ -37,9 +37,10 @@ __all__ = ["GRID", "RECORDS", "bouc_wen_oscillator", "run", "markdown"]
 
 #: label (the flags of ``mggp fit``) -> MGGPRegressor keywords
 GRID = {
-    "--phi --screen none --select fitness": dict(use_phi=True, screen=None, select="fitness"),
-    "--no-phi --screen none --select fitness": dict(use_phi=False, screen=None,
-                                                    select="fitness"),
+    "--phi --screen none --select fitness --size search": dict(
+        use_phi=True, screen=None, select="fitness", size="search"),
+    "--no-phi --screen none --select fitness --size search": dict(
+        use_phi=False, screen=None, select="fitness", size="search"),
     "--phi --select freerun": dict(use_phi=True, select="freerun"),
     "--no-phi --select freerun": dict(use_phi=False, select="freerun"),
     "--no-phi --constant": dict(use_phi=False, constant=True),
