@@ -62,12 +62,24 @@ CONSTANT = Term(())
 class MGGPRegressor:
     """Multi-gene GP structure search for polynomial NARX models.
 
-    Every parameter is keyword-only; the defaults are the published setup.
-    The list below (*Parameters*) is generated from
+    Every parameter is keyword-only; the defaults are the published setup
+    except where they are 'auto', which the fit chooses for itself
+    (:mod:`mggp.choices`). The list below (*Parameters*) is generated from
     :data:`mggp.params.PARAMS`, which also holds each rule.
 
     Notes
     -----
+    Automatic choices (``choices_``, and ``meta['choices']`` of every model,
+    each with the figures it was taken on): ``screen`` and ``select`` are
+    'hold' with ``constraints='steady-state'``, else 'freerun' and
+    'fitness'; ``use_phi`` runs a search with Φ and one without at half the
+    population each and keeps Φ when its structure's held-out free-run RMSE
+    (θ by LS on the first 70 % of the record, error on the last 30 %) is
+    over 5 % lower — or, with the hold selection, when only the Φ search has
+    a structure that holds; ``size`` takes the fewest terms of the run's
+    Pareto front within 5 % of the least held-out free-run RMSE. An
+    explicit value of a parameter disables its choice.
+
     ``select``: ``'freerun'`` takes, among the ``select_candidates`` best
     distinct structures of the run (archive and final population), the one
     with the lowest free-run MSE over the whole training record — multiple
