@@ -364,7 +364,8 @@ class MGGPRegressor:
                          elite_fraction=self.elite_fraction, max_terms=self.max_terms,
                          max_height=self.max_height, on_generation=on_generation,
                          checkpoint=self.checkpoint, resume=self.resume,
-                         context=json.loads(json.dumps(context, default=str)))
+                         context=json.loads(json.dumps(context, default=str)),
+                         structure=shape)
         finally:
             evaluator.close()
         if res.best is None or not np.isfinite(res.best.fitness):
