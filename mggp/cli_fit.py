@@ -7,7 +7,8 @@ Typical use::
         --out model.json --report report/ --checkpoint run.ckpt
 
 A progress line shows the generation and the best fitness; ``--checkpoint``
-writes the state atomically every generation and ``--resume`` continues
+writes the state atomically after a generation, as often as keeps the writes
+within about 5 % of the run's time, and ``--resume`` continues
 from it (the result equals an uninterrupted run with the same seed).
 """
 from __future__ import annotations
@@ -99,7 +100,7 @@ def _cmd_fit(args) -> int:
         raise CLIError("--resume needs --checkpoint FILE")
     if args.resume and not os.path.exists(args.checkpoint):
         print(f"note: no checkpoint at {args.checkpoint} yet: a new run starts (it is "
-              f"written there every generation)", file=sys.stderr)
+              f"written there as the search goes)", file=sys.stderr)
     if est.backend == "dask" and not args.scheduler:
         raise CLIError("--backend dask needs --scheduler ADDRESS")
     if args.scheduler and est.backend != "dask":

@@ -366,7 +366,8 @@ _ROWS = (
           metavar="NAME", default_text="u"),
     Param("output", "y", Kind("a name", lambda v: isinstance(v, str)), "output column "
           "name", "data", "--output", metavar="NAME"),
-    Param("checkpoint", None, PATH, "save the search state to this file every generation "
+    Param("checkpoint", None, PATH, "save the search state to this file after a generation, as often as "
+          "keeps the writes within about 5 % of the run's time "
           "(one search: with Φ unless --no-phi, no automatic Φ choice)",
           "output", "--checkpoint", metavar="FILE", default_text="none"),
     Param("resume", False, Bool(), "continue the run saved in --checkpoint", "output",
