@@ -200,14 +200,20 @@ def input_lag_type(name: str) -> type:
     -------
     type
     """
-    t = _INPUT_LAG_TYPES.get(name)
+    return _per_input_type(_INPUT_LAG_TYPES, _TYPE_PREFIX, name,
+                           f"GP type of one lag of input {name!r}.")
+
+
+def _per_input_type(cache: Dict[str, type], prefix: str, name: str, doc: str) -> type:
+    """The subclass ``<prefix><name>`` of :class:`InputLag`, made once per
+    process and kept in ``cache``."""
+    t = cache.get(name)
     if t is None:
         if not name.isidentifier():
             raise ValueError(f"input name must be an identifier, got {name!r}")
-        t = type(_TYPE_PREFIX + name, (InputLag,),
-                 {"__module__": __name__, "input": name,
-                  "__doc__": f"GP type of one lag of input {name!r}."})
-        _INPUT_LAG_TYPES[name] = t
+        t = type(prefix + name, (InputLag,),
+                 {"__module__": __name__, "input": name, "__doc__": doc})
+        cache[name] = t
     return t
 
 
@@ -234,15 +240,8 @@ def operator_arg_type(name: str) -> type:
     -------
     type
     """
-    t = _OPERATOR_ARG_TYPES.get(name)
-    if t is None:
-        if not name.isidentifier():
-            raise ValueError(f"input name must be an identifier, got {name!r}")
-        t = type(_OP_PREFIX + name, (InputLag,),
-                 {"__module__": __name__, "input": name,
-                  "__doc__": f"GP type of the operator argument {name}[k-1]."})
-        _OPERATOR_ARG_TYPES[name] = t
-    return t
+    return _per_input_type(_OPERATOR_ARG_TYPES, _OP_PREFIX, name,
+                           f"GP type of the operator argument {name}[k-1].")
 
 
 def __getattr__(attr):
@@ -467,8 +466,12 @@ def tree_from_tokens(tokens: Sequence[str], pset, type_=None) -> gp.PrimitiveTre
         cands = idx.get((t, tok))
         if cands is None:
             if tok in known:
-                hint = "" if getattr(t, "input", None) is None else \
-                    " (a Φ-function's arguments are lags of one input)"
+                if t.__name__.startswith(_OP_PREFIX):
+                    hint = " (a memory operator's argument is the input at k-1)"
+                elif getattr(t, "input", None) is not None:
+                    hint = " (a Φ-function's arguments are lags of one input)"
+                else:
+                    hint = ""
                 raise ValueError(f"{tok!r} at position {pos} is not allowed where "
                                  f"{t.__name__} is expected{hint}")
             raise ValueError(f"unknown primitive or terminal {tok!r}")
