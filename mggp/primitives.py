@@ -47,9 +47,9 @@ DEAP selects candidates by type; the types are:
     ``mggp estimate``) may still use a Φ-call mixing inputs.
 
 Memory operators (``operators``, see :mod:`narx.memory`) are primitives
-``(OperatorArg_u) -> Expr`` (:func:`operator_arg_type`) whose argument is
-the terminal ``u[k-1]`` alone: ``Play@0.2(u[k-1])`` decodes to
-``Play(u[k-1],0.2)``, and only a back-shift of the whole monomial delays
+``(OperatorArg_<input>) -> Expr`` (:func:`operator_arg_type`, one type
+per input) whose argument is the terminal ``u[k-1]`` alone:
+``Play@0.2(u[k-1])`` decodes to ``Play(u[k-1],0.2)``, and only a back-shift of the whole monomial delays
 it (``q1(Play@0.2(u[k-1]))`` is ``Play(u[k-2],0.2)``). Lagged copies of
 one operator column differ by one step of a slowly varying signal; as
 separate regressors their differences act as rate features of large,
