@@ -49,13 +49,14 @@ DEAP selects candidates by type; the types are:
 Memory operators (``operators``, see :mod:`narx.memory`) are primitives
 ``(OperatorArg_<input>) -> Expr`` (:func:`operator_arg_type`, one type
 per input) whose argument is the terminal ``u[k-1]`` alone:
-``Play@0.2(u[k-1])`` decodes to ``Play(u[k-1],0.2)``, and only a back-shift of the whole monomial delays
-it (``q1(Play@0.2(u[k-1]))`` is ``Play(u[k-2],0.2)``). Lagged copies of
-one operator column differ by one step of a slowly varying signal; as
-separate regressors their differences act as rate features of large,
-cancelling coefficients, which the training record does not pin down
-(the free run then spikes where the input stops). One column per
-operator and parameter, delayed as a whole, avoids offering them. The
+``Play@0.2(u[k-1])`` decodes to ``Play(u[k-1],0.2)``, and only a
+back-shift of the whole monomial delays it (``q1(Play@0.2(u[k-1]))`` is
+``Play(u[k-2],0.2)``). Lagged copies of one operator column differ by
+one step of a slowly varying signal; as separate regressors their
+differences act as rate features of large, cancelling coefficients,
+which the training record does not pin down (the free run then spikes
+where the input stops). One column per operator and parameter, delayed
+as a whole, avoids offering them. The
 node name is the operator's name, then ``@`` and its parameters (a play
 once per radius of :func:`play_radii`); the plays of all radii are one
 choice for the tree generator (:mod:`mggp.operators`), so adding radii does
