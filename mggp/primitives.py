@@ -47,8 +47,16 @@ DEAP selects candidates by type; the types are:
     ``mggp estimate``) may still use a Φ-call mixing inputs.
 
 Memory operators (``operators``, see :mod:`narx.memory`) are primitives
-``(InputLag) -> Expr``: ``Play@0.2(u[k-1])`` decodes to
-``Play(u[k-1],0.2)``, ``DengTan(q1(u[k-1]))`` to ``DengTan(u[k-2])``. The
+``(OperatorArg_<input>) -> Expr`` (:func:`operator_arg_type`, one type
+per input) whose argument is the terminal ``u[k-1]`` alone:
+``Play@0.2(u[k-1])`` decodes to ``Play(u[k-1],0.2)``, and only a
+back-shift of the whole monomial delays it (``q1(Play@0.2(u[k-1]))`` is
+``Play(u[k-2],0.2)``). Lagged copies of one operator column differ by
+one step of a slowly varying signal; as separate regressors their
+differences act as rate features of large, cancelling coefficients,
+which the training record does not pin down (the free run then spikes
+where the input stops). One column per operator and parameter, delayed
+as a whole, avoids offering them. The
 node name is the operator's name, then ``@`` and its parameters (a play
 once per radius of :func:`play_radii`); the plays of all radii are one
 choice for the tree generator (:mod:`mggp.operators`), so adding radii does
@@ -81,7 +89,8 @@ from narx.terms import Lag, OpCall, PhiCall, Signals, Term, format_param
 __all__ = ["Expr", "InputLag", "input_lag_type", "LagSymbol", "SHIFTS", "make_pset",
            "tree_from_tokens", "tree_to_tokens", "decode", "Decoder",
            "decode_individual", "max_lag_for_height", "play_radii", "OPERATOR_CHOICES",
-           "operator_node_name", "search_operators", "operator_names"]
+           "operator_node_name", "search_operators", "operator_names",
+           "operator_arg_type"]
 
 #: operators ``make_pset(operators=...)`` accepts, by their command-line name
 OPERATOR_CHOICES = {"play": "Play", "dengtan": "DengTan"}
@@ -192,21 +201,56 @@ def input_lag_type(name: str) -> type:
     -------
     type
     """
-    t = _INPUT_LAG_TYPES.get(name)
+    return _per_input_type(_INPUT_LAG_TYPES, _TYPE_PREFIX, name,
+                           f"GP type of one lag of input {name!r}.")
+
+
+def _per_input_type(cache: Dict[str, type], prefix: str, name: str, doc: str) -> type:
+    """The subclass ``<prefix><name>`` of :class:`InputLag`, made once per
+    process and kept in ``cache``."""
+    t = cache.get(name)
     if t is None:
         if not name.isidentifier():
             raise ValueError(f"input name must be an identifier, got {name!r}")
-        t = type(_TYPE_PREFIX + name, (InputLag,),
-                 {"__module__": __name__, "input": name,
-                  "__doc__": f"GP type of one lag of input {name!r}."})
-        _INPUT_LAG_TYPES[name] = t
+        t = type(prefix + name, (InputLag,),
+                 {"__module__": __name__, "input": name, "__doc__": doc})
+        cache[name] = t
     return t
+
+
+_OPERATOR_ARG_TYPES: Dict[str, type] = {}
+_OP_PREFIX = "OperatorArg_"
+
+
+def operator_arg_type(name: str) -> type:
+    """The GP type of the argument of a memory operator of input ``name``.
+
+    One class per name and process, ``OperatorArg_<name>``, a subclass of
+    :class:`InputLag` whose only node is the terminal ``name[k-1]``: no
+    back-shift applies inside an operator, so a gene holds the operator
+    column of ``name[k-1]`` (a back-shift of the whole monomial still
+    delays it). Reachable as ``mggp.primitives.OperatorArg_<name>`` for
+    pickling.
+
+    Parameters
+    ----------
+    name : str
+        Input name (an identifier).
+
+    Returns
+    -------
+    type
+    """
+    return _per_input_type(_OPERATOR_ARG_TYPES, _OP_PREFIX, name,
+                           f"GP type of the operator argument {name}[k-1].")
 
 
 def __getattr__(attr):
     # module attribute lookup used by pickle for the per-input types
     if attr.startswith(_TYPE_PREFIX) and attr[len(_TYPE_PREFIX):].isidentifier():
         return input_lag_type(attr[len(_TYPE_PREFIX):])
+    if attr.startswith(_OP_PREFIX) and attr[len(_OP_PREFIX):].isidentifier():
+        return operator_arg_type(attr[len(_OP_PREFIX):])
     raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
@@ -336,7 +380,7 @@ def make_pset(signals: Optional[Signals] = None,
         for params in plist:
             ops.append((op.name, op.check_params(tuple(params))))
     phi_signals = list(signals.inputs) + ([signals.output] if phi_outputs and phis else [])
-    lag_types = _lag_types(phi_signals) if phis or ops else {}
+    lag_types = _lag_types(phi_signals) if phis else {}
     # one input: the historical order (terminal, q1..q3, Φs) on InputLag
     for name, t in lag_types.items():
         pset.addTerminal(LagSymbol(Lag(name, 1, "y" if name == signals.output else "u")), t)
@@ -345,11 +389,14 @@ def make_pset(signals: Optional[Signals] = None,
     for f in phis:
         for t in lag_types.values():
             pset.addPrimitive(f.func, [t] * f.arity, Expr, name=f.name)
+    op_types = {n: operator_arg_type(n) for n in signals.inputs} if ops else {}
+    for name, t in op_types.items():
+        pset.addTerminal(LagSymbol(Lag(name, 1, "u")), t)
     for name, params in ops:
         node = operator_node_name(name, params)
         func = _PRIM_FUNCS.setdefault(node, _symbolic(node))
-        for iname in signals.inputs:
-            pset.addPrimitive(func, [lag_types[iname]], Expr, name=node)
+        for iname, t in op_types.items():
+            pset.addPrimitive(func, [t], Expr, name=node)
     pset.signals = signals
     pset.lag_types = lag_types
     pset.phi_names = tuple(f.name for f in phis)
@@ -420,8 +467,12 @@ def tree_from_tokens(tokens: Sequence[str], pset, type_=None) -> gp.PrimitiveTre
         cands = idx.get((t, tok))
         if cands is None:
             if tok in known:
-                hint = "" if getattr(t, "input", None) is None else \
-                    " (a Φ-function's arguments are lags of one input)"
+                if t.__name__.startswith(_OP_PREFIX):
+                    hint = " (a memory operator's argument is the input at k-1)"
+                elif getattr(t, "input", None) is not None:
+                    hint = " (a Φ-function's arguments are lags of one input)"
+                else:
+                    hint = ""
                 raise ValueError(f"{tok!r} at position {pos} is not allowed where "
                                  f"{t.__name__} is expected{hint}")
             raise ValueError(f"unknown primitive or terminal {tok!r}")

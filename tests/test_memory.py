@@ -352,8 +352,11 @@ def test_search_pset_with_operators_decodes_and_keeps_phi_only_set():
     assert play_radii(np.linspace(-1, 1, 5)) == (0.1, 0.2, 0.4, 0.7)
     ops = search_operators(("play", "dengtan"), np.linspace(-1, 1, 5)[None, :])
     pset = make_pset(operators=ops)
-    tree = tree_from_tokens(["mul", "y[k-1]", "Play@0.2", "q1", "u[k-1]"], pset)
+    tree = tree_from_tokens(["mul", "y[k-1]", "q1", "Play@0.2", "u[k-1]"], pset)
     assert str(Decoder().decode(tree)) == "y[k-1]*Play(u[k-2],0.2)"
+    # an operator's argument is u[k-1] alone: no back-shift inside it
+    with pytest.raises(ValueError, match="not allowed where OperatorArg_u"):
+        tree_from_tokens(["Play@0.2", "q1", "u[k-1]"], pset)
     tree = tree_from_tokens(["q2", "DengTan", "u[k-1]"], pset)
     assert str(Decoder().decode(tree)) == "DengTan(u[k-3])"
     # control: without operators the set is the Φ-only one, node for node
