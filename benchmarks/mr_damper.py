@@ -90,7 +90,9 @@ def run_damper(args, log):
         est = MGGPRegressor(fitness="freerun", population=300 if full else 150,
                             generations=100 if full else 30, max_terms=15, max_height=3,
                             inputs=("E", "v"), output="f", random_state=seed,
-                            n_jobs=getattr(args, "jobs", 1), registry=_registry())
+                            n_jobs=getattr(args, "jobs", 1), registry=_registry(),
+                            # the published study's setting: Φ primitives, searched size
+                            use_phi=True, screen=None, select="fitness", size="search")
         est.fit(Data(tr[:, :2], tr[:, 2], inputs=("E", "v"), output="f"))
         fit_time = time.perf_counter() - t0
         dte = Data(te[:, :2], te[:, 2], inputs=("E", "v"), output="f")

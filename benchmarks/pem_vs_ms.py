@@ -50,7 +50,10 @@ COLS = ("train_mape", "val_mape", "val_rmse", "n_terms", "drift_loading", "drift
 def _search(fitness, cs, args, seed, constraints=None):
     kw = dict(fitness=fitness, population=args.population, generations=args.generations,
               random_state=seed, n_jobs=args.jobs, constraints=constraints,
-              screen=None if args.no_screen else "freerun")
+              screen=None if args.no_screen else "freerun",
+              # the published setup: primitives with Φ and the structure the search
+              # finds (no automatic Φ or size choice), so the fitness modes compare
+              use_phi=True, size="search")
     if fitness == "ms":
         kw["window"] = args.window
         if not args.no_screen:
