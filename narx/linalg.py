@@ -58,6 +58,8 @@ References
    Theory Appl., 2004.
 .. [3] Draper, N. R., Smith, H., *Applied Regression Analysis*, 3rd ed.,
    Wiley, 1998.
+.. [4] Söderström, T., Stoica, P., *System Identification*, Prentice Hall,
+   1989, ch. 8 (instrumental variable methods).
 """
 from __future__ import annotations
 
@@ -70,7 +72,7 @@ import scipy.linalg
 __all__ = ["EPS", "GRAM_RCOND", "T_RTOL", "CONSISTENCY_RTOL", "DIVERGENCE_FACTOR",
            "column_norms", "scale_columns", "scale_gram", "rank_tolerance",
            "numerical_rank", "matrix_rank", "lstsq", "ConstraintSpace",
-           "constraint_space", "null_space", "scaled_lstsq", "gram_lstsq",
+           "constraint_space", "null_space", "scaled_lstsq", "gram_lstsq", "iv_lstsq",
            "range_basis", "t_values", "added_column_t", "divergence_bound"]
 
 #: machine epsilon of float64
@@ -335,6 +337,23 @@ def gram_lstsq(G, g, S=None, c=None, rcond: float = GRAM_RCOND
         return lstsq(Gs, gs, rcond=rcond)[0] / d, None
     space = constraint_space(S, c, d)
     return space.gram_lstsq(Gs, gs, rcond) / d, space
+
+
+def iv_lstsq(Psi, Z, b, rcond: float = GRAM_RCOND) -> np.ndarray:
+    r"""Instrumental-variable estimate: θ solving :math:`Z^T\Psi\theta = Z^Tb`.
+
+    .. math:: \hat\theta_{IV} = (Z^T\Psi)^{-1} Z^T b
+
+    with one instrument column per regressor ([4]_). Both matrices are
+    taken on unit-norm columns (:func:`scale_columns`) and the p × p system
+    is solved by ``gelsy`` with relative rank tolerance ``rcond``
+    (:data:`GRAM_RCOND`: like normal equations, :math:`Z^T\Psi` squares
+    the columns' condition), so a rank-deficient system gives the
+    minimum-norm solution. LS is the case :math:`Z = \Psi`.
+    """
+    A, d = scale_columns(Psi)
+    Zs, _ = scale_columns(Z)
+    return lstsq(Zs.T @ A, Zs.T @ b, rcond=rcond)[0] / d
 
 
 def range_basis(A) -> np.ndarray:
