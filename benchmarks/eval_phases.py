@@ -68,7 +68,7 @@ def run(n=50_000, individuals=500, window=100, repeats=3, seed=0) -> dict:
         for _ in range(max(1, repeats) + 1):            # the first loads kernels
             sc = StructureScorer(as_data(u, y), "ms", window=window, start=START)
             sc.score(())
-            msk.ms_mse(sc, (), np.empty(0), START)
+            sc.shooting.mse((), np.empty(0), START, sc.bound, sc.input_column)
             acc.clear()
             t0 = time.perf_counter()
             for s in sets:

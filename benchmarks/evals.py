@@ -92,7 +92,8 @@ def sequential(u, y, sets, window: int, repeats: int, fast: bool) -> dict:
             t0 = time.perf_counter()
             sc = StructureScorer(as_data(u, y), "ms", window=window, start=START)
             sc.score(())                                 # empty set: no column built
-            msk.ms_mse(sc, (), np.empty(0), START)      # the window store
+            # the window store
+            sc.shooting.mse((), np.empty(0), START, sc.bound, sc.input_column)
             setup = min(setup, time.perf_counter() - t0)
             t, vals = _pass(sc.score, sets)
             cold = min(cold, t)

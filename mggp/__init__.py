@@ -14,13 +14,17 @@ into narx terms, runs the evolution, and holds the command line (``mggp``).
 __version__ = "0.1.0"
 
 
+from .exceptions import (CheckpointError, CLIError, CLSRejectedWarning,  # noqa: F401
+                         SearchPrecisionWarning, WorkerLostError)
+from .exceptions import __all__ as _EXCEPTIONS
+
+__all__ = ["MGGPRegressor", "versions", *_EXCEPTIONS]
+
+
 def __getattr__(name):            # lazy: importing mggp stays cheap for the CLI
-    if name in ("MGGPRegressor",):
+    if name == "MGGPRegressor":
         from .estimator import MGGPRegressor
         return MGGPRegressor
-    if name == "SearchPrecisionWarning":
-        from .precision import SearchPrecisionWarning
-        return SearchPrecisionWarning
     raise AttributeError(f"module 'mggp' has no attribute {name!r}")
 
 

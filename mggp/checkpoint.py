@@ -27,6 +27,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 from deap import tools
 
+from .exceptions import CheckpointError
 from .individual import Individual, ParetoArchive, ParetoRow
 from .primitives import Decoder, tree_from_tokens, tree_to_tokens
 
@@ -298,7 +299,7 @@ def load_checkpoint(path, pset, decoder: Optional[Decoder] = None) -> EvolutionS
     decoder = decoder if decoder is not None else Decoder(getattr(pset, "signals", None))
 
     def fail(msg):
-        return ValueError(f"checkpoint {path}: {msg}")
+        return CheckpointError(f"checkpoint {path}: {msg}")
 
     try:
         with open(path, encoding="utf-8") as fh:

@@ -21,16 +21,46 @@ from typing import List, Optional
 
 import numpy as np
 
+from .exceptions import CLIError
+
 __all__ = ["main", "CLIError", "build_parser"]
 
 
-class CLIError(Exception):
-    """A usage or input error reported as one ``error:`` line."""
-
-
 class _Parser(argparse.ArgumentParser):
+    """One ``error:`` line instead of a usage dump; positionals written
+    after a list option (``fit --input E v data.csv``), which argparse gives
+    to the list, go back to the positionals left without a value."""
+
     def error(self, message):                      # no usage dump, one line
         raise CLIError(f"{self.prog.split()[-1]}: {message}")
+
+    def parse_known_args(self, args=None, namespace=None):
+        args = sys.argv[1:] if args is None else list(args)
+        pos = [a for a in self._actions if not a.option_strings and a.nargs is None
+               and a.required]
+        for a in pos:                              # checked below, after the give-back
+            a.required = False
+        try:
+            ns, rest = super().parse_known_args(args, namespace)
+        finally:
+            for a in pos:
+                a.required = True
+        missing = [a for a in pos if getattr(ns, a.dest, None) is None]
+        lists = [(max(i for i, t in enumerate(args) if t in a.option_strings), a)
+                 for a in self._actions if a.nargs in ("+", "*") and a.option_strings
+                 and any(t in a.option_strings for t in args)]
+        if missing and lists:
+            last = max(lists, key=lambda r: r[0])[1]   # the list option given last
+            values = getattr(ns, last.dest)
+            if isinstance(values, list) and len(values) > len(missing):
+                setattr(ns, last.dest, values[:-len(missing)])
+                for a, v in zip(missing, values[-len(missing):]):
+                    setattr(ns, a.dest, v)
+                missing = []
+        if missing:
+            self.error("the following arguments are required: "
+                       + ", ".join(a.metavar or a.dest for a in missing))
+        return ns, rest
 
 
 def add_signal_args(p):
@@ -171,7 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_signal_args(s)
     s.set_defaults(func=_cmd_simulate)
 
-    for name in ("cli_fit", "cli_diagnose", "cli_compensate"):
+    for name in ("cli_fit", "cli_diagnose", "cli_compensate", "cli_quasistatic"):
         try:
             mod = __import__(f"mggp.{name}", fromlist=["register"])
         except ModuleNotFoundError as exc:
@@ -258,10 +288,11 @@ def _main(argv: Optional[List[str]]) -> int:
         args = build_parser().parse_args(argv)
         for mod in args.phi_module:
             _import_plugin(mod)
+        from .params import PARAMS
         for name in ("k", "window"):           # shared by every subcommand
             v = getattr(args, name, None)
-            if v is not None and v < 1:
-                raise CLIError(f"--{name} must be >= 1, got {v}")
+            if v is not None:
+                PARAMS[name].check(v, cli=True)
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)

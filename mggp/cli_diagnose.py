@@ -22,63 +22,41 @@ import shlex
 import sys
 
 from .cli import CLIError, add_signal_args
+from .params import DIAGNOSE_PARAMS, PATH, Bool, Param, add_options, check_options
 
-__all__ = ["register"]
+__all__ = ["register", "DIAGNOSE_OPTIONS"]
+
+#: options of ``mggp diagnose``: the records and outputs, the search budget
+#: and the tests' settings (rules and defaults from :mod:`mggp.params`)
+DIAGNOSE_OPTIONS = (
+    Param("validation", None, PATH, "record that measures the gain", "data",
+          "--validation", metavar="VAL.csv", default_text="a tail of TRAIN.csv",
+          estimator=False),
+    Param("model", None, PATH, "the model to diagnose", "data", "--model",
+          metavar="MODEL.json", default_text="an MGGP model, multiple-shooting fitness, "
+          "no Φ", estimator=False),
+    Param("json", None, PATH, "write the findings, both models and the gain as JSON",
+          "output", "--json", metavar="REPORT.json", default_text="not written",
+          estimator=False),
+    Param("report", None, PATH, "write summary.md and figures to this folder", "output",
+          "--report", metavar="DIR", default_text="none", estimator=False),
+    Param("quiet", False, Bool(), "no progress lines", "output", "--quiet", const=True,
+          default_text="progress on stderr", estimator=False),
+) + tuple(DIAGNOSE_PARAMS.values())
 
 
 def register(sub):
     p = sub.add_parser("diagnose", help="name what a model's simulation gets wrong, "
                        "extend the model, measure the gain")
-    p.add_argument("train", metavar="TRAIN.csv")
-    p.add_argument("--validation", metavar="VAL.csv", default=None,
-                   help="record that measures the gain (default: a tail of TRAIN.csv)")
-    p.add_argument("--model", metavar="MODEL.json", default=None,
-                   help="the model to diagnose (default: MGGP, MS fitness, no Φ)")
-    p.add_argument("--json", metavar="REPORT.json", default=None)
-    p.add_argument("--report", metavar="DIR", default=None)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--jobs", type=int, default=1)
-    g = p.add_argument_group("budget (defaults: about 40 s for 10,000 samples with --jobs 2)")
-    g.add_argument("--population", type=int, default=500)
-    g.add_argument("--generations", type=int, default=100)
-    g.add_argument("--max-terms", type=int, default=15)
-    g.add_argument("--max-height", type=int, default=5)
-    g.add_argument("--max-degree", type=int, default=3)
-    g.add_argument("--window", type=int, default=100, help="Δm of multiple shooting")
-    g.add_argument("--shifts", type=int, default=99,
-                   help="placebo shifts of the Φ-augmentation test")
-    g.add_argument("--bootstrap", type=int, default=199,
-                   help="replicas of the prediction-bias bootstrap")
-    t = p.add_argument_group("tests")
-    t.add_argument("--holdout", type=float, default=0.3,
-                   help="tail fraction measuring the gain without --validation (0.3)")
-    t.add_argument("--alpha", type=float, default=0.01,
-                   help="false-alarm probability of each test (0.01)")
-    t.add_argument("--resolution", type=float, default=0.005,
-                   help="smallest effect named, fraction of the output range (0.005)")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
-    add_signal_args(p)
+    p.add_argument("train", metavar="TRAIN.csv", help="training record")
+    groups = add_options(p, DIAGNOSE_OPTIONS)
+    groups["budget"].description = "defaults: about 40 s for 10,000 samples with --jobs 2"
+    add_signal_args(groups["data"])
     p.set_defaults(func=_cmd_diagnose)
 
 
 def _check_args(args):
-    for name in ("population", "max_terms", "max_height", "max_degree", "window",
-                 "shifts", "bootstrap"):
-        v, low = getattr(args, name), 2 if name == "population" else 1
-        if v < low:
-            raise CLIError(f"--{name.replace('_', '-')} must be >= {low}, got {v}")
-    if args.generations < 0:
-        raise CLIError(f"--generations must be >= 0, got {args.generations}")
-    if args.jobs == 0 or args.jobs < -1:
-        raise CLIError(f"--jobs must be >= 1 or -1, got {args.jobs}")
-    if args.seed < 0:
-        raise CLIError(f"--seed must be >= 0, got {args.seed}")
-    if not 0.0 < args.holdout < 1.0:
-        raise CLIError(f"--holdout must be a fraction between 0 and 1, got {args.holdout}")
-    if not 0.0 < args.alpha < 0.5:
-        raise CLIError(f"--alpha must be between 0 and 0.5, got {args.alpha}")
-    if not 0.0 <= args.resolution < 1.0:
-        raise CLIError(f"--resolution must be in [0, 1), got {args.resolution}")
+    check_options(args, DIAGNOSE_OPTIONS)       # each option's rule; defaults filled
     if args.json:
         if os.path.isdir(args.json):
             raise CLIError(f"--json {args.json} is a folder, not a file")
@@ -89,23 +67,21 @@ def _check_args(args):
         raise CLIError(f"--report {args.report} is a file, not a folder")
 
 
-_DEFAULTS = {"validation": None, "model": None, "json": None, "report": None, "seed": 0,
-             "jobs": 1, "population": 500, "generations": 100, "max_terms": 15,
-             "max_height": 5, "max_degree": 3, "window": 100, "shifts": 99,
-             "bootstrap": 199, "holdout": 0.3, "alpha": 0.01, "resolution": 0.005,
-             "input": None, "output": None}
-
-
 def _command(args) -> str:
     """The command line that reproduces this run (options at their defaults left out)."""
     parts = ["mggp", "diagnose", args.train]
-    for name, default in _DEFAULTS.items():
-        v = getattr(args, name)
-        if v == default or (name == "holdout" and args.validation):
+    for p in DIAGNOSE_OPTIONS + _SIGNALS:
+        v = getattr(args, p.name)
+        if v == p.default or p.name == "quiet" or (p.name == "holdout" and args.validation):
             continue
-        parts.append("--" + name.replace("_", "-"))
+        parts.append(p.flag)
         parts += [str(x) for x in v] if isinstance(v, list) else [str(v)]
     return " ".join(shlex.quote(p) for p in parts)
+
+
+#: ``--input``/``--output`` as :func:`_command` writes them
+_SIGNALS = (Param("input", None, PATH, "", "data", "--input"),
+            Param("output", None, PATH, "", "data", "--output"))
 
 
 def _cmd_diagnose(args) -> int:
@@ -140,7 +116,7 @@ def _cmd_diagnose(args) -> int:
     say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     names = (os.path.basename(args.train),
              os.path.basename(args.validation) if args.validation else "")
-    dx = diagnose(train, val, model, budget=budget, seed=args.seed, jobs=args.jobs,
+    dx = diagnose(train, val, model, budget=budget, seed=args.random_state, jobs=args.n_jobs,
                   holdout=args.holdout, alpha=args.alpha, resolution=args.resolution,
                   names=names, model_name=os.path.basename(args.model or ""), progress=say)
     print(dx.summary())

@@ -59,7 +59,7 @@ from narx.compensate import (CompensationResult, TermPlan, check_count, check_ra
 from narx.data import Data
 from narx.systems import piezo_bouc_wen
 
-from .selection import CLSRejectedWarning
+from .exceptions import CLSRejectedWarning
 
 __all__ = ["InverseCompensator", "identify_inverse", "pi_loop", "LoopResult",
            "PiezoPlant", "INVERSE_KIND"]

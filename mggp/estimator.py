@@ -10,11 +10,14 @@ Typical use::
     print(est.pareto_front_)        # complexity, loss, score, equation (mggp.pareto)
     est.simulate(u_val, y_val, mode="freerun").mape
 
-The search (``mggp.evolve``) proposes term sets; each is scored by LS and
-the chosen simulation (``mggp.evaluate``); the best structure is refitted
-by QR least squares on the full record, and with
-``constraints='steady-state'`` also by constrained LS under the
-continuum-of-steady-states equalities derived from its terms [1]_.
+``fit`` is the search (:mod:`mggp.evolve`: term sets proposed by GP, each
+scored by LS and the chosen simulation, :mod:`mggp.evaluate`) followed by
+the stages of :mod:`mggp.stages`: the choice of a structure, pruning, a
+noise model, the QR refit on the full record, the precision check, with
+``constraints='steady-state'`` the constrained refit under the
+continuum-of-steady-states equalities derived from the terms [1]_, the
+refinement, the verdict on the CLS refit and the Pareto front. The
+parameters, their rules and defaults are the table :data:`mggp.params.PARAMS`.
 
 References
 ----------
@@ -28,29 +31,25 @@ import json
 import random
 import time
 import warnings
-from typing import List, Optional
+from typing import Optional
 
 import numpy as np
 
 from narx import Model
-from narx.model import ignore_rank_warnings
 from narx.data import Data, DataError, as_data
 from narx.fitness import StructureScorer
 from narx.phi import default_registry
 from narx.terms import Term
 
-from .evaluate import Evaluator, criterion_value
-from . import versions
 from .checkpoint import checkpoint_seed, data_digest
+from .evaluate import Evaluator
 from .evolve import evolve
-from .noise import full_ma, prune_by_t, prune_process, select_noise
-from .params import check_params
-from .precision import data_warnings, search_precision
-from .pareto import ParetoFront, front_rows
+from .params import PARAMS, check_params, context_of, params_doc
+from .pareto import ParetoFront
+from .precision import data_warnings
 from .primitives import identically_zero, make_pset, max_lag_for_height
 from .screen import StabilityScreen
-from .selection import (CLSRejectedWarning, cls_rejection, prune_by_criterion, run_candidates,
-                        select_freerun, select_hold, t_threshold_of)
+from .stages import FitContext, run_stages
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
 
@@ -61,102 +60,55 @@ CONSTANT = Term(())
 class MGGPRegressor:
     """Multi-gene GP structure search for polynomial NARX models.
 
-    Parameters (all keyword; defaults are the published setup)
-    ----------
-    fitness : {'ms', 'pem', 'freerun', 'ksa'}
-        Simulation whose MSE scores a structure.
-    window : int
-        Δm of multiple shooting (100).
-    k : int
-        Horizon of ``ksa`` (10).
-    criterion : {'mse', 'bic', 'aic'}
-        Fitness: the MSE, or an information criterion penalising terms.
-    constraints : None or 'steady-state'
-        Refit the best structure by CLS as well (``model_cls_``).
-    search_constraints : None or 'steady-state'
-        Use CLS inside the search too.
-    population, generations, cxpb, mutpb, high_level_cx_rate,
-    high_level_mut_rate, tournament_size, elite_fraction, max_terms,
-    max_height : evolution parameters (500, 200, 0.8, 0.2, 0.5, 0.5, 2, 0.1,
-        15, 5).
-    use_phi : bool
-        Include Φ-functions in the primitive set (``--no-phi`` = False).
-    phi_names : list of str, optional
-        Φ-functions to use (default: all registered).
-    phi_outputs : bool
-        Φ-terms of output lags too (``Phi1(y[k-1],y[k-2])``; default False).
-    constant : bool
-        Every structure also holds the constant term ``1`` (an intercept):
-        for records whose output rests at an offset the lag terms cannot
-        express, e.g. an affine static curve (default False).
-    max_lag, max_degree : int, optional
-        Genes decoding to a term with a larger lag or more factors
-        contribute no term (e.g. lags up to 4, degree up to 3).
-    select : {'fitness', 'freerun', 'hold'}
-        How the final structure is chosen: the best search fitness, or,
-        among the ``select_candidates`` best distinct structures of the run
-        (archive and final population), the one with the lowest free-run
-        MSE over the whole training record — multiple shooting never sees
-        an instability longer than its window.
-        ``'hold'``: the best search fitness among those candidates whose
-        free run stays in the screen's band and whose CLS refit holds its
-        output on held inputs (see ``screen``); the best structure if none
-        does (``selection_`` lists the verdicts).
-    select_candidates : int
-        Candidates for ``select='freerun'`` and ``'hold'`` (20).
-    screen : None, 'freerun' or 'hold'
-        Stability screen during the search (:mod:`mggp.screen`): in each
-        generation the ``screen_top`` best new structures are simulated in
-        free run over the whole training record, and those whose output
-        leaves ``[min y, max y]`` widened by ``screen_band * range(y)`` on
-        each side get the fitness ``inf``;
-        so the elites, and the result, never diverge over the record.
-        ``'hold'`` also requires the structure's CLS refit to hold its
-        output when the input is frozen (stretches of the training record
-        followed by held inputs; no movement above 1e-6 of the output range
-        after 100 samples).
-    screen_top : int, optional
-        Leaders screened per generation (default: the elite size).
-    screen_band : float
-        Widening of the allowed band beyond ``[min y, max y]``, in output
-        ranges (1).
-    prune : False, 'bic' or 't'
-        Backward elimination of the best structure: by the BIC of the
-        search fitness, or by LS t-statistics (drop the least significant
-        term while its |t| < ``t_threshold``).
-    noise_lags : int
-        With q > 0, a moving-average noise model is selected after the
-        search (NARMAX): candidates ``e[k-j]`` and ``x*e[k-j]`` (x a lag
-        1..q of an input or the output), j = 1..q, are added one at a time
-        by extended least squares (each step ranks them with the noise held
-        and fits the 3 best by ELS) while the best has |t| >= ``t_threshold``,
-        and the process parameters are re-estimated with it. The search
-        scores with the plain one-step error, so strong coloured noise can
-        lead it to extra lags that only predict the noise; with
-        ``prune='t'`` those are pruned by their ELS t-statistics with the
-        full MA(q) model in the fit first (:mod:`mggp.noise`).
-    refine : None, 'ms' or 'freerun'
-        Refine θ of the result (and of its CLS refit, keeping the
-        constraints) by minimising its simulation error instead of the
-        one-step error of least squares (:mod:`narx.refine`): LS is biased
-        when the measured output is noisy (``refinement_`` holds the errors
-        before and after). ``refine_window``: Δm for ``'ms'`` (default
-        ``window``).
-    t_threshold : float, optional
-        Default: Bonferroni, Φ⁻¹(1 − 0.05/(2M)) with M the number of
-        candidate monomials allowed by ``max_lag`` (at most the lag
-        ``max_height`` trees reach, 1 + 3 × height) and ``max_degree``.
-    random_state : int, optional
-        Seed; the result does not depend on ``n_jobs`` or ``backend``.
-    n_jobs : int
-        Worker processes for evaluation.
-    backend : {'loky', 'threading', 'sequential', 'dask'}
-    scheduler : str or dask Client, optional
-    inputs, output : sequence of str, str
-        Signal names when ``fit`` gets arrays. With several inputs every
-        Φ-term searched takes lags of one input only.
-    checkpoint : path, optional;  resume : bool
-    callbacks : list of callables ``f(state)`` called every generation.
+    Every parameter is keyword-only; the defaults are the published setup.
+    The list below (*Parameters*) is generated from
+    :data:`mggp.params.PARAMS`, which also holds each rule.
+
+    Notes
+    -----
+    ``select``: ``'freerun'`` takes, among the ``select_candidates`` best
+    distinct structures of the run (archive and final population), the one
+    with the lowest free-run MSE over the whole training record — multiple
+    shooting never sees an instability longer than its window. ``'hold'``
+    takes the best search fitness among those candidates whose free run
+    stays in the screen's band and whose CLS refit holds its output on held
+    inputs; the best structure if none does (``selection_`` lists the
+    verdicts).
+
+    ``screen`` (:mod:`mggp.screen`): in each generation the ``screen_top``
+    best new structures are simulated in free run over the whole training
+    record, and those whose output leaves ``[min y, max y]`` widened by
+    ``screen_band * range(y)`` on each side get the fitness ``inf``; so the
+    elites, and the result, never diverge over the record. ``'hold'`` also
+    requires the structure's CLS refit to hold its output when the input is
+    frozen (stretches of the training record followed by held inputs; no
+    movement above 1e-6 of the output range after 100 samples).
+
+    ``prune``: backward elimination of the chosen structure by the BIC of
+    the search fitness, or by LS t-statistics (drop the least significant
+    term while its |t| < ``t_threshold``; default Bonferroni,
+    Φ⁻¹(1 − 0.05/(2M)) with M the number of candidate monomials allowed by
+    ``max_lag``, at most the lag ``max_height`` trees reach, 1 + 3 × height,
+    and ``max_degree``; :mod:`mggp.pruning`).
+
+    ``noise_lags`` = q > 0: a moving-average noise model is selected after
+    the search (NARMAX): candidates ``e[k-j]`` and ``x*e[k-j]`` (x a lag
+    1..q of an input or the output), j = 1..q, are added one at a time by
+    extended least squares while the best has |t| >= ``t_threshold``, and
+    the process parameters are re-estimated with it. The search scores with
+    the plain one-step error, so strong coloured noise can lead it to extra
+    lags that only predict the noise; with ``prune='t'`` those are pruned by
+    their ELS t-statistics with the full MA(q) model in the fit first
+    (:mod:`mggp.noise`).
+
+    ``refine``: θ of the result (and of its CLS refit, keeping the
+    constraints) minimises its simulation error instead of the one-step
+    error of least squares (:mod:`narx.refine`), which is biased when the
+    measured output is noisy (``refinement_`` holds the errors before and
+    after).
+
+    ``random_state`` fixes the run whatever ``n_jobs`` and ``backend``. With
+    several inputs every Φ-term searched takes lags of one input only.
 
     After ``fit``, besides ``model_``, ``model_cls_``, ``pareto_front_`` and
     ``logbook_``: ``cls_rejected_`` says why the CLS refit is not used by
@@ -168,9 +120,9 @@ class MGGPRegressor:
     collinear terms: the exact LS θ has large cancelling coefficients)
     ``model_`` keeps the search's θ, which is what was scored
     (``model_.meta['estimation'] == 'ls-search'``). A
-    :class:`mggp.precision.SearchPrecisionWarning` names an offset that
-    dominates a signal before the search (its normal equations lose
-    precision on such data).
+    :class:`mggp.SearchPrecisionWarning` names an offset that dominates a
+    signal before the search (its normal equations lose precision on such
+    data).
     """
 
     def __init__(self, *, fitness="ms", window=100, k=10, criterion="mse",
@@ -230,26 +182,21 @@ class MGGPRegressor:
 
     # -------------------------------------------------------------- sklearn
     def get_params(self, deep=True):
-        import inspect
-        names = [p for p in inspect.signature(type(self).__init__).parameters if p != "self"]
-        return {n: getattr(self, n) for n in names}
+        """The parameters (the rows of :data:`mggp.params.PARAMS`) and their values."""
+        return {name: getattr(self, name) for name in PARAMS}
 
     def set_params(self, **params):
-        valid = self.get_params()
         for k, v in params.items():
-            if k not in valid:
+            if k not in PARAMS:
                 raise ValueError(f"invalid parameter {k!r} for MGGPRegressor")
             setattr(self, k, v)
         return self
 
     def __repr__(self):
         """Parameters that differ from the defaults, as scikit-learn shows them."""
-        import inspect
-        defaults = {k: p.default for k, p in
-                    inspect.signature(type(self).__init__).parameters.items() if k != "self"}
         changed = [f"{k}={v!r}" for k, v in self.get_params().items()
-                   if not (v is defaults[k] or (type(v) is type(defaults[k])
-                                                and v == defaults[k]))]
+                   if not (v is PARAMS[k].default or (type(v) is type(PARAMS[k].default)
+                                                      and v == PARAMS[k].default))]
         return f"{type(self).__name__}({', '.join(changed)})"
 
     # -------------------------------------------------------------- fit
@@ -277,17 +224,15 @@ class MGGPRegressor:
             return random.SystemRandom().randrange(2**31)
         if isinstance(rs, np.random.Generator):
             return int(rs.integers(2**31))
-        if isinstance(rs, (int, np.integer)) and not isinstance(rs, bool):
-            return int(rs)
-        raise ValueError(f"random_state must be None, an int or a numpy Generator, got {rs!r}")
+        return int(rs)                          # an integer >= 0 (check_params)
 
     def fit(self, u, y=None):
-        """Search a structure on ``(u, y)`` (arrays or a narx.Data); returns self."""
+        """Search a structure on ``(u, y)`` (arrays or a narx.Data), then run
+        the stages of :data:`mggp.stages.STAGES`; returns self."""
         t0 = time.perf_counter()
         for name in [a for a in vars(self) if a.endswith("_") and not a.startswith("_")]:
             delattr(self, name)                 # nothing from an earlier fit survives
-        inputs = self.inputs
-        data = as_data(u, y, inputs=inputs, output=self.output)
+        data = as_data(u, y, inputs=self.inputs, output=self.output)
         data.require_output("fit")
         start = self._validate(data)
         for msg, kind in data_warnings(data, self.fitness, self.window, self.k):
@@ -298,16 +243,36 @@ class MGGPRegressor:
                           f"height); raise max_height to reach longer lags",
                           UserWarning, stacklevel=2)
         registry = self.registry or default_registry()
-        pset = make_pset(data.signals, registry, use_phi=self.use_phi, phi_names=self.phi_names,
-                         phi_outputs=bool(self.phi_outputs))
+        # the one scorer of the search's settings: the search's in this
+        # process, then every stage's
+        scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
+                                 constraints=self.search_constraints, start=start,
+                                 registry=registry)
+        ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
+                         screen=self._make_screen(data, start, registry))
+        ctx.seed, ctx.result = self._search(ctx)
+        run_stages(ctx.shape(ctx.result.best.terms), data, ctx)
+        res = ctx.result
+        self.logbook_ = res.logbook
+        self.screen_rejected_ = None if ctx.screen is None else ctx.screen.rejected
+        self.screen_rejected_hold_ = None if ctx.screen is None else ctx.screen.rejected_hold
+        self.n_evaluations_ = res.evaluations
+        self.seed_ = ctx.seed
+        self.result_ = res
+        self.fit_time_ = time.perf_counter() - t0
+        return self
+
+    def _search(self, ctx: FitContext):
+        """The evolution: ``(seed, EvolutionResult)``."""
+        data, screen, shape = ctx.data, ctx.screen, ctx.shape
+        pset = make_pset(data.signals, ctx.registry, use_phi=self.use_phi,
+                         phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
-                              constraints=self.search_constraints, start=start,
+                              constraints=self.search_constraints, start=ctx.start,
                               criterion=self.criterion, n_jobs=self.n_jobs,
                               backend=self.backend, scheduler=self.scheduler,
-                              registry=registry)
+                              registry=ctx.registry, scorer=ctx.scorer)
         callbacks = list(self.callbacks or [])
-        shape = self._structure
-        screen = self._make_screen(data, start, registry)
 
         def evaluate_batch(term_sets):
             sets = [shape(ts) for ts in term_sets]
@@ -320,10 +285,7 @@ class MGGPRegressor:
         seed = self._seed()
         if self.resume and self.checkpoint is not None and self.random_state is None:
             seed = checkpoint_seed(self.checkpoint) or seed   # continue its run
-        context = {"data": data_digest(data), **{k: getattr(self, k) for k in _CONTEXT}}
-        for name in ("phi_outputs", "constant"):
-            if not context[name]:      # absent: checkpoints written before it resume
-                del context[name]
+        context = {"data": data_digest(data), **context_of(self)}
         try:
             res = evolve(pset, evaluate_batch, seed=seed, population_size=self.population,
                          generations=self.generations, cxpb=self.cxpb, mutpb=self.mutpb,
@@ -339,102 +301,7 @@ class MGGPRegressor:
         if res.best is None or not np.isfinite(res.best.fitness):
             raise ValueError("no structure with a finite fitness was found: every "
                              "candidate diverged; try fitness='pem' or a shorter window")
-        terms = shape(res.best.terms)
-        if self.select in ("freerun", "hold"):
-            cands = run_candidates(res, data.signals, shape, self.select_candidates)
-        if self.select == "freerun":
-            chosen, self.selection_ = select_freerun(cands, data, start, registry)
-            terms = chosen or terms
-        elif self.select == "hold":
-            chosen, self.selection_ = select_hold(cands, data, start, registry,
-                                                  self.screen_band)
-            if not chosen:
-                warnings.warn(f"select='hold': none of the {len(self.selection_)} "
-                              f"candidates holds its output on a held input; model_ is "
-                              f"the best-fitness structure (see selection_)",
-                              UserWarning, stacklevel=2)
-            terms = chosen or terms
-        self.search_terms_ = terms
-        scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
-                                 constraints=self.search_constraints, start=start,
-                                 registry=registry)
-        if self.prune == "bic":
-            terms = prune_by_criterion(scorer, terms, data.n - start)
-        elif self.prune == "t":
-            terms = self._prune_t(data, terms, start)
-        if self.noise_lags:
-            crit = t_threshold_of(self, len(data.inputs))
-            if self.prune == "t":               # terms that only predicted the noise
-                terms = prune_process(data, terms, full_ma(data, int(self.noise_lags),
-                                                           registry), start, registry, crit)
-            terms = terms + select_noise(data, terms, start, registry,
-                                         int(self.noise_lags), crit)
-        self.terms_ = terms
-        self.fitness_ = res.best.fitness if terms == self.search_terms_ else \
-            criterion_value(scorer.score(terms), len(terms), data.n - start, self.criterion)
-        meta = {name: getattr(self, name) for name in _META}
-        meta.update(seed=seed, phi_outputs=bool(self.phi_outputs), constant=bool(self.constant),
-                    cls_refit=self.constraints == "steady-state",
-                    search_fitness_value=self.fitness_, versions=versions())
-        # a searched structure may hold terms the record cannot tell apart
-        # (``rank_`` < number of terms): θ is then the minimum-norm solution
-        with ignore_rank_warnings():
-            self.model_ = Model(terms, inputs=data.inputs, output=data.output,
-                                meta=dict(meta, estimation="ls"), registry=registry).fit(data)
-            self.rank_ = int(self.model_.fit_info_["rank"])
-            # ELS fits of noise terms, and CLS fits of a constrained search, are
-            # not what model_ (LS) is: not compared
-            self.precision_ = check = None if (any(t.has_noise for t in terms)
-                                               or self.search_constraints) else \
-                search_precision(scorer, terms, self.model_.theta)
-            if check is not None and check.refit_worse:   # keep what the search scored
-                self.model_ = Model(terms, check.search_theta, inputs=data.inputs,
-                                    output=data.output,
-                                    meta=dict(meta, estimation="ls-search",
-                                              qr_refit_fitness_value=check.refit_mse),
-                                    registry=registry)
-            self.model_cls_ = None
-            if self.constraints == "steady-state":
-                try:
-                    self.model_cls_ = Model(terms, inputs=data.inputs, output=data.output,
-                                            meta=dict(meta, estimation="cls"),
-                                            registry=registry).fit(data,
-                                                                   constraints="steady-state")
-                except ValueError as exc:
-                    self.cls_error_ = str(exc)
-        self.refinement_ = None
-        if self.refine:
-            from narx.refine import refine_both
-            self.refinement_, self.model_, self.model_cls_, why = refine_both(
-                self.model_, self.model_cls_, data, self.refine,
-                self.refine_window or self.window)
-            if why:
-                warnings.warn(f"refine={self.refine!r} is not applied: {why}", UserWarning,
-                              stacklevel=2)
-        self._check_cls(data)
-        self.pareto_front_ = ParetoFront(front_rows(res.pareto, scorer, shape),
-                                         inputs=data.inputs, output=data.output,
-                                         registry=registry)
-        self.logbook_ = res.logbook
-        self.screen_rejected_ = None if screen is None else screen.rejected
-        self.screen_rejected_hold_ = None if screen is None else screen.rejected_hold
-        self.n_evaluations_ = res.evaluations
-        self.seed_ = seed
-        self.result_ = res
-        self.fit_time_ = time.perf_counter() - t0
-        return self
-
-    def _check_cls(self, data):
-        # a structure chosen for its CLS refit's holding keeps it (not when
-        # select='hold' found no candidate that holds)
-        held = self.screen == "hold" or (self.select == "hold" and any(
-            ok for ok, _ in getattr(self, "selection_", ())))
-        self.cls_rejected_ = None if self.model_cls_ is None else cls_rejection(
-            self.model_, self.model_cls_, data, held)
-        if self.cls_rejected_:
-            warnings.warn(f"the CLS refit {self.cls_rejected_}: get_best(), simulate() and "
-                          f"predict() use the LS model (constrained=True for the CLS one)",
-                          CLSRejectedWarning, stacklevel=3)
+        return seed, res
 
     def _make_screen(self, data, start, registry):
         if self.screen is None:
@@ -461,13 +328,6 @@ class MGGPRegressor:
             return False
         return True
 
-    def _prune_t(self, data, terms, start):
-        from narx.estimate import t_statistics
-        from narx.regressors import regressor_matrix
-        crit = self.t_threshold_ = t_threshold_of(self, len(data.inputs))
-        return prune_by_t(terms, lambda ts: t_statistics(
-            *regressor_matrix(ts, data, start=start)[:2]), crit)
-
     # -------------------------------------------------------------- use
     def _check_fitted(self):
         if not hasattr(self, "model_"):
@@ -491,11 +351,5 @@ class MGGPRegressor:
         return self.simulate(u, y, mode, constrained, **kw).y_hat
 
 
-#: parameters besides the evolution settings that fitness values depend on
-_CONTEXT = ("fitness", "window", "k", "criterion", "search_constraints", "use_phi",
-            "phi_names", "phi_outputs", "constant", "max_lag", "max_degree", "screen",
-            "screen_top", "screen_band")
-#: parameters recorded in a result's ``meta`` (with the seed and the fitness)
-_META = ("fitness", "window", "k", "criterion", "population", "generations", "max_terms",
-         "max_height", "use_phi", "phi_names", "screen", "select", "prune", "noise_lags",
-         "max_lag", "refine", "max_degree", "search_constraints")
+
+MGGPRegressor.__doc__ += params_doc()

@@ -58,6 +58,8 @@ from narx.fitness import StructureScorer
 from narx.phi import PhiRegistry, default_registry
 from narx.terms import Term
 
+from .exceptions import WorkerLostError
+
 __all__ = ["Evaluator", "CRITERIA", "criterion_value", "WorkerLostError",
            "worker_fault_types"]
 
@@ -73,10 +75,6 @@ _LOCK = threading.Lock()
 #: does not grow, and loky does not restart it (it restarts a worker that
 #: grew by 300 MB since its first task)
 _MAX_KEYS = 1
-
-
-class WorkerLostError(RuntimeError):
-    """Worker processes kept dying while a batch was scored."""
 
 
 def criterion_value(mse: float, p: int, n: int, criterion: str) -> float:
@@ -211,6 +209,9 @@ class Evaluator:
         taken now and shipped to the workers.
     max_retries : int
         Re-scorings of a batch after lost workers before giving up.
+    scorer : StructureScorer, optional
+        A scorer of ``data`` with these settings, used by this process for
+        the batches it scores itself (no second column store is built).
 
     Attributes
     ----------
@@ -223,7 +224,7 @@ class Evaluator:
                  start: Optional[int] = None,
                  criterion: str = "mse", n_jobs: int = 1, backend: str = "loky",
                  scheduler=None, registry: Optional[PhiRegistry] = None,
-                 max_retries: int = 3):
+                 max_retries: int = 3, scorer: Optional[StructureScorer] = None):
         if criterion not in CRITERIA:
             raise ValueError(f"criterion must be one of {', '.join(CRITERIA)}, got {criterion!r}")
         if backend not in BACKENDS:
@@ -231,7 +232,8 @@ class Evaluator:
         self.data = data
         self.settings = dict(fitness=fitness, window=window, k=k,
                              constraints=constraints, start=start)
-        StructureScorer(data, **self.settings)          # validate settings now
+        if scorer is None:
+            StructureScorer(data, **self.settings)       # validate settings now
         self.criterion = criterion
         self.n_jobs = int(n_jobs)
         if self.n_jobs == 0 or self.n_jobs < -1:
@@ -251,6 +253,8 @@ class Evaluator:
         h.update(repr([(f.name, f.arity, id(f.func))
                        for f in self.registry.user_functions()]).encode())
         self.key = h.hexdigest()
+        if scorer is not None:
+            _checkin(self.key, scorer)          # this process scores with it
         self.evaluations = 0
         self.faults: List[str] = []
         self._client = None

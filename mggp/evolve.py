@@ -51,15 +51,25 @@ from narx.terms import Term
 
 from .checkpoint import (EvolutionState, checkpoint_settings, load_checkpoint,
                          save_checkpoint, settings_fingerprint)
+from .exceptions import CheckpointError
 from .individual import Individual, ParetoArchive, ParetoRow
 from .operators import (cx_high_level, cx_low_level, mut_high_level,
                         mut_low_level, random_individual, sel_tournament)
+from .params import PARAMS, Int
 from .primitives import Decoder, tree_to_tokens
 
 __all__ = ["EvolutionSettings", "EvolutionResult", "make_toolbox", "evolve",
            "structure_key"]
 
 LOG_FIELDS = ["gen", "nevals", "cache_hits", "best", "median", "best_terms"]
+
+#: rules of the settings: the estimator parameters' (:data:`mggp.params.PARAMS`)
+_RULES = tuple((name, PARAMS[row].rule) for name, row in (
+    ("cxpb", "cxpb"), ("mutpb", "mutpb"), ("high_level_cx_rate", "high_level_cx_rate"),
+    ("high_level_mut_rate", "high_level_mut_rate"), ("elite_fraction", "elite_fraction"),
+    ("population_size", "population"), ("generations", "generations"),
+    ("tournament_size", "tournament_size"), ("max_terms", "max_terms"),
+    ("min_terms", "max_terms"))) + (("max_height", Int(0)),)
 
 
 @dataclass
@@ -107,18 +117,12 @@ class EvolutionSettings:
     seed: Optional[int] = None
 
     def __post_init__(self):
-        for name in ("cxpb", "mutpb", "high_level_cx_rate", "high_level_mut_rate",
-                     "elite_fraction"):
-            v = getattr(self, name)
-            if not 0.0 <= v <= 1.0:
-                raise ValueError(f"{name} must be in [0, 1], got {v!r}")
-        for name, lo in (("population_size", 2), ("generations", 0),
-                         ("tournament_size", 1), ("max_terms", 1),
-                         ("max_height", 0), ("min_terms", 1)):
-            v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < lo:
-                raise ValueError(f"{name} must be an integer >= {lo}, got {v!r}")
-            setattr(self, name, int(v))          # JSON-able (numpy ints are not)
+        # the estimator's rules (mggp.params); a tree of height 0 is a terminal
+        for name, rule in _RULES:
+            rule.check(name, getattr(self, name))
+        for name in ("population_size", "generations", "tournament_size", "max_terms",
+                     "max_height", "min_terms"):
+            setattr(self, name, int(getattr(self, name)))   # JSON-able (numpy ints are not)
         if self.min_terms > self.max_terms:
             raise ValueError(f"min_terms ({self.min_terms}) > max_terms ({self.max_terms})")
         if self.init_max_height is not None and not 0 <= self.init_max_height <= self.max_height:
@@ -365,14 +369,14 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
             diff = _differences(stored, sdict) if stored else ""
             if not diff:
                 raise
-            raise ValueError(f"checkpoint {os.fspath(checkpoint)}: written by a run with "
-                             f"other settings or primitives (differs in: {diff}); remove "
-                             f"it or run without resume ({exc})") from None
+            raise CheckpointError(f"checkpoint {os.fspath(checkpoint)}: written by a run "
+                                  f"with other settings or primitives (differs in: {diff}); "
+                                  f"remove it or run without resume ({exc})") from None
         if state.fingerprint != fingerprint:
-            raise ValueError(f"checkpoint {os.fspath(checkpoint)}: written by a run "
-                             f"with other settings or primitives (differs in: "
-                             f"{_differences(state.settings, sdict) or 'primitive set'}); "
-                             "remove it or run without resume")
+            raise CheckpointError(f"checkpoint {os.fspath(checkpoint)}: written by a run "
+                                  f"with other settings or primitives (differs in: "
+                                  f"{_differences(state.settings, sdict) or 'primitive set'}"
+                                  f"); remove it or run without resume")
         state.settings = sdict
     else:
         rng = random.Random(s.seed)

@@ -36,7 +36,9 @@ from narx.model import ignore_rank_warnings
 from narx.regressors import regressor_matrix
 from narx.terms import parse_term
 
-__all__ = ["select_noise", "prune_process", "prune_by_t", "els_t", "full_ma"]
+from .pruning import prune_by_t
+
+__all__ = ["select_noise", "prune_process", "els_t", "full_ma"]
 
 #: candidates fitted by ELS at each step of :func:`select_noise`
 SCREEN_TOP = 3
@@ -83,8 +85,8 @@ def select_noise(data, terms, start, registry, q: int, crit: float) -> Tuple:
     Each step ranks the remaining candidates by their t-statistic with the
     noise estimate held at the current model's (one projection each), fits
     the ``SCREEN_TOP`` best by ELS to convergence, and adds the one with
-    the largest converged |t| if it reaches ``crit``: an ELS fit of every
-    candidate at every step took minutes on 30,000 samples."""
+    the largest converged |t| if it reaches ``crit`` (an ELS fit of every
+    candidate at every step takes minutes on 30,000 samples)."""
     sig = data.signals
     cands = []
     for j in range(1, q + 1):
@@ -111,20 +113,6 @@ def select_noise(data, terms, start, registry, q: int, crit: float) -> Tuple:
         if best[0] < crit:
             return chosen
         chosen, noise = chosen + (best[1],), best[2]
-
-
-def prune_by_t(terms, t_of, crit: float) -> Tuple:
-    """Backward elimination: while the least significant of ``terms`` has
-    |t| < ``crit`` (``t_of(terms)``, refitted each time), drop it; at least
-    one term stays."""
-    terms = tuple(terms)
-    while len(terms) > 1:
-        t = t_of(terms)
-        i = int(np.argmin(t))
-        if t[i] >= crit:
-            break
-        terms = terms[:i] + terms[i + 1:]
-    return terms
 
 
 def prune_process(data, terms, noise, start, registry, crit: float) -> Tuple:

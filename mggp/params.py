@@ -1,62 +1,490 @@
-"""Checks of :class:`mggp.MGGPRegressor`'s parameters, made before a search
-starts so that a typo does not cost a whole run.
+"""The parameters of a structure search: one table, one row per parameter.
 
-Typical use (inside ``fit``)::
+Typical use::
 
-    from mggp.params import check_params
-    check_params(est)        # ValueError naming the parameter, rule, value
+    from mggp.params import PARAMS, check_params
+    PARAMS["window"].help            # 'multiple-shooting window in samples ...'
+    check_params(est)                # ValueError naming the parameter, rule, value
+
+Each :class:`Param` row holds a parameter's name (the keyword of
+:class:`mggp.MGGPRegressor`), its rule (type, range or choices), its
+default, a help line in a control engineer's words, its command-line flag
+and ``--help`` group, and whether it enters the checkpoint context (the
+fitness values depend on it, so a checkpoint written with another value
+is not resumed) and the model's ``meta``. The table drives the estimator's
+validation and ``get_params``, the options of ``mggp fit`` and the budget
+options of ``mggp diagnose`` (:func:`add_options`), the checkpoint context
+(:func:`context_of`) and the model meta (:func:`meta_of`). Adding a fit
+option is one row here plus the code that uses the value.
 
 Every message names the parameter, the rule and the value given, as
-scikit-learn's do.
+scikit-learn's do; on the command line the parameter is named by its flag.
 """
 from __future__ import annotations
 
+import math
 import numbers
+import textwrap
+from dataclasses import dataclass
+from typing import Any, Callable, Dict, Iterable, Optional, Sequence, Tuple
 
-__all__ = ["check_params"]
+__all__ = ["Param", "Rule", "Int", "Real", "OneOf", "Bool", "Seed", "Kind", "PARAMS",
+           "DIAGNOSE_PARAMS", "GROUPS", "check_params", "check_value", "context_of",
+           "meta_of", "add_options", "options_given", "check_options", "params_doc"]
 
 
-def _is_int(v) -> bool:
+# ---------------------------------------------------------------- rules
+def _integer(v) -> bool:
     return isinstance(v, numbers.Integral) and not isinstance(v, bool)
 
 
-def _int_at_least(name, v, lo, optional=False):
-    if optional and v is None:
-        return
-    if not _is_int(v) or v < lo:
-        rule = f"an integer >= {lo}" + (" or None" if optional else "")
-        raise ValueError(f"{name} must be {rule}, got {v!r}")
+def _number(v) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
 
 
-def _one_of(name, v, allowed):
-    if not any(v is a or (type(v) is type(a) and v == a) for a in allowed):
-        text = ", ".join(repr(a) for a in allowed)
-        raise ValueError(f"{name} must be one of {text}, got {v!r}")
+class Rule:
+    """What values a parameter takes. ``words`` completes "must be ..." in
+    the estimator's messages, ``cli_words`` on the command line, where
+    argparse has already parsed the type."""
+
+    words = "valid"
+    cli_words = None
+    argtype: Optional[Callable] = str
+    choices: Optional[Tuple] = None
+
+    def ok(self, v) -> bool:
+        raise NotImplementedError
+
+    def check(self, name: str, v, cli: bool = False) -> None:
+        """Raise ``ValueError``: ``'{name} must be {rule}, got {v!r}'``."""
+        if not self.ok(v):
+            words = (self.cli_words or self.words) if cli else self.words
+            raise ValueError(f"{name} must be {words}, got {v if cli else repr(v)}")
 
 
-def check_params(est) -> None:
-    """Raise ``ValueError`` for the first parameter of ``est`` out of its rule."""
-    _int_at_least("population", est.population, 2)
-    for name in ("max_terms", "max_height", "window", "k"):
-        _int_at_least(name, getattr(est, name), 1)
-    _int_at_least("generations", est.generations, 0)
-    _int_at_least("noise_lags", est.noise_lags, 0)
-    _int_at_least("select_candidates", est.select_candidates, 1)
-    _int_at_least("max_lag", est.max_lag, 1, optional=True)
-    _int_at_least("max_degree", est.max_degree, 1, optional=True)
-    _int_at_least("screen_top", est.screen_top, 1, optional=True)
-    _one_of("constraints", est.constraints, (None, "steady-state"))
-    _one_of("search_constraints", est.search_constraints, (None, "steady-state"))
-    _one_of("select", est.select, ("fitness", "freerun", "hold"))
-    _one_of("prune", est.prune, (False, None, "bic", "t"))
-    _one_of("screen", est.screen, (None, "freerun", "hold"))
-    _one_of("refine", est.refine, (None, "ms", "freerun"))
-    _one_of("phi_outputs", est.phi_outputs, (False, True))
-    _one_of("constant", est.constant, (False, True))
-    if est.phi_outputs and not est.use_phi:
-        raise ValueError("phi_outputs=True needs Φ-functions in the search, got use_phi=False")
-    _int_at_least("refine_window", est.refine_window, 1, optional=True)
-    t = est.t_threshold
-    if t is not None and not (isinstance(t, numbers.Real) and not isinstance(t, bool)
-                              and t > 0 and t < float("inf")):
-        raise ValueError(f"t_threshold must be a finite number > 0 or None, got {t!r}")
+class Int(Rule):
+    """An integer ``>= lo`` (or one of ``also``; or None if ``none``)."""
+
+    argtype = int
+
+    def __init__(self, lo: int, none: bool = False, also: Tuple[int, ...] = ()):
+        self.lo, self.none, self.also = lo, none, tuple(also)
+        extra = "".join(f" or {a}" for a in self.also)
+        self.cli_words = f">= {lo}{extra}"
+        self.words = f"an integer >= {lo}{extra}" + (" or None" if none else "")
+
+    def ok(self, v) -> bool:
+        if v is None:
+            return self.none
+        return _integer(v) and (v >= self.lo or v in self.also)
+
+
+class Real(Rule):
+    """A finite number in an interval (or None if ``none``)."""
+
+    argtype = float
+
+    def __init__(self, lo: float = -math.inf, hi: float = math.inf, *, lo_open=False,
+                 hi_open=False, none=False, words: Optional[str] = None):
+        self.lo, self.hi, self.lo_open, self.hi_open, self.none = lo, hi, lo_open, hi_open, none
+        if words is None:
+            if math.isinf(hi):
+                words = f"a finite number {'>' if lo_open else '>='} {lo:g}"
+            else:
+                words = (f"a number in {'(' if lo_open else '['}{lo:g}, {hi:g}"
+                         f"{')' if hi_open else ']'}")
+        self.cli_words = words
+        self.words = words + (" or None" if none else "")
+
+    def ok(self, v) -> bool:
+        if v is None:
+            return self.none
+        if not _number(v) or not math.isfinite(v):
+            return False
+        above = v > self.lo if self.lo_open else v >= self.lo
+        below = v < self.hi if self.hi_open else v <= self.hi
+        return above and below
+
+
+class OneOf(Rule):
+    """One of ``values`` (compared by type and value: ``0`` is not False);
+    ``aliases`` are accepted as well without being listed."""
+
+    def __init__(self, values: Sequence, aliases: Sequence = ()):
+        self.values, self.aliases = tuple(values), tuple(aliases)
+        self.words = "one of " + ", ".join(repr(a) for a in self.values)
+        shown = [v for v in self.values if isinstance(v, str)]
+        self.cli_words = "one of " + ", ".join(shown)
+        self.choices = tuple(shown) or None
+
+    def ok(self, v) -> bool:
+        return any(v is a or (type(v) is type(a) and v == a)
+                   for a in self.values + self.aliases)
+
+
+class Bool(OneOf):
+    """``False`` or ``True``."""
+
+    argtype = None
+
+    def __init__(self):
+        super().__init__((False, True))
+
+
+class Seed(Rule):
+    """None, an integer >= 0, or a numpy ``Generator``."""
+
+    argtype = int
+    words = "None, an integer >= 0 or a numpy Generator"
+    cli_words = ">= 0"
+
+    def ok(self, v) -> bool:
+        if v is None or (_integer(v) and v >= 0):
+            return True
+        import numpy as np
+        return isinstance(v, np.random.Generator)
+
+
+class Kind(Rule):
+    """Anything ``test`` accepts (a type, a list of names...); ``words``
+    says what."""
+
+    def __init__(self, words: str, test: Callable[[Any], bool], argtype=str):
+        self.words, self.test, self.argtype = words, test, argtype
+
+    def ok(self, v) -> bool:
+        return bool(self.test(v))
+
+
+def _names(v) -> bool:
+    return v is None or (isinstance(v, (list, tuple)) and all(isinstance(x, str) for x in v))
+
+
+def _path(v) -> bool:
+    import os
+    return v is None or isinstance(v, (str, os.PathLike))
+
+
+ANY = Kind("anything", lambda v: True)
+NAMES = Kind("None or a list of names", _names)
+PATH = Kind("None or a path", _path)
+
+
+# ---------------------------------------------------------------- rows
+@dataclass(frozen=True)
+class Param:
+    """One parameter.
+
+    Attributes
+    ----------
+    name : str
+        Keyword of :class:`mggp.MGGPRegressor` (or, with ``estimator=False``,
+        the name of a command-line option that is not one).
+    default :
+        Its default.
+    rule : Rule
+    help : str
+        What it does, in a control engineer's words.
+    group : str
+        Heading of ``mggp fit --help`` (one of :data:`GROUPS`).
+    flag : str, optional
+        Command-line flag (None: not on the command line).
+    context : bool or 'if set'
+        Whether it enters the checkpoint context; ``'if set'``: only when
+        true, so checkpoints written without the parameter still resume.
+    meta : bool
+        Whether it is recorded in the model's ``meta``.
+    flag_help : str, optional
+        Help of the flag when it differs from ``help`` (``--no-phi``).
+    default_text : str, optional
+        The default as ``--help`` shows it (default: the value).
+    const :
+        For a flag that takes no value: the value it sets.
+    nargs, metavar : argparse's.
+    estimator : bool
+        False for a command-line option that is no estimator parameter.
+    """
+
+    name: str
+    default: Any
+    rule: Rule
+    help: str
+    group: str
+    flag: Optional[str] = None
+    context: Any = False
+    meta: bool = False
+    flag_help: Optional[str] = None
+    default_text: Optional[str] = None
+    const: Any = None
+    nargs: Optional[str] = None
+    metavar: Optional[str] = None
+    estimator: bool = True
+
+    def check(self, v, cli: bool = False) -> None:
+        self.rule.check(self.flag if cli else self.name, v, cli)
+
+
+#: headings of ``mggp fit --help``, in order
+GROUPS = {
+    "data": "data (DATA.csv has a header row; other columns are ignored)",
+    "budget": "search budget",
+    "model class": "model class (which terms a model may hold)",
+    "selection": "selection (how structures are scored, chosen and estimated)",
+    "parallelism": "parallelism and reproducibility",
+    "output": "output",
+    "tests": "tests of the diagnosis",
+}
+
+_FITNESS = ("ms", "pem", "freerun", "ksa")
+_ROWS = (
+    Param("fitness", "ms", OneOf(_FITNESS, aliases=("osa",)),
+          "simulation whose mean squared error scores a structure: multiple shooting "
+          "(ms), one step ahead (pem; alias osa), free run (freerun) or k steps ahead "
+          "(ksa)", "selection", "--fitness", context=True, meta=True),
+    Param("window", 100, Int(1), "multiple-shooting window in samples: each window is "
+          "simulated in free run from measured initial conditions (--fitness ms)",
+          "selection", "--window", context=True, meta=True),
+    Param("k", 10, Int(1), "prediction horizon in samples of --fitness ksa", "selection",
+          "--k", context=True, meta=True),
+    Param("criterion", "mse", OneOf(("mse", "bic", "aic")),
+          "fitness: the mean squared error, or an information criterion (BIC, AIC) that "
+          "penalises each term", "selection", "--criterion", context=True, meta=True),
+    Param("constraints", None, OneOf((None, "steady-state")),
+          "also refit the chosen structure by constrained least squares so that every "
+          "constant output is an equilibrium when the input is held (continuum of steady "
+          "states)", "model class", "--constraints", default_text="least squares only"),
+    Param("search_constraints", None, OneOf((None, "steady-state")),
+          "score every structure of the search by its constrained fit (continuum of "
+          "steady states) instead of least squares", "selection", "--search-constraints",
+          context=True, meta=True, default_text="least squares"),
+    Param("population", 500, Int(2), "structures per generation", "budget", "--population",
+          meta=True),
+    Param("generations", 200, Int(0), "generations after the initial population",
+          "budget", "--generations", meta=True),
+    Param("cxpb", 0.8, Real(0, 1), "crossover probability", "budget"),
+    Param("mutpb", 0.2, Real(0, 1), "mutation probability", "budget"),
+    Param("high_level_cx_rate", 0.5, Real(0, 1),
+          "share of crossovers that exchange whole terms", "budget"),
+    Param("high_level_mut_rate", 0.5, Real(0, 1),
+          "share of mutations that replace whole terms", "budget"),
+    Param("tournament_size", 2, Int(1), "structures compared per tournament", "budget"),
+    Param("elite_fraction", 0.1, Real(0, 1),
+          "share of each generation copied unchanged (the best)", "budget"),
+    Param("max_terms", 15, Int(1), "largest number of terms of a model", "model class",
+          "--max-terms", meta=True),
+    Param("max_height", 5, Int(1), "height of the GP trees; a tree of height h reaches "
+          "lags up to 1 + 3h", "model class", "--max-height", meta=True),
+    Param("use_phi", True, Bool(), "terms may hold Φ-functions of lagged inputs (input "
+          "increments and their signs, which model hysteresis)", "model class", "--no-phi",
+          context=True, meta=True, const=False,
+          flag_help="plain polynomial terms only: no Φ-functions", default_text="with Φ"),
+    Param("phi_names", None, NAMES, "Φ-functions the search uses (default: all "
+          "registered)", "model class", context=True, meta=True),
+    Param("phi_outputs", False, Bool(), "Φ-terms of output lags too, e.g. "
+          "Phi1(y[k-1],y[k-2]) (hysteresis driven by the output's rate)", "model class",
+          "--phi-outputs", context="if set", meta=True, const=True,
+          default_text="inputs only"),
+    Param("constant", False, Bool(), "every structure also holds the constant term 1 (an "
+          "intercept), for an output that rests at an offset the lag terms cannot express",
+          "model class", "--constant", context="if set", meta=True, const=True,
+          default_text="no constant term"),
+    Param("max_lag", None, Int(1, none=True), "largest lag a term may use, in samples",
+          "model class", "--max-lag", context=True, meta=True,
+          default_text="what --max-height reaches"),
+    Param("max_degree", None, Int(1, none=True), "largest polynomial degree of a term",
+          "model class", "--max-degree", context=True, meta=True, default_text="none"),
+    Param("select", "fitness", OneOf(("fitness", "freerun", "hold")),
+          "the result among the best distinct structures of the run: the best fitness, "
+          "the least free-run error over the training record, or (hold) the best whose "
+          "constrained refit holds its output on a held input", "selection", "--select",
+          meta=True),
+    Param("select_candidates", 20, Int(1), "structures compared by --select freerun and "
+          "hold", "selection"),
+    Param("screen", None, OneOf((None, "freerun", "hold")),
+          "stability screen in every generation: the leaders whose free run over the "
+          "training record leaves the output band get no fitness (hold: also those whose "
+          "constrained refit does not hold its output on a held input)", "selection",
+          "--screen", context=True, meta=True, default_text="no screen"),
+    Param("screen_top", None, Int(1, none=True), "leaders screened per generation "
+          "(default: the elite size)", "selection", context=True),
+    Param("screen_band", 1.0, Real(0), "widening of the screen's band beyond [min y, max "
+          "y], in output ranges", "selection", context=True),
+    Param("prune", False, OneOf((False, None, "bic", "t")),
+          "drop terms of the chosen structure by BIC of the fitness or by t-statistics",
+          "selection", "--prune", meta=True, default_text="keep all"),
+    Param("noise_lags", 0, Int(0), "Q: select moving-average noise terms e[k-1]..e[k-Q] "
+          "by extended least squares after the search (NARMAX, for coloured noise)",
+          "model class", "--noise-lags", meta=True, metavar="Q"),
+    Param("t_threshold", None, Real(0, lo_open=True, none=True),
+          "|t| below which a term is pruned (default: Bonferroni over the candidate "
+          "monomials)", "selection"),
+    Param("refine", None, OneOf((None, "ms", "freerun")),
+          "refine θ by minimising the simulation error (ms: windows of --refine-window "
+          "samples) instead of the one-step error of least squares, which is biased by "
+          "output noise", "selection", "--refine", meta=True, default_text="no refinement"),
+    Param("refine_window", None, Int(1, none=True), "multiple-shooting window in samples "
+          "of --refine ms", "selection", "--refine-window", metavar="W",
+          default_text="--window"),
+    Param("random_state", None, Seed(), "seed: fixes the run whatever the number of "
+          "workers", "parallelism", "--seed", default_text="drawn, and reported"),
+    Param("n_jobs", 1, Int(1, also=(-1,)), "worker processes, -1 for all cores",
+          "parallelism", "--jobs"),
+    Param("backend", "loky", OneOf(("loky", "threading", "sequential", "dask")),
+          "joblib backend of the evaluator", "parallelism", "--backend"),
+    Param("scheduler", None, ANY, "dask scheduler address (or client) for --backend dask",
+          "parallelism", "--scheduler", metavar="ADDRESS", default_text="none"),
+    Param("inputs", None, NAMES, "input column name(s)", "data", "--input", nargs="+",
+          metavar="NAME", default_text="u"),
+    Param("output", "y", Kind("a name", lambda v: isinstance(v, str)), "output column "
+          "name", "data", "--output", metavar="NAME"),
+    Param("checkpoint", None, PATH, "save the search state to this file every generation",
+          "output", "--checkpoint", metavar="FILE", default_text="none"),
+    Param("resume", False, Bool(), "continue the run saved in --checkpoint", "output",
+          "--resume", const=True, default_text="start anew"),
+    Param("callbacks", None, Kind("None or a list of callables",
+                                  lambda v: v is None or all(callable(c) for c in v)),
+          "functions f(state) called every generation", "output"),
+    Param("registry", None, ANY, "Φ-functions (default: the registered ones)",
+          "model class"),
+)
+
+#: every parameter of :class:`mggp.MGGPRegressor`, in the order of its signature
+PARAMS: Dict[str, Param] = {p.name: p for p in _ROWS}
+
+
+def _diagnose_row(name: str, **changes) -> Param:
+    from dataclasses import replace
+    return replace(PARAMS[name], **changes)
+
+
+#: options of ``mggp diagnose``: the search budget (rows of :data:`PARAMS`
+#: with the diagnosis's defaults) and the tests' own settings
+DIAGNOSE_PARAMS: Dict[str, Param] = {p.name: p for p in (
+    _diagnose_row("random_state", default=0, default_text=None),
+    _diagnose_row("n_jobs"),
+    _diagnose_row("population"),
+    _diagnose_row("generations", default=100),
+    _diagnose_row("max_terms", group="budget"),
+    _diagnose_row("max_height", group="budget"),
+    _diagnose_row("max_degree", default=3, group="budget", default_text=None),
+    _diagnose_row("window", group="budget", help="multiple-shooting window in samples of "
+                  "the baseline search"),
+    Param("shifts", 99, Int(1), "placebo shifts of the Φ-augmentation test", "budget",
+          "--shifts", estimator=False),
+    Param("bootstrap", 199, Int(1), "replicas of the prediction-bias bootstrap", "budget",
+          "--bootstrap", estimator=False),
+    Param("holdout", 0.3, Real(0, 1, lo_open=True, hi_open=True,
+                               words="a fraction between 0 and 1"),
+          "tail fraction of TRAIN.csv that measures the gain without --validation", "tests",
+          "--holdout", estimator=False),
+    Param("alpha", 0.01, Real(0, 0.5, lo_open=True, hi_open=True,
+                              words="between 0 and 0.5"),
+          "false-alarm probability of each test", "tests", "--alpha", estimator=False),
+    Param("resolution", 0.005, Real(0, 1, hi_open=True), "smallest effect named, as a "
+          "fraction of the output range", "tests", "--resolution", estimator=False),
+)}
+
+
+# ---------------------------------------------------------------- checks
+def check_value(name: str, v, label: Optional[str] = None) -> None:
+    """Check ``v`` against the rule of parameter ``name``; the message
+    names it ``label`` (e.g. ``population_size`` in ``mggp.evolve``)."""
+    PARAMS[name].rule.check(label or name, v)
+
+
+#: rules that combine parameters: (test, message, message on the command line)
+_COMBINED = (
+    (lambda e: not (e.phi_outputs and not e.use_phi),
+     lambda e: f"phi_outputs=True needs Φ-functions in the search, got use_phi={e.use_phi}",
+     "--phi-outputs needs Φ-functions in the search: drop --no-phi"),
+)
+
+
+def check_params(est, cli: bool = False) -> None:
+    """Raise ``ValueError`` for the first parameter of ``est`` out of its
+    rule, then for the first combination of parameters that is refused
+    (``cli``: named by their flags)."""
+    for p in PARAMS.values():
+        p.check(getattr(est, p.name), cli=cli and p.flag is not None)
+    for ok, message, cli_message in _COMBINED:
+        if not ok(est):
+            raise ValueError(cli_message if cli else message(est))
+
+
+def context_of(est) -> dict:
+    """The parameters the fitness values depend on (checkpoint context)."""
+    return {p.name: getattr(est, p.name) for p in PARAMS.values()
+            if p.context is True or (p.context == "if set" and getattr(est, p.name))}
+
+
+def meta_of(est) -> dict:
+    """The parameters recorded in a model's ``meta``."""
+    out = {}
+    for p in PARAMS.values():
+        if p.meta:
+            v = getattr(est, p.name)
+            out[p.name] = bool(v) if isinstance(p.rule, Bool) else v
+    return out
+
+
+# ---------------------------------------------------------------- command line
+def _shown(p: Param) -> str:
+    if p.default_text is not None:
+        return p.default_text
+    return str(p.default).lower() if isinstance(p.default, bool) else str(p.default)
+
+
+def add_options(parser, rows: Iterable[Param], groups: Optional[dict] = None) -> dict:
+    """Add the rows with a flag to ``parser``, in argument groups by
+    :attr:`Param.group`, each help line ending with its default. Every
+    option's value is None unless given (:func:`options_given`). Returns
+    the argument groups by name, for options added by hand."""
+    groups = {} if groups is None else groups
+    rows = [p for p in rows if p.flag is not None]
+    for name, title in GROUPS.items():         # headings in the order of GROUPS
+        if name not in groups and any(p.group == name for p in rows):
+            groups[name] = parser.add_argument_group(title)
+    for p in rows:
+        help_ = f"{p.flag_help or p.help} (default: {_shown(p)})".replace("%", "%%")
+        kw = dict(dest=p.name, default=None, help=help_)
+        if p.const is not None:
+            kw.update(action="store_const", const=p.const)
+        else:
+            metavar = p.metavar or p.flag.lstrip("-").upper().replace("-", "_")
+            if p.metavar is None and p.rule.choices is not None:
+                metavar = "{" + ",".join(p.rule.choices) + "}"
+            kw.update(type=p.rule.argtype, choices=p.rule.choices, nargs=p.nargs,
+                      metavar=metavar)
+        groups[p.group].add_argument(p.flag, **kw)
+    return groups
+
+
+def options_given(args, rows: Iterable[Param]) -> dict:
+    """``{name: value}`` of the options given on the command line."""
+    return {p.name: getattr(args, p.name) for p in rows
+            if p.flag is not None and getattr(args, p.name, None) is not None}
+
+
+def check_options(args, rows: Iterable[Param], fill: bool = True) -> None:
+    """Check every given option by its row's rule (``ValueError``: '--flag
+    must be ..., got v'); with ``fill``, set those not given to their
+    defaults."""
+    for p in rows:
+        if p.flag is None:
+            continue
+        v = getattr(args, p.name, None)
+        if v is None:
+            if fill:
+                setattr(args, p.name, p.default)
+        elif p.const is None and p.nargs is None:
+            p.check(v, cli=True)
+
+
+def params_doc() -> str:
+    """A numpydoc *Parameters* section of the estimator rows."""
+    lines = ["", "    Parameters", "    ----------"]
+    for p in PARAMS.values():
+        lines.append(f"    {p.name} : {p.rule.words}, default {p.default!r}")
+        text = p.help[0].upper() + p.help[1:] + (f" (``{p.flag}``)." if p.flag else ".")
+        lines += textwrap.wrap(text, 78, initial_indent=" " * 8, subsequent_indent=" " * 8)
+    return "\n".join(lines) + "\n"

@@ -32,16 +32,14 @@ from typing import Optional
 
 import numpy as np
 
+from .exceptions import SearchPrecisionWarning
+
 __all__ = ["SearchPrecisionWarning", "PrecisionCheck", "search_precision", "offsets",
            "offset_message", "horizon_message", "data_warnings"]
 
 #: the QR refit scoring this many times better than the search's own fit
 #: counts as lost precision
 RATIO = 1.25
-
-
-class SearchPrecisionWarning(UserWarning):
-    """The search's normal equations lost precision on the data."""
 
 
 @dataclass(frozen=True)

@@ -130,6 +130,9 @@ def write_fit_report(folder, est, data, data_name: str = "data",
                       xlabel=data.inputs[0], ylabel=data.output),
             plot_convergence(os.path.join(folder, "convergence.png"),
                              {est.fitness: est.logbook_})]
+    from .quasistatic_report import model_figure          # the model written, on a probe sine
+    figs += [f for f in [model_figure(os.path.join(folder, "quasistatic.png"),
+                                      est.get_best(), data.U.T)] if f]
     lines = [f"# mggp fit: {data_name}", ""]
     if command:
         lines += ["Command:", "", f"    {command}", ""]

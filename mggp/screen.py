@@ -9,8 +9,8 @@ Typical use (``MGGPRegressor(screen="freerun")`` wires it in)::
 Multiple shooting scores a structure on windows of Δm samples, each
 started from measured data, so an instability that needs longer than Δm
 to grow is never seen: a search can converge to a family of structures
-that fit every window and diverge in free run over the record (seen on the
-piezo case study with Δm = 1000). The screen simulates the best structures
+that fit every window and diverge in free run over the record (on the
+piezo case study with Δm = 1000, for example). The screen simulates the best structures
 of each batch in free run over the whole training record, with the same
 LS (or CLS) parameters, and gives those whose output leaves the band
 
@@ -53,6 +53,8 @@ from narx.phi import PhiRegistry
 from narx.simulate import recursion_windows
 from narx.terms import Term
 
+from .params import PARAMS, Int, Real
+
 __all__ = ["StabilityScreen"]
 
 
@@ -92,10 +94,8 @@ class StabilityScreen:
                  constraints: Optional[str] = None,
                  registry: Optional[PhiRegistry] = None, hold: bool = False,
                  hold_tol: float = 1e-6, settle: int = 100):
-        if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 1:
-            raise ValueError(f"top must be an integer >= 1, got {top!r}")
-        if not (isinstance(band, (int, float)) and math.isfinite(band) and band >= 0):
-            raise ValueError(f"band must be a finite number >= 0, got {band!r}")
+        Int(1).check("top", top)
+        PARAMS["screen_band"].rule.check("band", band)
         self.top = int(top)
         self.scorer = StructureScorer(data, "freerun", start=start, constraints=constraints,
                                       registry=registry, budget_bytes=96 * 2**20)
@@ -103,15 +103,13 @@ class StabilityScreen:
         self.lo = float(np.min(y) - band * np.ptp(y))
         self.hi = float(np.max(y) + band * np.ptp(y))
         # the kernels' symmetric divergence guard, containing the band
-        self.scorer.bound = max(abs(self.lo), abs(self.hi))
+        self.scorer.set_bound(max(abs(self.lo), abs(self.hi)))
         self.checked = 0
         self.rejected = 0
         self.rejected_hold = 0
         self.hold = None
         if hold:
-            if not (isinstance(hold_tol, (int, float)) and math.isfinite(hold_tol)
-                    and hold_tol >= 0):
-                raise ValueError(f"hold_tol must be a finite number >= 0, got {hold_tol!r}")
+            Real(0).check("hold_tol", hold_tol)
             self.hold = _HeldRecord(data, start, int(settle), float(hold_tol) * float(np.ptp(y)),
                                     registry)
 

@@ -17,16 +17,18 @@ Layers: :mod:`narx.terms` (term language), :mod:`narx.phi` (Φ-functions),
 """
 from .phi import (PhiFunction, PhiRegistry, register_phi, unregister_phi,
                   get_phi, default_registry)
-from .terms import Lag, PhiCall, Term, TermError, Signals, parse_term, parse_terms
-from .data import Data, DataError
-from .estimate import (Estimate, EstimationError, least_squares,
-                       constrained_least_squares)
+from .exceptions import (TermError, DataError, EstimationError, ModelFileError,
+                         RankWarning, NonMinimumPhaseWarning)
+from .terms import Lag, PhiCall, Term, Signals, parse_term, parse_terms
+from .data import Data
+from .estimate import Estimate, least_squares, constrained_least_squares
 from .regressors import regressor_matrix, max_lag
 from .simulate import SimulationResult, simulate, MODES
 from .steady import (Cluster, SteadyStateConstraints, clusters, cluster_sums,
                      steady_state_constraints)
 from .metrics import mse, rmse, mape, rrse, nrmse
-from .model import Model, ModelFileError, load_model, save_model
+from .model import Model, load_model, save_model
 from .refine import Refinement, refine
+from .quasistatic import QuasiStaticResult, quasistatic
 
 from .version import __version__

@@ -70,8 +70,9 @@ import numpy as np
 
 from .compensate_args import (check_count, check_range, check_reference, past_values,
                               training_magnitudes)
-from .inverse_check import (NonMinimumPhaseWarning, active_terms, input_lags,
-                            inverse_stability, uninvertible_reason)
+from .exceptions import NonMinimumPhaseWarning
+from .inverse_check import (active_terms, input_lags, inverse_stability,
+                            uninvertible_reason)
 from .linalg import DIVERGENCE_FACTOR
 from .phi import BUILTINS, phi_value
 from .terms import Lag

@@ -1,6 +1,8 @@
 """Argument checks shared by the compensators (``narx.compensate`` and
 ``mggp.compensate``), each raising one ``ValueError`` that names the
-argument, the rule and the value given.
+argument, the rule and the value given, and the signal ranges a model was
+fitted on (``meta['ranges']``). :func:`narx.steady.rest_actuator` is
+importable from here too.
 
 Typical use::
 
@@ -11,6 +13,8 @@ Typical use::
 from __future__ import annotations
 
 import numpy as np
+
+from .steady import rest_actuator
 
 __all__ = ["check_range", "check_count", "check_reference", "past_values",
            "training_ranges", "training_magnitudes", "rest_actuator"]
@@ -74,39 +78,3 @@ def training_ranges(model) -> dict:
 def training_magnitudes(model) -> list:
     """|ends| of the signal ranges the model was fitted on; ``[]`` if none."""
     return [abs(x) for lo_hi in training_ranges(model).values() for x in lo_hi]
-
-
-def rest_actuator(model, level: float, actuator: str, low: float, high: float,
-                  grid: int = 201):
-    r"""The actuator value in ``[low, high]`` at which the model rests with
-    its other signal held at ``level``, or None when any value rests there
-    (a continuum of steady states) or none in the range does.
-
-    ``actuator`` is ``model.inputs[0]`` for a forward model
-    (:math:`\bar y = f(\bar u, \bar y)` with :math:`\bar y` = ``level``,
-    solved for :math:`\bar u`) or ``model.output`` for an inverse one
-    (:math:`\bar m = f(\bar r, \bar m)` with :math:`\bar r` = ``level``).
-    The one-step map is evaluated with every lag at the rest values on a
-    grid of ``grid`` points; a sign change of its rest error is
-    interpolated linearly, the root nearest the middle of the range kept.
-    """
-    ml = max(int(model.max_lag), 1)
-    a = np.linspace(low, high, grid)
-    held = np.repeat(a, ml + 1)                      # one constant block per grid point
-    other = np.full(held.size, float(level))
-    inverse = actuator == model.output
-    u, y = (other, held) if inverse else (held, other)
-    pred = model.simulate(u, y, mode="osa").y_hat[ml::ml + 1]
-    g = pred - (a if inverse else level)
-    if not np.all(np.isfinite(g)):
-        return None
-    scale = max(1.0, abs(level), abs(low), abs(high))
-    if np.max(np.abs(g)) <= 1e-9 * scale:            # every value rests: a continuum
-        return None
-    roots = [a[i] for i in np.flatnonzero(g == 0.0)]
-    for i in np.flatnonzero(g[:-1] * g[1:] < 0):
-        roots.append(a[i] - g[i] * (a[i + 1] - a[i]) / (g[i + 1] - g[i]))
-    if not roots:
-        return None
-    mid = 0.5 * (low + high)
-    return float(min(roots, key=lambda x: abs(x - mid)))

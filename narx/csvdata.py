@@ -33,7 +33,8 @@ from typing import Iterator, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .atomic import atomic_writer
-from .data import MAX_ABS, Data, DataError
+from .data import MAX_ABS, Data
+from .exceptions import DataError
 
 __all__ = ["read_csv", "read_columns", "iter_rows", "write_with_column"]
 

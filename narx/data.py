@@ -19,13 +19,10 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from .exceptions import DataError
 from .terms import HasSignals, Signals
 
 __all__ = ["Data", "DataError", "as_data"]
-
-
-class DataError(ValueError):
-    """Invalid measured data (shape, length, non-finite values, names)."""
 
 
 def _as_float(name, a, ndim_ok=(1,)):

@@ -39,12 +39,10 @@ import numpy as np
 
 from .linalg import matrix_rank, scaled_lstsq, t_values
 
+from .exceptions import EstimationError
+
 __all__ = ["Estimate", "EstimationError", "least_squares",
            "constrained_least_squares", "t_statistics"]
-
-
-class EstimationError(ValueError):
-    """The estimation problem is ill-posed (constraints, shapes, data)."""
 
 
 @dataclass(frozen=True)

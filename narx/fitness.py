@@ -12,9 +12,9 @@ whole search so results are comparable and cacheable), then returns
 
 .. math::  J = \\frac{1}{|K|}\\sum_{k\\in K} (y_k - \\hat y_k)^2
 
-where ŷ is the one-step (``pem``), free-run, k-steps-ahead (``ksa``) or
-multiple-shooting (``ms``) simulation and K its valid samples; a diverging
-simulation scores ``inf``.
+where ŷ is the one-step (``osa``, alias ``pem``), free-run, k-steps-ahead
+(``ksa``) or multiple-shooting (``ms``) simulation and K its valid samples; a
+diverging simulation scores ``inf``.
 
 Speed comes from caching across term sets, as a structure search meets the
 same terms again and again:
@@ -30,7 +30,12 @@ same terms again and again:
   when columns are dependent. Final models
   are refitted with :func:`narx.estimate.least_squares` on the regressor
   matrix itself (``Model.fit``);
-* the compiled kernel reads input parts straight from the store.
+* the compiled kernel reads input parts straight from the store;
+* the ``ms`` fitness with a fixed ``start`` runs the window-major kernel of
+  a :class:`~narx.ms_kernel.MultipleShooting` the scorer owns.
+
+The stores are allocated empty (``numpy.empty``): a scorer's resident
+memory grows with the columns it actually holds, up to its budget.
 """
 from __future__ import annotations
 
@@ -42,15 +47,15 @@ from numba import njit
 
 from .colbuild import ColumnBuilder
 from .data import Data
-from .estimate import EstimationError
+from .exceptions import EstimationError
 from .gram import fill_gram as _fill_gram, fixed_dot
 from .kernels import Plan, run_windows
 from .linalg import divergence_bound, gram_lstsq
-from .output_error import OutputErrorProblem, burn_in, check_estimator, output_error_theta
-from .ms_kernel import ms_mse, window_sse
+from .ms_kernel import BUDGET as MS_BUDGET, MultipleShooting, window_sse
 from .phi import PhiRegistry, default_registry
+from .output_error import OutputErrorProblem, burn_in, check_estimator, output_error_theta
 from .regressors import factor_column, input_part_into, regressor_matrix
-from .simulate import recursion_windows
+from .simulate import MODES, mode_name, recursion_windows
 from .steady import steady_state_constraints
 from .terms import Term
 
@@ -86,19 +91,22 @@ def _osa_sse(P, idx, theta, y, s):
     return acc
 
 
-FITNESS = ("pem", "freerun", "ksa", "ms")
+#: the fitness names: the simulation modes (``pem`` is accepted for ``osa``,
+#: :data:`narx.simulate.MODE_TABLE`)
+FITNESS = MODES
 #: default size of a scorer's column cache (bytes)
 SCORER_BUDGET = 160 * 2**20
 
 
 class ColumnStore:
-    """Fixed-size (C, N) array of cached columns with LRU slot reuse.
+    """(C, N) array of cached columns with LRU slot reuse.
 
     ``budget_bytes`` sets the capacity C (at least ``min_slots``, at most
-    ``max_slots``); the first ``budget_bytes`` of the array are written once
-    at construction (``prefault``), so the process's resident size does not
-    grow later as the cache fills (joblib's loky restarts a worker whose
-    resident size grows by 300 MB after its first task).
+    ``max_slots``). The array is allocated once and empty, so its memory is
+    touched only as columns fill it (nothing is ever copied to grow it);
+    ``prefault`` writes it all at construction instead, so a long-lived
+    worker's resident size does not grow later (joblib's loky restarts a
+    worker whose resident size grows by 300 MB after its first task).
     """
 
     @staticmethod
@@ -108,15 +116,11 @@ class ColumnStore:
         return min(max_slots, max(min_slots, int(budget_bytes // (8 * max(n, 1)))))
 
     def __init__(self, n: int, budget_bytes: int = 256 * 2**20, min_slots: int = 64,
-                 max_slots: int = 1024, prefault: bool = True):
+                 max_slots: int = 1024, prefault: bool = False):
         self.capacity = self.slots_for(n, budget_bytes, min_slots, max_slots)
         self.n = n
-        # allocated once; nothing is ever copied to grow it
         self.array = np.empty((self.capacity, n))
         if prefault:
-            # every row, also those ``min_slots`` adds beyond the budget for
-            # long records: a worker that grew later would be restarted by
-            # loky's memory guard, losing its caches
             self.array[:] = 0.0
         self.slots: "OrderedDict[str, int]" = OrderedDict()
         self.free = list(range(self.capacity - 1, -1, -1))
@@ -158,7 +162,7 @@ class StructureScorer:
     ----------
     data : Data
         The record (inputs and measured output).
-    fitness : {'pem', 'freerun', 'ksa', 'ms'}
+    fitness : {'osa', 'freerun', 'ksa', 'ms'} or an alias ('pem' for 'osa')
     window : int
         Δm for ``ms`` (default 100).
     k : int
@@ -170,9 +174,16 @@ class StructureScorer:
         largest lag of every scored set (default: the set's own).
     budget_bytes : int
         Size of the column cache (default 160 MB; the ``ms`` fitness keeps
-        a second, window-major cache of ``narx.ms_kernel.BUDGET``, 128 MB).
-        Both are written once when they are created, so a worker's resident
-        size is reached at its first task and does not grow afterwards.
+        a second, window-major cache of ``narx.ms_kernel.BUDGET``, 128 MB,
+        at most the column cache's size). Both are allocated empty and
+        touched as they fill.
+    bound : float, optional
+        Divergence bound of the simulations: a window whose output leaves
+        ``[-bound, bound]`` scores ``inf`` (default ``1e4 max|y|``; see
+        :meth:`set_bound`).
+    prefault : bool
+        Write the column cache at construction, so the resident size does
+        not grow later (for long-lived worker processes).
     estimator : {'ls', 'oe'}
         θ of a term set: least squares (default), or output error
         (:mod:`narx.output_error`: IV from the LS θ, then Gauss–Newton on
@@ -181,16 +192,22 @@ class StructureScorer:
         ``constraints``. With ``'oe'`` the first
         :func:`narx.output_error.burn_in` steps of each simulated window
         are not scored.
+
+    Attributes
+    ----------
+    bound : float
+        The divergence bound in use.
+    shooting : narx.ms_kernel.MultipleShooting or None
+        The window-major multiple-shooting kernel (``ms`` fitness with a
+        fixed ``start``), else None.
     """
 
     def __init__(self, data: Data, fitness: str = "ms", *, window: Optional[int] = None,
                  k: Optional[int] = None, constraints: Optional[str] = None,
                  start: Optional[int] = None, registry: Optional[PhiRegistry] = None,
-                 budget_bytes: int = SCORER_BUDGET, estimator: str = "ls"):
-        if fitness == "osa":
-            fitness = "pem"
-        if fitness not in FITNESS:
-            raise ValueError(f"fitness must be one of {', '.join(FITNESS)}, got {fitness!r}")
+                 budget_bytes: int = SCORER_BUDGET, bound: Optional[float] = None,
+                 prefault: bool = False, estimator: str = "ls"):
+        fitness = mode_name(fitness, "fitness")
         check_estimator(estimator, fitness, constraints)
         self.estimator = estimator
         if constraints not in (None, "steady-state"):
@@ -207,12 +224,10 @@ class StructureScorer:
         self.constraints = constraints
         self.start = None if start is None else int(start)
         self.registry = registry or default_registry()
-        self.store = ColumnStore(data.n, budget_bytes)
+        self.store = ColumnStore(data.n, budget_bytes, prefault=prefault)
         self._builder = ColumnBuilder(data, self.y, self.registry)
-        # the stores are written at creation (the first task of a worker);
-        # what may still grow is bounded: the record's column cache, the
-        # decoder and term caches. joblib's loky restarts a worker whose
-        # resident size grows by 300 MB after its first task.
+        # besides the stores, what may grow is bounded: the record's column
+        # cache, the decoder and term caches
         data.cache_limit = min(data.cache_limit, 48 * 2**20)
         # Gram entries psi_i^T psi_j and psi_i^T y of cached columns, indexed
         # by store slot, for rows >= self._gram_start (NaN: not computed)
@@ -221,8 +236,29 @@ class StructureScorer:
         self._b = np.full(cap, np.nan)
         self._gram_start = -1
         self._out_cols: Dict[str, np.ndarray] = {}
-        self.bound = divergence_bound(self.y)
+        self.set_bound(divergence_bound(self.y) if bound is None else bound)
+        self.shooting = None
+        if self.fitness == "ms" and self.start is not None:
+            self.shooting = MultipleShooting(
+                self.y, self.window, min(MS_BUDGET, self.store.capacity * 8 * data.n))
         self.evaluations = 0
+
+    @property
+    def bound(self) -> float:
+        """Divergence bound of the simulations (set by :meth:`set_bound`)."""
+        return self._bound
+
+    def set_bound(self, bound: float) -> "StructureScorer":
+        """Set the divergence bound: a simulation whose output leaves
+        ``[-bound, bound]`` (or is not finite) scores ``inf``."""
+        try:
+            value = float(bound)
+        except (TypeError, ValueError):
+            value = float("nan")
+        if not (value >= 0 and np.isfinite(value)):
+            raise ValueError(f"bound must be a finite number >= 0, got {bound!r}")
+        self._bound = value
+        return self
 
     def clear_cache(self):
         """Forget every cached column and Gram entry, and the record's column
@@ -231,10 +267,8 @@ class StructureScorer:
         self.store.clear()
         self._gram_start = -1
         self._out_cols.clear()
-        st = getattr(self, "_ms_state", None)
-        if st is not None:
-            st.store.clear()
-            st.info.clear()
+        if self.shooting is not None:
+            self.shooting.clear()
         self.data.clear_cache()
 
     # ------------------------------------------------------------ columns
@@ -262,6 +296,11 @@ class StructureScorer:
                     row *= self._out_column(f)
             _finite_inplace(row)
         return self.store.get("r:" + t.text, fill)
+
+    def input_column(self, t: Term) -> np.ndarray:
+        """The input part of term ``t`` on the record (a row of the column
+        store: read it before the next column is added)."""
+        return self.store.array[self._in_slot(t)]
 
     def _in_slot(self, t: Term) -> int:
         if not t.output_factors and not t.has_noise:
@@ -385,12 +424,12 @@ class StructureScorer:
         n, y = self.data.n, self.y
         if self.burn:
             return self._burnt_mse(terms, theta, s)
-        if self.fitness == "pem":
+        if self.fitness == "osa":
             idx = np.array([self._reg_slot(t) for t in terms], dtype=np.int64)
             mse = _osa_sse(self.store.array, idx, theta, y, s) / (n - s)
             return mse if np.isfinite(mse) else float("inf")
-        if self.fitness == "ms":                 # window-major fast path
-            mse = ms_mse(self, terms, theta, s)
+        if self.shooting is not None:            # window-major fast path
+            mse = self.shooting.mse(terms, theta, s, self.bound, self.input_column)
             if mse is not None:
                 return mse
         horizon = self.window if self.fitness == "ms" else self.k

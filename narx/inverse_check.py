@@ -31,15 +31,12 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
+from .exceptions import NonMinimumPhaseWarning
 from .phi import builtin
 from .terms import Lag
 
 __all__ = ["InverseStability", "NonMinimumPhaseWarning", "inverse_stability",
            "uninvertible_reason"]
-
-
-class NonMinimumPhaseWarning(UserWarning):
-    """The model's linear input part has zeros outside the unit circle."""
 
 
 def active_terms(model):

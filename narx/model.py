@@ -30,22 +30,17 @@ import numpy as np
 
 from .data import Data, as_data
 from .atomic import atomic_write_text
-from .estimate import (EstimationError, constrained_least_squares,
-                       least_squares)
-from .modelio import (ModelFileError, fail, model_fields, model_json, model_to_dict,
-                      read_model_json)
+from .estimate import constrained_least_squares, least_squares
+from .exceptions import EstimationError, ModelFileError, RankWarning, TermError
+from .modelio import fail, model_fields, model_json, model_to_dict, read_model_json
 from .phi import PhiRegistry, default_registry
 from .regressors import max_lag, regressor_matrix, term_column
 from .simulate import SimulationResult, simulate
 from .steady import cluster_sums, steady_state_constraints
-from .terms import HasSignals, Signals, Term, TermError, parse_terms
+from .terms import HasSignals, Signals, Term, parse_terms
 
 __all__ = ["Model", "RankWarning", "ignore_rank_warnings", "load_model", "save_model",
            "model_from_dict", "model_to_dict", "ModelFileError"]
-
-
-class RankWarning(UserWarning):
-    """The regressor matrix of a fit is rank-deficient (dependent terms)."""
 
 
 @contextlib.contextmanager

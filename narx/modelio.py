@@ -34,8 +34,9 @@ import math
 import os
 
 from .atomic import atomic_write_text
+from .exceptions import ModelFileError, TermError
 from .phi import default_registry
-from .terms import Signals, TermError, parse_term
+from .terms import Signals, parse_term
 from .version import __version__
 
 __all__ = ["ModelFileError", "model_to_dict", "model_fields", "model_json",
@@ -52,10 +53,6 @@ MAX_TERMS = 256
 MAX_TERM_CHARS = 1000
 MAX_DEGREE = 64
 MAX_DIGITS = 400
-
-
-class ModelFileError(ValueError):
-    """A model file that cannot be loaded."""
 
 
 def model_to_dict(model) -> dict:

@@ -1,23 +1,25 @@
 """Window-major multiple-shooting kernel for the ``ms`` fitness of a search.
 
-Typical use (internal: :meth:`narx.fitness.StructureScorer._simulate_mse`
-dispatches here first)::
+Typical use (internal: :class:`narx.fitness.StructureScorer` creates one
+:class:`MultipleShooting` for its record and calls it first)::
 
-    from narx.ms_kernel import ms_mse
-    mse = ms_mse(scorer, terms, theta, s)   # None: not handled, use run_windows
+    from narx.ms_kernel import MultipleShooting
+    ms = MultipleShooting(y, window=100, budget_bytes=128 * 2**20)
+    mse = ms.mse(terms, theta, s, bound, scorer.input_column)
+    # None: not handled, use run_windows
 
-Why: multiple shooting is ``W`` independent windows of Δm steps. The general
+Multiple shooting is ``W`` independent windows of Δm steps. The general
 kernel (:mod:`narx.kernels`) runs them one after the other, so every step
 waits for the previous one (the recursion ``ŷ_k <- ŷ_{k-1}`` is a chain of
 dependent multiply-adds). Here step ``j`` of *all* windows is computed
 together: the innermost loop runs over windows, which are independent, so it
 vectorises. The input parts are kept in a second column store laid out
 window-major (``PT[c, j*W + w] = P[c, s + w*Δm + j]``, zero past the end),
-built once per column for the scorer's fixed ``start`` and window, so the
+built once per column for the first scored row ``s`` and the window, so the
 inner loop reads contiguous memory (the measured output is kept
-window-major too). That store is an LRU of at most
-``BUDGET`` bytes per scorer (128 MB, env ``NARX_MS_BUDGET_MB``): a GP run's
-working set fits, and worker processes stay small.
+window-major too). That store is an LRU of at most ``budget_bytes``
+(default :data:`BUDGET`, 128 MB, env ``NARX_MS_BUDGET_MB``), allocated
+empty: its memory is touched as columns fill it.
 
 Results are bit-for-bit those of the general kernel followed by
 :func:`window_sse`: the same operations in the same order for every window,
@@ -25,16 +27,15 @@ and the squared errors summed per window (one running sum per window,
 updated as the steps advance), then over windows in window order. Hence
 identical for any number of workers.
 
-Handled: the scorer has a fixed ``start``; no term has noise lags, and a
-Φ-call with an output argument is a built-in Φ of two output lags (what
-``phi_outputs`` searches build). Anything else returns ``None`` and the
-general kernel runs.
+Handled: no term has noise lags, and a Φ-call with an output argument is a
+built-in Φ of two output lags (what ``phi_outputs`` searches build).
+Anything else returns ``None`` and the general kernel runs.
 """
 from __future__ import annotations
 
 import os
 from collections import OrderedDict
-from typing import Dict, Optional, Sequence
+from typing import Callable, Dict, Optional, Sequence
 
 import numpy as np
 
@@ -43,12 +44,12 @@ from numba import njit
 from .phi import builtin_code, phi_value
 from .terms import Lag, PhiCall, Term
 
-__all__ = ["ms_mse", "window_sse", "WindowStore", "ENABLED"]
+__all__ = ["MultipleShooting", "window_sse", "WindowStore", "ENABLED", "BUDGET"]
 
 #: False runs the general kernel instead (benchmarks compare the two);
 #: the environment variable NARX_MS_KERNEL=0 sets it in worker processes too
 ENABLED = os.environ.get("NARX_MS_KERNEL", "1") != "0"
-#: bytes of window-major columns kept per scorer (LRU beyond that)
+#: default bytes of window-major columns kept per scorer (LRU beyond that)
 BUDGET = int(os.environ.get("NARX_MS_BUDGET_MB", "128")) * 2**20
 
 
@@ -177,8 +178,8 @@ def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound,
 
 class WindowStore:
     """Input-part columns laid out window-major for one (N, start, Δm): an
-    LRU of ``budget_bytes`` allocated once (pages are touched as slots fill,
-    and nothing is ever copied to grow it)."""
+    LRU of ``budget_bytes``, allocated empty once (its pages are touched as
+    slots fill, and nothing is ever copied to grow it)."""
 
     def __init__(self, n: int, start: int, window: int, budget_bytes: int):
         self.n, self.start, self.window = int(n), int(start), int(window)
@@ -186,9 +187,6 @@ class WindowStore:
         width = self.W * self.window
         self.capacity = max(16, int(budget_bytes // (8 * width)))   # > 15 terms
         self.array = np.empty((self.capacity, width))
-        # written once now, so the resident size does not grow as it fills
-        # (see narx.fitness.ColumnStore)
-        self.array[:max(1, min(self.capacity, int(budget_bytes // (8 * width))))] = 0.0
         self.slots: "OrderedDict[str, int]" = OrderedDict()
         self.builds = 0
 
@@ -224,23 +222,10 @@ class WindowStore:
         return slot
 
 
-class _State:
-    """Per-scorer cache: the window store and each term's layout."""
-
-    def __init__(self, scorer, s: int):
-        self.start, self.window = s, scorer.window
-        self.store = WindowStore(scorer.data.n, s, scorer.window,
-                                 min(BUDGET, scorer.store.capacity * 8 * scorer.data.n))
-        self.info: Dict[Term, Optional[tuple]] = {}
-        #: the measured output, window-major like the input parts
-        self.YT = np.empty(self.store.W * self.window)
-        self.store.permute_into(scorer.y, self.YT)
-
-
 def _term_info(t: Term):
     """(input-part key, output factors) or None if the fast path cannot run
     it; an output factor is a lag (int) or a built-in Φ of two output lags
-    ``(kind, lag_a, lag_b)``."""
+    ``(code, lag_a, lag_b)``."""
     if t.has_noise:
         return None
     facs = []
@@ -255,58 +240,94 @@ def _term_info(t: Term):
     return "*".join(str(f) for f in t.input_factors), tuple(facs)
 
 
-def ms_mse(scorer, terms: Sequence[Term], theta, s: int) -> Optional[float]:
-    """Multiple-shooting MSE of ``terms`` with ``theta`` from row ``s``.
+class MultipleShooting:
+    """Multiple-shooting MSE of term sets on one record, window-major.
 
-    Same value, bit for bit, as the general path of
-    ``StructureScorer._simulate_mse``; ``None`` when not handled here.
+    Parameters
+    ----------
+    y : ndarray
+        The measured output (initial conditions and targets).
+    window : int
+        Δm, samples per window.
+    budget_bytes : int
+        Bytes of the window-major store (default :data:`BUDGET`).
+
+    The window-major store is laid out for one first row ``s``; a call
+    with another ``s`` starts a new store. It holds no reference to its
+    owner (the input parts come with each call), so an owner that drops it
+    frees it at once.
     """
-    if not ENABLED or scorer.start is None or s >= scorer.data.n:
-        return None
-    st = getattr(scorer, "_ms_state", None)
-    if st is None or st.start != s or st.window != scorer.window:
-        st = scorer._ms_state = _State(scorer, s)
-    infos = []
-    for t in terms:
-        info = st.info.get(t, 0)
-        if info == 0:
-            if len(st.info) > 200_000:
-                st.info.clear()
-            info = st.info[t] = _term_info(t)
-        if info is None:
+
+    def __init__(self, y: np.ndarray, window: int, budget_bytes: int = BUDGET):
+        self.y = np.ascontiguousarray(y, dtype=np.float64)
+        self.window = int(window)
+        self.budget_bytes = int(budget_bytes)
+        self.store: Optional[WindowStore] = None
+        self.info: Dict[Term, Optional[tuple]] = {}
+        self.YT: Optional[np.ndarray] = None
+
+    def clear(self) -> None:
+        """Forget every column and term layout (the store's array is kept)."""
+        if self.store is not None:
+            self.store.clear()
+        self.info.clear()
+
+    def _layout(self, s: int) -> WindowStore:
+        if self.store is None or self.store.start != s:
+            self.store = WindowStore(self.y.shape[0], s, self.window, self.budget_bytes)
+            #: the measured output, window-major like the input parts
+            self.YT = np.empty(self.store.W * self.window)
+            self.store.permute_into(self.y, self.YT)
+        return self.store
+
+    def mse(self, terms: Sequence[Term], theta, s: int, bound: float,
+            input_column: Callable[[Term], np.ndarray]) -> Optional[float]:
+        """Multiple-shooting MSE of ``terms`` with ``theta`` from row ``s``.
+
+        ``input_column(term)`` gives the term's input part on the record, a
+        length-N array, read at once and not kept. Same value, bit for bit, as :func:`narx.kernels.run_windows` over
+        the windows followed by :func:`window_sse`; ``inf`` when a window
+        leaves ``bound``; ``None`` when not handled here (or when
+        :data:`ENABLED` is False).
+        """
+        if not ENABLED or s >= self.y.shape[0]:
             return None
-        infos.append(info)
-    idx = np.empty(len(terms), dtype=np.int64)
-    static, dyn, lag_rows, phis = [], [], [], {}
-    for i, (t, (key, facs)) in enumerate(zip(terms, infos)):
-        idx[i] = st.store.slot(key, lambda t=t: _natural(scorer, t))
-        if facs:
-            dyn.append(i)
-            # a lag, or -slot of a Φ-call of output lags (slots 0, 1, ...)
-            lag_rows.append([f if isinstance(f, int) else -phis.setdefault(f, len(phis))
-                             for f in facs])
-        else:
-            static.append(i)
-    width = max((len(r) for r in lag_rows), default=1)
-    lags = np.zeros((len(lag_rows), width), dtype=np.int64)
-    for i, r in enumerate(lag_rows):
-        lags[i, :len(r)] = r
-    nlag = np.array([len(r) for r in lag_rows], dtype=np.int64)
-    pk = np.array([k for k, _, _ in phis], dtype=np.int64)
-    pla = np.array([a for _, a, _ in phis], dtype=np.int64)
-    plb = np.array([b for _, _, b in phis], dtype=np.int64)
-    ml = max([c for r in lag_rows for c in r] + list(pla) + list(plb) + [0])
-    ws = st.store
-    diverged, sse = _ms_sse(scorer.y, st.YT, ws.array, idx,
-                           np.ascontiguousarray(theta, dtype=np.float64),
-                           np.array(static, dtype=np.int64),
-                           np.array(dyn, dtype=np.int64), lags, nlag,
-                           s, ws.window, ws.W, int(ml), float(scorer.bound), pk, pla, plb)
-    if diverged:
-        return float("inf")
-    return float(sse / (scorer.data.n - s))
-
-
-def _natural(scorer, t: Term) -> np.ndarray:
-    slot = scorer._in_slot(t)            # may grow the array: index after
-    return scorer.store.array[slot]
+        infos = []
+        for t in terms:
+            info = self.info.get(t, 0)
+            if info == 0:
+                if len(self.info) > 200_000:
+                    self.info.clear()
+                info = self.info[t] = _term_info(t)
+            if info is None:
+                return None
+            infos.append(info)
+        ws = self._layout(s)
+        idx = np.empty(len(terms), dtype=np.int64)
+        static, dyn, lag_rows, phis = [], [], [], {}
+        for i, (t, (key, facs)) in enumerate(zip(terms, infos)):
+            idx[i] = ws.slot(key, lambda t=t: input_column(t))
+            if facs:
+                dyn.append(i)
+                # a lag, or -slot of a Φ-call of output lags (slots 0, 1, ...)
+                lag_rows.append([f if isinstance(f, int) else -phis.setdefault(f, len(phis))
+                                 for f in facs])
+            else:
+                static.append(i)
+        width = max((len(r) for r in lag_rows), default=1)
+        lags = np.zeros((len(lag_rows), width), dtype=np.int64)
+        for i, r in enumerate(lag_rows):
+            lags[i, :len(r)] = r
+        nlag = np.array([len(r) for r in lag_rows], dtype=np.int64)
+        pk = np.array([k for k, _, _ in phis], dtype=np.int64)
+        pla = np.array([a for _, a, _ in phis], dtype=np.int64)
+        plb = np.array([b for _, _, b in phis], dtype=np.int64)
+        ml = max([c for r in lag_rows for c in r] + list(pla) + list(plb) + [0])
+        diverged, sse = _ms_sse(self.y, self.YT, ws.array, idx,
+                                np.ascontiguousarray(theta, dtype=np.float64),
+                                np.array(static, dtype=np.int64),
+                                np.array(dyn, dtype=np.int64), lags, nlag,
+                                s, ws.window, ws.W, int(ml), float(bound), pk, pla, plb)
+        if diverged:
+            return float("inf")
+        return float(sse / (self.y.shape[0] - s))

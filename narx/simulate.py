@@ -6,16 +6,25 @@ Typical use::
     r = simulate(terms, theta, data, mode="freerun")
     r.y_hat, r.valid, r.diverged, r.mse
 
-Modes:
+The modes are one table, :data:`MODE_TABLE`: a row per mode gives its
+name, the aliases also accepted and what it simulates. The same names
+serve as fitness names (:class:`narx.fitness.StructureScorer`); the alias
+``pem`` (prediction-error method) is the usual name of the one-step-ahead
+fitness, as in ``mggp fit --fitness pem``:
 
-=============  ==============================================================
-``osa``        every regressor from measured data (one-step-ahead, PEM)
-``freerun``    the whole record recursively from the first ``maxlag`` samples
-``ksa``        free run of ``k`` steps from every sample; ŷ_k is the k-step
-               prediction made from measured data up to sample k − k_h
-``ms``         multiple shooting: windows of Δm samples, each a free run from
-               the measured samples before it
-=============  ==============================================================
+=============  ======================  ==========================================
+mode           aliases                 what is simulated
+=============  ======================  ==========================================
+``osa``        ``pem``, ``one-step``   every regressor from measured data
+``freerun``    ``free-run``, ``free``  the whole record recursively from the
+                                       first ``maxlag`` samples
+``ksa``        ``k-steps``             free run of ``k`` steps from every
+                                       sample; ŷ_k is the k-step prediction
+                                       made from measured data up to k − k_h
+``ms``         ``shooting``            multiple shooting: windows of Δm
+                                       samples, each a free run from the
+                                       measured samples before it
+=============  ======================  ==========================================
 
 ``ksa`` with k = 1 equals ``osa``; ``ms`` with one window equals ``freerun``.
 Noise terms ``e[k-j]`` are zero in every mode (their expectation). A
@@ -29,16 +38,42 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .data import Data, DataError
+from .data import Data
+from .exceptions import DataError
 from .kernels import Plan, run_windows
 from .phi import PhiRegistry
 from .terms import Term
 
-__all__ = ["SimulationResult", "simulate", "MODES", "window_starts", "recursion_windows"]
+__all__ = ["SimulationResult", "simulate", "MODES", "MODE_TABLE", "mode_name",
+           "window_starts", "recursion_windows"]
 
-MODES = ("osa", "freerun", "ksa", "ms")
-_ALIASES = {"pem": "osa", "one-step": "osa", "free-run": "freerun",
-            "free": "freerun", "k-steps": "ksa", "shooting": "ms"}
+#: the simulation modes, one row each: (name, aliases also accepted, what is
+#: simulated); the module docstring shows it as a table
+MODE_TABLE = (
+    ("osa", ("pem", "one-step"), "one-step-ahead: every regressor from measured data"),
+    ("freerun", ("free-run", "free"), "free run of the whole record from the first "
+                                      "maxlag samples"),
+    ("ksa", ("k-steps",), "k-steps-ahead: a free run of k steps from every sample"),
+    ("ms", ("shooting",), "multiple shooting: windows of Δm samples, each a free run "
+                          "from the measured samples before it"),
+)
+#: the canonical mode names
+MODES = tuple(name for name, _, _ in MODE_TABLE)
+_ALIASES = {alias: name for name, aliases, _ in MODE_TABLE for alias in aliases}
+
+
+def mode_name(mode, what: str = "mode") -> str:
+    """The canonical name of a mode given by its name or an alias.
+
+    Raises ``ValueError`` naming ``what`` (e.g. ``'fitness'``), the names
+    and aliases accepted, and the value given.
+    """
+    name = _ALIASES.get(mode, mode) if isinstance(mode, str) else None
+    if name not in MODES:
+        aliases = ", ".join(f"{' and '.join(a)} for {n}" for n, a, _ in MODE_TABLE)
+        raise ValueError(f"{what} must be one of {', '.join(MODES)} (aliases: {aliases}), "
+                         f"got {mode!r}")
+    return name
 
 
 @dataclass(frozen=True)
@@ -95,13 +130,6 @@ class SimulationResult:
         return mape(self.y[self.valid], self.y_hat[self.valid])
 
 
-def _mode(mode: str) -> str:
-    m = _ALIASES.get(mode, mode)
-    if m not in MODES:
-        raise ValueError(f"mode must be one of {', '.join(MODES)} (or pem), got {mode!r}")
-    return m
-
-
 def window_starts(n: int, maxlag: int, window: int) -> np.ndarray:
     """Starts of the multiple-shooting windows of ``window`` samples."""
     return np.arange(maxlag, n, window, dtype=np.int64)
@@ -134,7 +162,8 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
     data : Data
         Inputs, and the measured output (needed except for ``freerun`` with
         ``y0``).
-    mode : {'osa', 'freerun', 'ksa', 'ms'}
+    mode : str
+        A name or an alias of :data:`MODE_TABLE` ('osa', 'freerun', 'ksa', 'ms').
     k : int
         Horizon for ``ksa`` (>= 1).
     window : int
@@ -144,7 +173,7 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
         when ``data`` has no output.
     plan, P : optional precomputed :class:`Plan` and input parts.
     """
-    mode = _mode(mode)
+    mode = mode_name(mode)
     for name, v, used in (("k", k, "ksa"), ("window", window, "ms")):
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
             raise ValueError(f"{name} must be an integer, got {v!r}")

@@ -19,6 +19,10 @@ and it holds for every (ū, ȳ) — a continuum of steady states, the hallmark
 of rate-independent hysteresis — exactly when Σ_y = 1 and every other
 cluster sum is 0. Noise terms are zero at steady state.
 
+:func:`rest_actuator` solves the other way, numerically: the actuator value
+at which a given model rests with its other signal held (the rest point a
+compensator aims at).
+
 References
 ----------
 .. [1] Aguirre, L. A., Billings, S. A., "Dynamical effects of
@@ -32,12 +36,12 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .estimate import EstimationError
+from .exceptions import EstimationError
 from .phi import PhiRegistry, default_registry
 from .terms import Lag, PhiCall, Term, parse_term
 
 __all__ = ["Cluster", "SteadyStateConstraints", "clusters", "cluster_sums",
-           "steady_state_constraints"]
+           "steady_state_constraints", "rest_actuator"]
 
 
 @dataclass(frozen=True)
@@ -176,3 +180,39 @@ def steady_state_constraints(terms: Sequence[Term],
         cs.append(target)
         labels.append(f"{c.label} = {target:g}")
     return SteadyStateConstraints(np.array(rows), np.array(cs), tuple(labels), tuple(cls))
+
+
+def rest_actuator(model, level: float, actuator: str, low: float, high: float,
+                  grid: int = 201):
+    r"""The actuator value in ``[low, high]`` at which the model rests with
+    its other signal held at ``level``, or None when any value rests there
+    (a continuum of steady states) or none in the range does.
+
+    ``actuator`` is ``model.inputs[0]`` for a forward model
+    (:math:`\bar y = f(\bar u, \bar y)` with :math:`\bar y` = ``level``,
+    solved for :math:`\bar u`) or ``model.output`` for an inverse one
+    (:math:`\bar m = f(\bar r, \bar m)` with :math:`\bar r` = ``level``).
+    The one-step map is evaluated with every lag at the rest values on a
+    grid of ``grid`` points; a sign change of its rest error is
+    interpolated linearly, the root nearest the middle of the range kept.
+    """
+    ml = max(int(model.max_lag), 1)
+    a = np.linspace(low, high, grid)
+    held = np.repeat(a, ml + 1)                      # one constant block per grid point
+    other = np.full(held.size, float(level))
+    inverse = actuator == model.output
+    u, y = (other, held) if inverse else (held, other)
+    pred = model.simulate(u, y, mode="osa").y_hat[ml::ml + 1]
+    g = pred - (a if inverse else level)
+    if not np.all(np.isfinite(g)):
+        return None
+    scale = max(1.0, abs(level), abs(low), abs(high))
+    if np.max(np.abs(g)) <= 1e-9 * scale:            # every value rests: a continuum
+        return None
+    roots = [a[i] for i in np.flatnonzero(g == 0.0)]
+    for i in np.flatnonzero(g[:-1] * g[1:] < 0):
+        roots.append(a[i] - g[i] * (a[i + 1] - a[i]) / (g[i + 1] - g[i]))
+    if not roots:
+        return None
+    mid = 0.5 * (low + high)
+    return float(min(roots, key=lambda x: abs(x - mid)))

@@ -29,6 +29,7 @@ import re
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple, Union
 
+from .exceptions import TermError
 from .phi import PhiRegistry, default_registry
 
 __all__ = ["Lag", "PhiCall", "Term", "TermError", "parse_term", "parse_terms",
@@ -38,10 +39,6 @@ __all__ = ["Lag", "PhiCall", "Term", "TermError", "parse_term", "parse_terms",
 MAX_LAG = 10_000
 
 _ROLE_RANK = {"y": 0, "u": 1, "e": 2}
-
-
-class TermError(ValueError):
-    """Invalid term text or a term that does not fit the model's signals."""
 
 
 class HasSignals:

@@ -111,10 +111,12 @@ def test_ms_kernel_falls_back_when_not_handled(record):
     # a Φ-call with an output argument, and a scorer without a fixed start
     terms = tuple(narx.parse_terms(["y[k-1]", "Phi1(y[k-1],u[k-2])", "u[k-1]"]))
     sc = StructureScorer(as_data(u, y), "ms", window=40, start=16)
-    assert msk.ms_mse(sc, terms, np.array([0.9, 0.01, 0.1]), 16) is None
+    assert sc.shooting.mse(terms, np.array([0.9, 0.01, 0.1]), 16, sc.bound, sc.input_column) is None
     plain = tuple(narx.parse_terms(["y[k-1]", "u[k-1]"]))
+    assert sc.shooting.mse(plain, np.array([0.9, 0.1]), 16, sc.bound,
+                           sc.input_column) is not None
     free = StructureScorer(as_data(u, y), "ms", window=40)
-    assert msk.ms_mse(free, plain, np.array([0.9, 0.1]), 1) is None
+    assert free.shooting is None
     assert np.isfinite(sc.score(terms)) and np.isfinite(free.score(plain))
 
 

@@ -266,3 +266,35 @@ def test_readme_synopsis_lists_every_fit_option():
     shared = {"--input", "--output", "--phi-module"}        # described below the synopsis
     missing = sorted(o for o in options - shared if not re.search(re.escape(o) + r"\b", block))
     assert not missing, missing
+
+
+def test_list_option_does_not_swallow_the_data_file(capsys, tmp_path):
+    """`mggp fit --input E v data.csv --output f`: argparse gives data.csv to
+    --input; it goes back to DATA.csv and E, v stay the inputs."""
+    rng = np.random.default_rng(0)
+    e, v = rng.standard_normal(300), rng.standard_normal(300)
+    f = np.zeros(300)
+    for k in range(1, 300):
+        f[k] = 0.5 * f[k - 1] + e[k - 1] - 0.3 * v[k - 1]
+    data = write_csv(tmp_path / "data.csv", ["E", "v", "f"], zip(e, v, f))
+    out = tmp_path / "m.json"
+    code, _, err = run(capsys, "fit", "--input", "E", "v", data, "--output", "f",
+                       "--population", "10", "--generations", "1", "--max-height", "2",
+                       "--fitness", "pem", "--seed", "0", "--quiet", "--out", out)
+    assert code == 0, err
+    assert json.loads(out.read_text())["inputs"] == ["E", "v"]
+    code, _, err = run(capsys, "fit", "--input", "E", "--output", "f")     # control
+    assert code == 2 and "the following arguments are required: DATA.csv" in \
+        one_error_line(err)
+
+
+def test_fit_help_groups_every_option_with_its_default(capsys):
+    from mggp.cli_fit import FIT_OPTIONS
+    with pytest.raises(SystemExit):
+        main(["fit", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for title in ("data (", "search budget", "model class (", "selection (",
+                  "parallelism and reproducibility", "output"):
+        assert title in text
+    assert "--window WINDOW multiple-shooting window in samples" in text
+    assert text.count("(default: ") == sum(1 for p in FIT_OPTIONS if p.flag)

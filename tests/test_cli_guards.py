@@ -162,12 +162,13 @@ def test_fit_select_reaches_the_estimator(capsys, tmp_path):
 def test_fit_writes_the_ls_model_when_the_cls_refit_fails(capsys, tmp_path, monkeypatch,
                                                           theta, text):
     import mggp.estimator as E
+    from mggp.stages import FitContext, cls_verdict
     real = E.MGGPRegressor.fit
 
     def fit(self, data, *a, **k):
         real(self, data, *a, **k)
         self.model_cls_ = Model(["y[k-1]", "u[k-1]"], theta)
-        self._check_cls(data)
+        cls_verdict(self.terms_, data, FitContext(self, data, None, 0, None))
         return self
     monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
     out = tmp_path / "m.json"
@@ -230,7 +231,7 @@ def test_fit_keeps_the_cls_model_when_hold_chose_it(capsys, tmp_path, monkeypatc
     """With --select hold the structure was chosen for its CLS refit, so a
     CLS fit that is only worse in free-run RMSE is still written."""
     import mggp.estimator as E
-    from mggp.selection import cls_rejection
+    from mggp.stages import cls_rejection
     real = E.MGGPRegressor.fit
 
     def fit(self, *a, **k):
@@ -264,13 +265,14 @@ def test_fit_writes_the_ls_model_when_hold_found_no_holding_candidate(capsys, tm
     so the guard against a CLS fit far worse than the LS fit applies (it was
     bypassed, and a CLS model 5.8x worse in free run was written)."""
     import mggp.estimator as E
+    from mggp.stages import FitContext, cls_verdict
     real = E.MGGPRegressor.fit
 
     def fit(self, data, *a, **k):
         real(self, data, *a, **k)
         self.model_cls_ = Model(["y[k-1]", "u[k-1]"], [0.5, 0.5])   # stable, worse
         self.selection_ = [(False, ["y[k-1]", "u[k-1]"])]           # none held
-        self._check_cls(data)
+        cls_verdict(self.terms_, data, FitContext(self, data, None, 0, None))
         return self
     monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
     out = tmp_path / "m.json"
@@ -287,7 +289,7 @@ def test_cls_rejection_and_get_best_follow_the_cli_rule():
     as far off in free run (as `mggp fit` writes it); controls: a close CLS
     refit is used, and constrained=True still returns the CLS one."""
     from mggp import MGGPRegressor
-    from mggp.selection import cls_rejection
+    from mggp.stages import cls_rejection
     from narx.data import as_data
     rng = np.random.default_rng(0)
     u = rng.uniform(-1, 1, 400)

@@ -152,6 +152,21 @@ def test_a_correlation_test_that_cannot_fire_is_reported_as_without_power(base_d
     assert "no power" not in dx.summary()
 
 
+def test_a_correlation_test_without_power_says_which_resolution_would_give_it():
+    import re
+    train, val, model = piezo_case()
+    dx = diagnose(train, val, model, budget=TINY, seed=0)
+    c = next(c for c in dx.checks if c.test == "φ_u²'e")
+    assert not c.power and "times that RMS" in c.why
+    needed = float(re.search(r"resolution below ([0-9.e+-]+) instead of 0.005", c.why)[1])
+    # just below the resolution the line names, the same test has power ...
+    low = diagnose(train, val, model, budget=TINY, seed=0, resolution=0.9 * needed)
+    assert next(c for c in low.checks if c.test == "φ_u²'e").power
+    # ... and just above it, it has none (the number is the boundary, not a guess)
+    high = diagnose(train, val, model, budget=TINY, seed=0, resolution=1.1 * needed)
+    assert not next(c for c in high.checks if c.test == "φ_u²'e").power
+
+
 # ------------------------------------------------- an extension that does not help
 def test_an_extension_worse_than_the_baseline_is_not_recommended(base_diagnosis, tmp_path):
     from dataclasses import replace
@@ -303,7 +318,7 @@ def test_the_summary_describes_the_extension_that_was_chosen(base_diagnosis):
 
 
 def test_a_diverging_augmentation_is_said_so_not_a_drop_of_inf():
-    from mggp.diagnose.findings import _g
+    from mggp.diagnose.findings import number_text as _g
     from mggp.diagnose.report import _g as rg
     assert _g(float("-inf")) == "-inf" and rg(float("-inf")) == "-inf"
     assert _g(float("nan")) == "undefined" and rg(float("inf")) == "inf"

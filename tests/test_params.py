@@ -106,3 +106,76 @@ def test_max_lag_beyond_height_leaves_the_t_threshold_alone():
         warnings.simplefilter("ignore")
         t = [MGGPRegressor(max_lag=m, **kw).fit(u, y).t_threshold_ for m in (None, 7, 20)]
     assert t[0] == t[1] == t[2]
+
+
+def test_signature_and_table_agree():
+    """MGGPRegressor.__init__ takes exactly the table's parameters, in its
+    order, with its defaults (get_params and repr read the table)."""
+    import inspect
+    from mggp.params import PARAMS
+    sig = inspect.signature(MGGPRegressor.__init__).parameters
+    names = [n for n in sig if n != "self"]
+    assert names == list(PARAMS)
+    for name in names:
+        assert sig[name].kind is inspect.Parameter.KEYWORD_ONLY
+        assert sig[name].default == PARAMS[name].default, name
+        assert type(sig[name].default) is type(PARAMS[name].default), name
+    assert list(MGGPRegressor().get_params()) == names
+    for p in PARAMS.values():                   # every default obeys its own rule
+        p.check(p.default)
+
+
+def test_checkpoint_context_and_meta_keep_their_names():
+    """Checkpoints written before the table resume: the context holds the
+    same keys (phi_outputs and constant only when set)."""
+    from mggp.params import context_of, meta_of
+    old = {"fitness", "window", "k", "criterion", "search_constraints", "use_phi",
+           "phi_names", "max_lag", "max_degree", "screen", "screen_top", "screen_band"}
+    assert set(context_of(MGGPRegressor())) == old
+    assert set(context_of(MGGPRegressor(constant=True, phi_outputs=True))) == \
+        old | {"phi_outputs", "constant"}
+    meta = meta_of(MGGPRegressor(phi_outputs=1 == 1))
+    assert meta["phi_outputs"] is True and meta["select"] == "fitness"
+    assert {"population", "generations", "prune", "noise_lags", "refine"} <= set(meta)
+
+
+@pytest.mark.parametrize("param, value, text", [
+    ("fitness", "fast", "fitness must be one of 'ms', 'pem', 'freerun', 'ksa', got 'fast'"),
+    ("cxpb", 1.5, "cxpb must be a number in [0, 1], got 1.5"),
+    ("n_jobs", 0, "n_jobs must be an integer >= 1 or -1, got 0"),
+    ("random_state", -3, "random_state must be None, an integer >= 0 or a numpy "
+                         "Generator, got -3"),
+    ("use_phi", "no", "use_phi must be one of False, True, got 'no'"),
+    ("inputs", "u", "inputs must be None or a list of names, got 'u'"),
+])
+def test_every_parameter_is_checked_by_its_row(record, param, value, text):
+    with pytest.raises(ValueError) as exc:
+        MGGPRegressor(**{param: value}).fit(*record)
+    assert text in str(exc.value)
+    MGGPRegressor(**{param: MGGPRegressor().get_params()[param]})   # control: default
+
+
+def test_fit_builds_one_scorer_per_setting(record, monkeypatch):
+    """The search (in this process) and every stage after it share one
+    scorer of the search's settings; select='freerun' adds one free-run
+    scorer (several were built: one only to check the settings)."""
+    import narx.fitness
+    import mggp.evaluate
+    import mggp.estimator
+    import mggp.stages
+    built = []
+    real = narx.fitness.StructureScorer
+
+    class Counting(real):
+        def __init__(self, *a, **k):
+            built.append(a[1] if len(a) > 1 else k.get("fitness", "ms"))
+            super().__init__(*a, **k)
+    for mod in (mggp.evaluate, mggp.estimator, mggp.stages):
+        monkeypatch.setattr(mod, "StructureScorer", Counting)
+    kw = dict(population=10, generations=2, max_height=2, use_phi=False, fitness="ms",
+              window=20, random_state=0, prune="bic")
+    MGGPRegressor(**kw).fit(*record)
+    assert built == ["ms"]
+    built.clear()
+    MGGPRegressor(select="freerun", select_candidates=3, **kw).fit(*record)
+    assert built == ["ms", "freerun"]

@@ -551,3 +551,29 @@ def test_a_horizon_or_window_for_another_mode_is_refused():
     with pytest.raises(ValueError, match="window=50 applies to mode 'ms' only, not to 'osa'"):
         m.simulate(u, y, mode="osa", window=50)
     assert np.isfinite(m.simulate(u, y, mode="ksa", k=5).rmse)        # control
+
+
+# --------------------------------------------------------------- mode names
+def test_one_table_names_each_mode_once_and_its_aliases():
+    from narx.fitness import FITNESS, StructureScorer
+    from narx.simulate import MODE_TABLE, MODES, mode_name
+    assert MODES == ("osa", "freerun", "ksa", "ms") and FITNESS == MODES
+    names = [n for n, _, _ in MODE_TABLE] + [a for _, al, _ in MODE_TABLE for a in al]
+    assert len(names) == len(set(names))                 # no name means two modes
+    assert mode_name("pem") == "osa" and mode_name("osa") == "osa"
+    with pytest.raises(ValueError, match=r"fitness must be one of osa, freerun, ksa, ms "
+                                         r"\(aliases: pem and one-step for osa.*got 'PEM'"):
+        mode_name("PEM", "fitness")
+    with pytest.raises(ValueError, match="got None"):
+        mode_name(None)
+    m, d = _piroddi_model()
+    data = Data(d.u, d.y)
+    a = simulate(m.terms, m.theta, data, "osa")
+    b = simulate(m.terms, m.theta, data, "pem")
+    assert a.mode == b.mode == "osa"
+    np.testing.assert_array_equal(a.y_hat, b.y_hat)
+    sa, sb = StructureScorer(data, "osa"), StructureScorer(data, "pem")
+    assert sa.fitness == sb.fitness == "osa"
+    assert sa.score(m.terms) == sb.score(m.terms) == pytest.approx(a.mse, rel=1e-9)
+    with pytest.raises(ValueError, match="fitness must be one of osa, freerun, ksa, ms"):
+        StructureScorer(data, "fast")

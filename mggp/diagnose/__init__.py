@@ -13,14 +13,22 @@ Typical use::
     write_report("report/", dx)         # Markdown + figures
 
 Steps (:func:`diagnose`): the baseline (the user's model, or MGGP with
-multiple-shooting fitness and no Φ-functions); evidence from its one-step
-residuals (Billings–Voon correlation tests, :mod:`.correlation`), from its
-simulations (loop-gap and Φ-augmentation tests, :mod:`.hysteresis`;
-prediction-bias bootstrap, :mod:`.evidence`) and from held-input segments
-of the data (drift and rest levels, :mod:`.holds`); findings named by the
-rules and vocabulary of :mod:`.findings`; the extension the causes call
-for (:mod:`.extend`); the gain measured on samples not used for fitting
-(:mod:`.run`); report and figures (:mod:`.report`).
+multiple-shooting fitness and no Φ-functions); evidence from the
+registered diagnose tests (:mod:`.registry`, the built-in ones listed in
+:mod:`.catalogue`), each returning its checks: loop gap (:mod:`.loopgap`),
+Φ-augmentation (:mod:`.augmentation`), rest levels (:mod:`.restlevels`),
+prediction-bias bootstrap (:mod:`.bias`), drift in held-input segments
+(:mod:`.drift`, segments found by :mod:`.holds`) and the Billings–Voon
+correlation tests of one-step residuals (:mod:`.correlation`); findings
+named from the checks by the rule and vocabulary of :mod:`.findings`; the
+extension the causes call for (:mod:`.extend`); the gain measured on
+samples not used for fitting (:mod:`.run`); report and figures
+(:mod:`.report`).
+
+A new test is one module and one line (:mod:`.registry`)::
+
+    from mggp.diagnose import DiagnosticTest, Outcome, Check, register
+    register(DiagnosticTest("my test", ("hysteresis",), lambda ctx: Outcome([...])))
 
 JSON document (``Diagnosis.to_dict``)::
 
@@ -38,8 +46,11 @@ not help is not recommended, and the summary says so); ``null`` stands for
 a diverged simulation (an infinite error).
 """
 from .extend import Budget
+from .context import Context
 from .findings import EXTENSIONS, VOCABULARY, Check, Finding
+from .registry import DiagnosticTest, Outcome, register, registered, unregister
 from .run import Diagnosis, Gain, Scored, Split, diagnose
 
 __all__ = ["diagnose", "Diagnosis", "Budget", "Finding", "Check", "Gain", "Scored", "Split",
-           "VOCABULARY", "EXTENSIONS"]
+           "VOCABULARY", "EXTENSIONS", "DiagnosticTest", "Outcome", "Context", "register",
+           "unregister", "registered"]

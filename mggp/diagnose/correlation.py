@@ -7,6 +7,12 @@ Typical use::
     for t in tests:
         print(t.label, t.max_abs, t.band, t.significant)
 
+As the diagnose test :data:`CORRELATION` (effects ``unmodelled-dynamics``
+for φ_ee, φ_ue and ``unmodelled-nonlinearity`` for φ_u²'e, φ_u²'e²), each
+test's threshold is the larger of its Bonferroni band and the resolution
+floor in correlation units, floor / RMS of the residual tested: a
+correlation must explain at least the floor of that residual.
+
 For an adequate NARX model the one-step residuals :math:`\\varepsilon_k`
 are unpredictable from past inputs and residuals, so [1]_
 
@@ -60,10 +66,14 @@ from dataclasses import dataclass, replace
 from typing import Dict, List, Optional
 
 import numpy as np
-from scipy.stats import norm
 
-__all__ = ["CorrelationTest", "correlation_tests", "cross_correlation",
-           "bonferroni_z", "TEST_LABELS", "model_tests", "completed_residual"]
+from .findings import Check, number_text as _g
+from .registry import DiagnosticTest, Outcome
+from .thresholds import bonferroni_z
+
+__all__ = ["CorrelationTest", "correlation_tests", "cross_correlation", "TEST_LABELS",
+           "model_tests", "completed_residual", "correlation_checks", "no_power_reason",
+           "CORRELATION"]
 
 #: test key -> label shown in reports
 TEST_LABELS = {"ee": "φ_ee", "ue": "φ_ue", "u2e": "φ_u²'e", "u2e2": "φ_u²'e²"}
@@ -132,11 +142,6 @@ class CorrelationTest:
                 f"= ±{self.band95:.3g} (≈{0.05 * self.lags.size:.1f} expected by chance); "
                 f"max |φ| = {self.max_abs:.3g} at τ = {self.worst_lag}, "
                 f"Bonferroni band ±{self.band:.3g}")
-
-
-def bonferroni_z(alpha: float, m: int) -> float:
-    """Two-sided normal quantile with a Bonferroni correction over m tests."""
-    return float(norm.ppf(1.0 - alpha / (2.0 * max(int(m), 1))))
 
 
 def _centred(x):
@@ -267,3 +272,80 @@ def model_tests(model, data, max_lag: int = 20, alpha: float = 0.01
     order = {n: i for i, n in enumerate(data.inputs)}
     return sorted(out, key=lambda t: (order.get(t.signal, -1),
                                       ("ee", "ue", "u2e", "u2e2").index(t.key)))
+
+
+_EFFECT = {"ee": "unmodelled-dynamics", "ue": "unmodelled-dynamics",
+           "u2e": "unmodelled-nonlinearity", "u2e2": "unmodelled-nonlinearity"}
+
+
+def correlation_checks(tests: List[CorrelationTest], floor: float, osa_rms: float,
+                       resolution: Optional[float] = None) -> List[Check]:
+    """A check per test: max |φ| against max(Bonferroni band, floor / RMS).
+
+    Parameters
+    ----------
+    tests : list of CorrelationTest
+    floor : float
+        Resolution floor in output units.
+    osa_rms : float
+        RMS of the model's own one-step residual (for a test whose ``rms``
+        is None).
+    resolution : float, optional
+        The resolution that made ``floor`` (fraction of the output's range),
+        to say which resolution would give a test without power its power.
+
+    Returns
+    -------
+    list of Check
+        Ceiling 1; a check whose threshold is 1 or more has no power and
+        says why in one line (:func:`no_power_reason`).
+    """
+    out = []
+    for t in tests:
+        r_rms = osa_rms if t.rms is None else t.rms          # of the residual tested
+        floor_r = floor / r_rms if r_rms > 0 else float("inf")
+        thr = max(t.band, floor_r)
+        detail = (t.describe() + f"; resolution floor {_g(floor_r)} in correlation units "
+                  f"(floor {_g(floor)} / RMS {_g(r_rms)} of the residual tested)")
+        why = ""
+        if thr >= 1.0:
+            why = no_power_reason(t, r_rms, floor, resolution)
+            detail += (f"; no power: the threshold {_g(thr)} is at least 1, the largest "
+                       f"correlation there is, because {why}: this test could not fire")
+        out.append(Check(t.label, _EFFECT[t.key], t.max_abs, thr, detail, 1.0, why))
+    return out
+
+
+def no_power_reason(t: CorrelationTest, r_rms: float, floor: float,
+                    resolution: Optional[float] = None) -> str:
+    """Why test ``t`` cannot fire, with the numbers that would change it.
+
+    Either the residual tested is no larger than the resolution floor (then
+    floor / RMS >= 1 and no correlation can explain the floor; the
+    resolution below which it could is resolution × RMS / floor), or its
+    Bonferroni band z/√N is 1 or more (then more than z² samples are needed).
+    """
+    if floor >= r_rms:
+        text = f"the residual tested, RMS {_g(r_rms)}, is no larger than the resolution floor "
+        if r_rms <= 0:
+            return text + f"{_g(floor)}: it is zero, there is nothing to correlate"
+        text += f"{_g(floor)}, {_g(floor / r_rms)} times that RMS"
+        if resolution:
+            text += (f" (a correlation could reach the floor only with a resolution below "
+                     f"{_g(resolution * r_rms / floor)} instead of {resolution:g})")
+        return text
+    z = t.band * np.sqrt(t.n)
+    return (f"the Bonferroni band z/√N = {_g(t.band)} of N = {t.n} samples is at least 1 "
+            f"(more than z² = {_g(z * z)} samples are needed)")
+
+
+def _run(ctx) -> Outcome:
+    tests = model_tests(ctx.model, ctx.fit, ctx.budget.corr_lags, ctx.alpha)
+    if not tests:
+        return Outcome(missing="correlation tests (fewer than 21 one-step residuals)")
+    return Outcome(correlation_checks(tests, ctx.floor, ctx.osa_rms, ctx.resolution), tests)
+
+
+#: Billings–Voon tests of the completed one-step residuals.
+CORRELATION = DiagnosticTest("correlation", ("unmodelled-dynamics",
+                                             "unmodelled-nonlinearity"), _run)

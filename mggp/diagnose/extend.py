@@ -15,7 +15,7 @@ The extension changes the search the way each cause calls for
 
 * ``hysteresis`` — Φ-functions in the primitive set (if the baseline
   already had them: five more terms), and the three Bouc–Wen direction
-  terms (:func:`~mggp.diagnose.hysteresis.direction_terms`) added to the
+  terms (:func:`~mggp.diagnose.augmentation.direction_terms`) added to the
   baseline's terms, to the search's, and as a discrete Bouc–Wen
   increment model of their own;
 * ``prediction-bias`` — multiple-shooting fitness (if the baseline already
@@ -55,8 +55,9 @@ from narx.model import ignore_rank_warnings
 from narx.terms import Signals, parse_term
 
 from ..selection import CLSRejectedWarning
+from .augmentation import direction_terms
 from .holds import probe_holds
-from .hysteresis import direction_terms
+from .simulation import freerun_rmse
 
 __all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search",
            "user_setting", "plan_extension", "fit_extension", "candidate_changes"]
@@ -293,13 +294,6 @@ def _candidate(terms, data: Data, constraints, registry) -> Optional[Model]:
         return None
 
 
-def _score(m: Optional[Model], data: Data) -> float:
-    if m is None:
-        return float("inf")
-    r = m.simulate(data, mode="freerun")
-    return float("inf") if r.diverged else r.rmse
-
-
 def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budget,
                   seed=0, jobs=1, floor: float = 0.0) -> Extension:
     """Fit the planned extension on ``data`` (the fitting samples).
@@ -316,7 +310,7 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
     if plan.refit_cls:
         cands.append(("baseline terms, CLS", _candidate(baseline.terms, data, cons, reg)))
         m0 = cands[0][1]
-        if not np.isfinite(_score(m0, data)) or probe_holds(m0, data) > floor:
+        if not np.isfinite(freerun_rmse(m0, data)) or probe_holds(m0, data) > floor:
             plan = replace(plan, search=True, changes=plan.changes + (
                 "the CLS refit of the baseline's terms is impossible, diverges or does not "
                 "keep still in probe holds: CLS structure search",))
@@ -343,7 +337,7 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
     if not cands:
         return Extension(baseline, "baseline (no change)", (), plan,
                          ("no candidate could be built: the baseline is kept",))
-    scored = [(name, m, _score(m, data),
+    scored = [(name, m, freerun_rmse(m, data),
                probe_holds(m, data) if cons and m is not None else float("nan"))
               for name, m in cands]
     ok = [c for c in scored if c[1] is not None]

@@ -39,7 +39,8 @@ sum is 0 (a continuum of steady states, :mod:`narx.steady`).
 Two holds at the same input where the data rest at different levels are
 direct evidence of hysteresis (memory at rest); a model restarted at each
 hold that does not rest at levels as far apart cannot express it
-(:mod:`mggp.diagnose.findings`, rest-level check).
+(:mod:`mggp.diagnose.restlevels`); movement and the level at rest
+are the drift test's (:mod:`mggp.diagnose.drift`).
 """
 from __future__ import annotations
 
@@ -52,19 +53,32 @@ import numpy as np
 from narx import Model
 from narx.data import Data
 
-__all__ = ["find_holds", "input_noise", "HoldResponse", "hold_responses", "steady_rate",
-           "continuum_violations", "probe_holds"]
+from .thresholds import bonferroni_z
+
+__all__ = ["find_holds", "input_noise", "difference_noise", "HoldResponse", "hold_responses",
+           "steady_rate", "continuum_violations", "probe_holds", "hold_bounds"]
+
+
+def difference_noise(x, k: int) -> float:
+    """Robust standard deviation of white noise on ``x`` from its k-th
+    differences: :math:`1.4826\\,\\mathrm{MAD}(\\Delta^k x) / \\sqrt{\\binom{2k}{k}}`
+    (the k-th difference of white noise of standard deviation σ has standard
+    deviation :math:`\\sigma\\sqrt{\\binom{2k}{k}}`; MAD, the median absolute
+    deviation, is unaffected by the few large differences at steps of the
+    signal). 0 when there are fewer than 2 differences."""
+    d = np.diff(np.asarray(x, dtype=float), k)
+    if d.size < 2:
+        return 0.0
+    return (1.4826 * float(np.median(np.abs(d - np.median(d))))
+            / math.sqrt(math.comb(2 * k, k)))
 
 
 def input_noise(x) -> float:
     """Robust standard deviation of white noise on a sampled signal.
 
-    For white noise of standard deviation σ the k-th difference has
-    standard deviation :math:`\\sigma\\sqrt{\\binom{2k}{k}}`, while a smooth
-    signal's share of it shrinks with every difference. The estimate is the
-    smallest over k = 2, 3, 4 of :math:`1.4826\\,\\mathrm{MAD}(\\Delta^k x) /
-    \\sqrt{\\binom{2k}{k}}` (MAD: median absolute deviation, unaffected by the
-    few large differences at steps of the signal).
+    A smooth signal's share of the k-th difference shrinks with every
+    difference; the estimate is the smallest :func:`difference_noise` over
+    k = 2, 3, 4.
 
     Parameters
     ----------
@@ -78,14 +92,9 @@ def input_noise(x) -> float:
         fewer than 6 samples are given).
     """
     x = np.asarray(x, dtype=float)
-    out = []
-    for k in (2, 3, 4):
-        d = np.diff(x, k)
-        if d.size < 2:
-            return 0.0
-        out.append(1.4826 * float(np.median(np.abs(d - np.median(d))))
-                   / math.sqrt(math.comb(2 * k, k)))
-    return min(out)
+    if x.size < 6:
+        return 0.0
+    return min(difference_noise(x, k) for k in (2, 3, 4))
 
 
 def _extend(cols, a, b, half) -> int:
@@ -272,16 +281,8 @@ def _move(x, q):
     return float(np.mean(x[-q:]) - np.mean(x[:q]))
 
 
-def _noise_sd(y) -> float:
-    """Robust noise standard deviation of ``y`` from its first differences."""
-    d = np.diff(y)
-    if d.size < 2:
-        return 0.0
-    return 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
-
-
 def _noise_se(y, q):
-    return _noise_sd(y) * np.sqrt(2.0 / q)
+    return difference_noise(y, 1) * np.sqrt(2.0 / q)
 
 
 def steady_rate(model: Model, y_bar: float, u_bar) -> float:
@@ -345,10 +346,10 @@ def hold_responses(model: Model, data: Data, record: str = "data",
         y_hat[pre:] = yh[L:]
         out.append(HoldResponse(record, a + offset, b + offset, c + offset,
                                 float(level[0]), _move(seg_y, q), model_move,
-                                                float(np.mean(seg_y[-q:])), model_end, _noise_se(seg_y, q),
+                                float(np.mean(seg_y[-q:])), model_end, _noise_se(seg_y, q),
                                 rate, t + offset, y[a - pre:b].copy(), y_hat,
                                 y_bar, model_settled,
-                                _noise_sd(seg_y) * float(np.sqrt(1.0 + 1.0 / q))))
+                                difference_noise(seg_y, 1) * float(np.sqrt(1.0 + 1.0 / q))))
     return out
 
 
@@ -384,3 +385,30 @@ def probe_holds(model: Model, data: Data, n_holds: int = 4, length: Optional[int
     if r.diverged or not np.all(np.isfinite(r.y_hat)):
         return float("inf")
     return float(max(np.ptp(r.y_hat[a:b]) for a, b in spans))
+
+
+def hold_bounds(holds, alpha: float, floor_of) -> List[Tuple[HoldResponse, float, float, bool]]:
+    """Every usable hold with its noise bound and whether the data keep still.
+
+    Parameters
+    ----------
+    holds : sequence of HoldResponse
+    alpha : float
+        False-alarm probability over all the holds (Bonferroni).
+    floor_of : callable
+        ``floor_of(record)`` is the resolution floor of that record.
+
+    Returns
+    -------
+    list of (HoldResponse, bound, z, still)
+        For each hold whose data movement is finite: bound =
+        max(z·se, floor) with z the Bonferroni z over those holds, and
+        ``still`` = |data movement| <= bound.
+    """
+    held = [h for h in holds if np.isfinite(h.data_move)]
+    z = bonferroni_z(alpha, max(len(held), 1))
+    out = []
+    for h in held:
+        bound = max(z * h.noise_se, floor_of(h.record))
+        out.append((h, bound, z, abs(h.data_move) <= bound))
+    return out

@@ -24,10 +24,11 @@ import numpy as np
 
 from narx.atomic import atomic_write_text
 
+from ..quasistatic_report import diagnosis_figure
 from ..report import _save, figure
-from .evidence import direction_of_change, simulation_residual
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
+from .simulation import direction_of_change, simulation_residual
 
 __all__ = ["terminal_summary", "write_report", "verdict"]
 
@@ -49,7 +50,8 @@ def untested(ev, checks=()) -> list:
     Parameters
     ----------
     ev : Evidence
-        The evidence of the diagnosis.
+        The evidence of the diagnosis (what each test could not measure,
+        :attr:`Evidence.missing`).
     checks : sequence of Check
         The diagnosis's checks. A correlation test without power (its
         threshold at least 1, its ceiling) is listed with what made its
@@ -62,17 +64,7 @@ def untested(ev, checks=()) -> list:
     list of str
         One phrase per kind of evidence not measured.
     """
-    out = []
-    if not ev.correlation:
-        out.append("correlation tests (fewer than 21 one-step residuals)")
-    if not ev.loop_gap:
-        out.append("loop gap (no reversal of the input long enough)")
-    if ev.augmentation is None:
-        out.append("Φ-augmentation (its fits could not be made or simulated)")
-    if ev.bias is None:
-        out.append("prediction bias (no bootstrap possible)")
-    if not ev.holds:
-        out.append(_no_holds(ev))
+    out = list(ev.missing)
     weak = {}
     for c in checks:
         if c.power:
@@ -86,20 +78,6 @@ def untested(ev, checks=()) -> list:
                    f"the threshold is at least 1, the largest correlation there is, and "
                    f"{'these tests' if len(tests) > 1 else 'this test'} could not fire)")
     return out
-
-
-def _no_holds(ev) -> str:
-    """Why no hold response could be measured (drift, rest levels)."""
-    records = " or ".join(ev.holds_found) or "the data"
-    found = sum(ev.holds_found.values())
-    what = "steady-state drift and rest levels"
-    if not found:
-        size = f" of {ev.hold_min_len} samples or more" if ev.hold_min_len else ""
-        return (f"{what} (no held-input segment{size} in {records}, so the drift check "
-                f"could not run)")
-    return (f"{what} ({found} held-input segment{'s' if found > 1 else ''} found in "
-            f"{records}, but none starts late enough and lasts long enough after the "
-            f"model's largest lag to compare, so the drift check could not run)")
 
 
 def terminal_summary(dx) -> str:
@@ -273,7 +251,9 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data")
              _plot_direction(j(folder, "residual_direction.png"), dx)),
             ("Correlation tests with their bands", _plot_correlation(
                 j(folder, "correlation.png"), dx)),
-            ("Held-input responses", _plot_holds(j(folder, "holds.png"), dx))]
+            ("Held-input responses", _plot_holds(j(folder, "holds.png"), dx)),
+            ("Quasi-static analysis of the recommended model (probe sine over the fitting "
+             "input's range)", diagnosis_figure(j(folder, "quasistatic.png"), dx))]
     L = [f"# mggp diagnose: {title}", ""]
     if command:
         L += ["Command:", "", f"    {command}", ""]

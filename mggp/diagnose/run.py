@@ -30,13 +30,11 @@ from narx import Model
 from narx.data import Data, DataError
 from narx.metrics import mape
 
-from .correlation import model_tests
-from .evidence import prediction_bias_test
-from .hysteresis import loop_gap_test, phi_augmentation_test
+from .context import Context
 from .extend import (Budget, Extension, baseline_search, fit_extension, plan_extension,
                      user_setting)
-from .findings import Check, Evidence, Finding, name_findings
-from .holds import continuum_violations, find_holds, hold_responses
+from .findings import Check, Finding, json_number as _num, name_findings
+from .registry import Evidence, registered, run_tests
 
 __all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data"]
 
@@ -121,11 +119,6 @@ class Gain:
                 "recommended": self.recommended}
 
 
-def _num(v):
-    v = float(v)
-    return v if np.isfinite(v) else None
-
-
 @dataclass
 class Diagnosis:
     """Result of :func:`diagnose` (every field named; see ``to_dict`` for JSON)."""
@@ -200,34 +193,6 @@ def _split(train: Data, validation: Optional[Data], holdout: float, names):
             (names[0], (0, n_fit)), (names[0], (n_fit, train.n)))
 
 
-def _range(y) -> float:
-    return float(np.ptp(y)) or 1.0
-
-
-def _evidence(model: Model, fit: Data, measure: Data, names, offset: int, budget: Budget,
-              alpha: float, resolution: float, seed: int) -> Tuple[Evidence, list]:
-    osa = model.simulate(fit, mode="osa")
-    eps = np.where(osa.valid, fit.y - osa.y_hat, np.nan)
-    ok = np.isfinite(eps)
-    corr = model_tests(model, fit, budget.corr_lags, alpha)
-    osa_rms = float(np.sqrt(np.mean(eps[ok] ** 2))) if ok.any() else 0.0
-    loops = [g for g in (loop_gap_test(model, fit, signal=n, alpha=alpha) for n in fit.inputs)
-             if g is not None]
-    aug = phi_augmentation_test(model, fit, shifts=budget.shifts, alpha=alpha, seed=seed + 11)
-    bias = prediction_bias_test(model, fit, n_boot=budget.bootstrap, alpha=alpha,
-                                seed=seed + 7)
-    min_len = max(20, 2 * model.max_lag + 12)
-    fit_segs, meas_segs = find_holds(fit, min_len), find_holds(measure, min_len)
-    holds = hold_responses(model, fit, names[0], min_len, fit_segs)
-    holds += hold_responses(model, measure, names[1], min_len, meas_segs, offset)
-    floors = {names[0]: resolution * _range(fit.y), names[1]: resolution * _range(measure.y)}
-    ev = Evidence(corr, osa_rms, loops, aug, bias, holds, floors[names[0]], floors,
-                  continuum_violations(model), alpha, resolution, fit.output,
-                  resolution * float(np.ptp(fit.U[0])),
-                  {names[0]: len(fit_segs), names[1]: len(meas_segs)}, min_len)
-    return ev, meas_segs
-
-
 def _score(model: Model, data: Data, start: int) -> Tuple[float, float, np.ndarray]:
     r = model.simulate(data, mode="freerun")
     if r.diverged:
@@ -283,11 +248,12 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     if measure.n <= base.max_lag + 10:
         raise DataError(f"{rec_names[1]}: {measure.n} samples are too few for the model's "
                         f"largest lag {base.max_lag}")
-    say("evidence: correlation tests, loop gap, Φ-augmentation, bootstrap, holds")
+    say("evidence: " + ", ".join(t.name for t in registered()))
     t1 = time.perf_counter()
-    ev, meas_segs = _evidence(base, fit, measure, rec_names, meas_rng[0], budget, alpha,
-                              resolution, seed)
-    findings, checks = name_findings(ev)
+    ctx = Context(base, fit, measure, rec_names, meas_rng[0], budget, alpha, resolution, seed)
+    ev = run_tests(ctx)
+    checks = ev.checks
+    findings = name_findings(checks)
     timings["evidence"] = time.perf_counter() - t1
     t2 = time.perf_counter()
     plan = plan_extension([f.effect for f in findings], base_setting, budget, fit.n)
@@ -319,5 +285,5 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     return Diagnosis(findings, checks, ev,
                      Scored(base, base_source, b_rmse, b_mape, b_hat),
                      Scored(ext.model, ext_source, e_rmse, e_mape, e_hat), ext,
-                     Gain(b_rmse, e_rmse), split, fit, measure, meas_segs, rec_names, settings,
-                     timings)
+                     Gain(b_rmse, e_rmse), split, fit, measure, ctx.measure_holds, rec_names,
+                     settings, timings)

@@ -1,32 +1,12 @@
-"""Evidence of hysteresis the model does not express.
+"""Φ-augmentation test: the simulation error direction terms would remove.
 
 Typical use::
 
-    from mggp.diagnose.hysteresis import loop_gap_test, phi_augmentation_test
-    g = loop_gap_test(model, data, alpha=0.01)
+    from mggp.diagnose.augmentation import phi_augmentation_test
     a = phi_augmentation_test(model, data, shifts=99, alpha=0.01, seed=0)
-    g.statistic, g.bound, a.statistic, a.null_quantile
+    a.statistic, a.null_quantile                     # None: fits impossible
 
-**Loop-gap test** (the residual's dependence on the direction of input
-change at equal input). The record is cut into *branches*, maximal runs of
-the input moving one way. For every reversal — a branch R1 followed by an
-opposite branch R2 — the model is simulated free from the measured
-outputs before R1 through the end of R2 (so drift accumulated elsewhere
-does not enter), and each sample k of R2 is paired with the point of R1
-where the input had the same value:
-
-.. math::  g_k = e_k^{\\downarrow} - e^{\\uparrow}(u_k), \\qquad e = y - \\hat y ,
-
-falling minus rising residual at equal input (the second by linear
-interpolation along R1). The mean gap of reversal r is :math:`\\bar g_r`;
-the statistic is :math:`|\\bar g| = |\\mathrm{mean}_r \\bar g_r|`, the part
-of the loop the model misses, in output units, and its bound is
-:math:`t_{1-\\alpha/2,\\,R-1}\\,s_{\\bar g}/\\sqrt R` (a t-test across the R
-reversals, which are taken as independent). A drift within the windows
-enters with opposite signs at maxima and minima, which alternate, so it
-cancels in the mean.
-
-**Φ-augmentation test** (what direction terms would buy). The baseline's
+The baseline's
 terms are refitted by LS (column-scaled QR), once alone and once with the
 three direction terms of a discrete Bouc–Wen increment [1]_,
 
@@ -39,7 +19,7 @@ expresses, and once as the discrete Bouc–Wen increment model itself,
 may have shaped its terms into a loop emulation that direction terms can
 no longer help). The statistic is the larger drop of the simulation RMSE
 (free run, or the bounded multiple shooting of
-:func:`~mggp.diagnose.evidence.bounded_mode`) from the refitted baseline to
+:func:`~mggp.diagnose.simulation.bounded_mode`) from the refitted baseline to
 either form. Its null comes from *placebo* terms: the same three terms
 built from the input circularly shifted by S random offsets (same
 distribution and autocorrelation, no relation to the direction at k), put
@@ -57,6 +37,10 @@ the controls in both fits, only what is even in the input change counts.
 The reference is the refitted baseline with its controls (the test falls
 back to the baseline alone when that cannot be simulated).
 
+As the diagnose test :data:`AUGMENTATION` (effect ``hysteresis``), one
+check, ``Φ-augmentation``, with threshold max(placebo quantile,
+resolution floor).
+
 References
 ----------
 .. [1] Ismail, M., Ikhouane, F., Rodellar, J., "The hysteresis Bouc-Wen
@@ -70,90 +54,18 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 from scipy.linalg import solve_triangular
-from scipy.stats import t as student_t
 
 from narx import Model
 from narx.data import Data
 from narx.estimate import EstimationError
 from narx.regressors import regressor_matrix
 
-from .evidence import bounded_mode, direction_of_change
+from .findings import Check, number_text as _g
+from .registry import DiagnosticTest, Outcome
+from .simulation import bounded_mode, freerun_rmse, fresh_name
 
-__all__ = ["LoopGapTest", "AugmentationTest", "branches", "loop_gap_test",
-           "phi_augmentation_test", "direction_terms", "control_terms"]
-
-
-def branches(u) -> List[Tuple[int, int, float]]:
-    """Runs ``(a, b, direction)``: samples a..b-1 move one way from a-1."""
-    s = direction_of_change(u)
-    n, k, out = s.size, 1, []
-    while k < n:
-        if s[k] == 0:
-            k += 1
-            continue
-        a = k
-        while k < n and s[k] == s[a]:
-            k += 1
-        out.append((a, k, float(s[a])))
-    return out
-
-
-@dataclass(frozen=True)
-class LoopGapTest:
-    """Mean residual gap at equal input between adjacent branches.
-
-    ``statistic`` = |mean gap| (output units), ``bound`` its t-bound,
-    ``gaps`` the per-reversal means, ``u``/``g`` every pair (for plots).
-    """
-
-    signal: str
-    statistic: float
-    bound: float
-    p_value: float
-    gaps: np.ndarray
-    u: np.ndarray
-    g: np.ndarray
-
-
-def loop_gap_test(model: Model, data: Data, *, signal: Optional[str] = None,
-                  alpha: float = 0.01, min_len: int = 5,
-                  min_reversals: int = 5) -> Optional[LoopGapTest]:
-    """Loop-gap test for input ``signal`` (default: the first input)."""
-    name = signal or data.inputs[0]
-    u = data.input(name)
-    y = data.y
-    L = model.max_lag
-    runs = [r for r in branches(u) if r[1] - r[0] >= min_len]
-    gaps, us, gs = [], [], []
-    for (a1, b1, d1), (a2, b2, d2) in zip(runs, runs[1:]):
-        s0 = a1 - 1 - L
-        if a2 != b1 or d1 == d2 or s0 < 0:
-            continue
-        sub = Data(data.U[:, s0:b2].T, y[s0:b2], inputs=data.inputs, output=data.output)
-        r = model.simulate(sub, mode="freerun")
-        if r.diverged:
-            continue
-        e = y[s0:b2] - r.y_hat
-        uu, ee = u[a1 - 1:b1], e[a1 - 1 - s0:b1 - s0]
-        if d1 < 0:
-            uu, ee = uu[::-1], ee[::-1]
-        k = np.arange(a2, b2)
-        k = k[(u[k] >= uu[0]) & (u[k] <= uu[-1])]
-        if k.size < 2:
-            continue
-        g = (e[k - s0] - np.interp(u[k], uu, ee)) * (1.0 if d2 < 0 else -1.0)
-        gaps.append(float(np.mean(g)))
-        us.append(u[k])
-        gs.append(g)
-    if len(gaps) < min_reversals:
-        return None
-    gaps = np.asarray(gaps)
-    m = float(np.mean(gaps))
-    se = float(np.std(gaps, ddof=1) / np.sqrt(gaps.size))
-    df = gaps.size - 1
-    bound = float(student_t.ppf(1.0 - alpha / 2.0, df) * se)
-    p = float(2.0 * student_t.sf(abs(m) / se, df)) if se > 0 else (0.0 if m else 1.0)
-    return LoopGapTest(name, abs(m), bound, p, gaps, np.concatenate(us), np.concatenate(gs))
+__all__ = ["AugmentationTest", "phi_augmentation_test", "direction_terms", "control_terms",
+           "augmentation_check", "AUGMENTATION"]
 
 
 def direction_terms(inp: str, out: str, lag: int = 1) -> List[str]:
@@ -224,20 +136,6 @@ def _model(terms, theta, data, registry, inputs=None):
                  registry=registry)
 
 
-def _rmse(model, data, kw):
-    if model is None:
-        return float("inf")
-    r = model.simulate(data, **kw)
-    return float("inf") if r.diverged else r.rmse
-
-
-def _fresh(taken, base="v"):
-    name = base
-    while name in taken:
-        name += "v"
-    return name
-
-
 def _placebo(terms, name, v):
     return [re.sub(rf"\b{re.escape(name)}\[", f"{v}[", t) for t in terms]
 
@@ -252,7 +150,7 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
     taken = {data.output, *data.inputs, model.signals.noise}
     pairs = []
     for name in data.inputs:
-        pairs.append((name, _fresh(taken)))
+        pairs.append((name, fresh_name(taken, "v")))
         taken.add(pairs[-1][1])
     D = [t for n, _ in pairs for t in Model(direction_terms(n, data.output), **sig).term_texts]
     inc = Model([f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n, _ in pairs],
@@ -311,7 +209,7 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed)
     real = []
     for label, base, add, _, ls, F in blocks:
         m = _model(base + add, ls.theta(F), data, reg)
-        real.append((r_ref - _rmse(m, data, kw), label, tuple(base + add)))
+        real.append((r_ref - freerun_rmse(m, data, **kw), label, tuple(base + add)))
     drop, form, terms = max(real, key=lambda r: r[0])
     rng = np.random.default_rng(seed)
     n = data.n
@@ -326,9 +224,40 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed)
             m2 = Model(base + placebo, inputs=pin, output=data.output, registry=reg)
             Fp = regressor_matrix(m2.terms[len(base):], d2, start=start, registry=reg)[0]
             m2 = _model(m2.term_texts, ls.theta(Fp), d2, reg, inputs=pin)
-            best = max(best, r_ref - _rmse(m2, d2, kw))
+            best = max(best, r_ref - freerun_rmse(m2, d2, **kw))
         null.append(best)
     null = np.asarray(null)
     q = float(np.quantile(null, 1.0 - alpha, method="higher")) if null.size else np.inf
     return AugmentationTest(float(drop), q, r_ref, float(r_ref - drop), form, terms,
                             int(null.size), text)
+
+
+def augmentation_check(a: AugmentationTest, alpha: float, floor: float, output: str) -> Check:
+    """``a``'s drop against max(the placebo quantile, the resolution floor)."""
+    pct = f"{100 * (1 - alpha):g} %"
+    if np.isfinite(a.augmented_rmse):
+        effect = (f"lower the {a.mode} RMSE of the baseline's terms (refitted by LS) "
+                  f"from {_g(a.reference_rmse)} to {_g(a.augmented_rmse)} ({a.form}, "
+                  f"{len(a.terms)} terms), a drop of {_g(a.statistic)}")
+    else:
+        effect = (f"make the {a.mode} simulation of the baseline's terms (refitted by "
+                  f"LS; RMSE {_g(a.reference_rmse)}) diverge ({a.form}, "
+                  f"{len(a.terms)} terms): no evidence for hysteresis from them")
+    detail = (f"the Bouc–Wen direction terms |Δu|, {output}[k-1]·|Δu|, u[k-1]·|Δu| "
+              f"(|Δu| = Phi1·Phi2 of u[k-1], u[k-2]) {effect}; placebo terms from the input "
+              f"shifted in time ({a.n_shifts} shifts) drop it by at most "
+              f"{_g(a.null_quantile)} ({pct} quantile); resolution floor {_g(floor)}")
+    return Check("Φ-augmentation", "hysteresis", a.statistic, max(a.null_quantile, floor),
+                 detail)
+
+
+def _run(ctx) -> Outcome:
+    a = phi_augmentation_test(ctx.model, ctx.fit, shifts=ctx.budget.shifts, alpha=ctx.alpha,
+                              seed=ctx.seed + 11)
+    if a is None:
+        return Outcome(missing="Φ-augmentation (its fits could not be made or simulated)")
+    return Outcome([augmentation_check(a, ctx.alpha, ctx.floor, ctx.output)], a)
+
+
+#: The Φ-augmentation test (placebo seed: the diagnosis's seed + 11).
+AUGMENTATION = DiagnosticTest("Φ-augmentation", ("hysteresis",), _run)

@@ -1,9 +1,8 @@
-"""Evidence from simulations: bounded simulation residual and prediction bias.
+"""Prediction-bias test: one-step fit good, free run poor.
 
 Typical use::
 
-    from mggp.diagnose.evidence import simulation_residual, prediction_bias_test
-    e, source = simulation_residual(model, data)        # free-run residual
+    from mggp.diagnose.bias import prediction_bias_test
     b = prediction_bias_test(model, data, seed=0)       # one-step good, free run poor?
     b.excess, b.excess_null
 
@@ -28,6 +27,12 @@ that diverge are left out of the null (had the data come from such a
 model, they would have diverged); a free run that itself diverges on
 finite data is an excess of ``inf``.
 
+As the diagnose test :data:`PREDICTION_BIAS` (effect
+``prediction-bias``), one check, ``free-run excess``, whose threshold is
+the largest of the null's excess, the resolution floor and the free-run
+RMSE the noise alone causes (the null's median), so that noisy data do not
+turn a small misfit into a finding.
+
 References
 ----------
 .. [1] Efron, B., Tibshirani, R. J., "An Introduction to the Bootstrap",
@@ -36,61 +41,16 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Tuple
-
 import numpy as np
 
 from narx import Model
 from narx.data import Data
 
-__all__ = ["BiasTest", "bounded_mode", "simulation_residual", "prediction_bias_test",
-           "direction_of_change"]
+from .findings import Check, number_text as _g
+from .registry import DiagnosticTest, Outcome
+from .simulation import fresh_name
 
-
-def direction_of_change(u) -> np.ndarray:
-    """sign(u_k − u_{k−1}); 0 at k = 0 and where the input does not move."""
-    u = np.asarray(u, dtype=float)
-    s = np.zeros(u.size)
-    s[1:] = np.sign(np.diff(u))
-    return s
-
-
-def bounded_mode(model: Model, data: Data):
-    """The longest simulation of ``model`` that stays in the data's range.
-
-    The free run is used when it stays bounded (RMSE at most the output's
-    standard deviation); otherwise multiple shooting with the largest window
-    N/2, N/4, ... (down to 10·maxlag) that does. Returns ``(kwargs, result,
-    description)`` where ``kwargs`` are the ``simulate`` arguments.
-    """
-    sd = float(np.std(data.y)) or 1.0
-    r = model.simulate(data, mode="freerun")
-    if not r.diverged and r.rmse <= sd:
-        return {"mode": "freerun"}, r, "free run"
-    w = (data.n - model.max_lag) // 2
-    while w >= max(10 * model.max_lag, 20):
-        kw = {"mode": "ms", "window": int(w)}
-        rw = model.simulate(data, **kw)
-        if not rw.diverged and rw.rmse <= sd:
-            return kw, rw, (f"multiple shooting, windows of {int(w)} samples (the free run "
-                            f"left the data's range)")
-        w //= 2
-    return {"mode": "freerun"}, r, "free run (unbounded)"
-
-
-def simulation_residual(model: Model, data: Data) -> Tuple[np.ndarray, str]:
-    """Residual of :func:`bounded_mode`'s simulation (NaN where there is no
-    prediction) and its description."""
-    _, r, text = bounded_mode(model, data)
-    return _full(r), text
-
-
-def _full(r) -> np.ndarray:
-    e = np.full(r.y.shape, np.nan)
-    with np.errstate(all="ignore"):
-        e[r.valid] = (r.y - r.y_hat)[r.valid]
-    e[~np.isfinite(e)] = np.nan
-    return e
+__all__ = ["BiasTest", "prediction_bias_test", "bias_check", "PREDICTION_BIAS"]
 
 
 @dataclass(frozen=True)
@@ -126,14 +86,6 @@ class BiasTest:
         return not np.isfinite(self.freerun_rmse)
 
 
-def _noise_name(model: Model) -> str:
-    taken = {model.output, *model.inputs, model.signals.noise}
-    name = "w"
-    while name in taken:
-        name += "w"
-    return name
-
-
 def prediction_bias_test(model: Model, data: Data, *, n_boot: int = 199,
                          alpha: float = 0.01, seed=0) -> BiasTest:
     """Free-run error against the error the model's own noise would cause."""
@@ -144,7 +96,7 @@ def prediction_bias_test(model: Model, data: Data, *, n_boot: int = 199,
     eps = eps - eps.mean() if eps.size else np.zeros(1)
     valid = fr.valid
     mse_fr = fr.mse if np.isfinite(fr.mse) else np.inf
-    w = _noise_name(model)
+    w = fresh_name({model.output, *model.inputs, model.signals.noise}, "w")
     aug = Model(model.term_texts + [f"{w}[k]"], list(model.theta) + [1.0],
                 inputs=tuple(model.inputs) + (w,), output=model.output,
                 registry=model.registry)
@@ -176,3 +128,27 @@ def prediction_bias_test(model: Model, data: Data, *, n_boot: int = 199,
     return BiasTest(osa.rmse, float(np.sqrt(mse_fr)), float(np.sqrt(med)), float(np.sqrt(q)),
                     float(excess), float(excess_null), int(null.size),
                     float(1.0 - kept.size / max(null.size, 1)))
+
+
+def bias_check(b: BiasTest, alpha: float, floor: float) -> Check:
+    """``b``'s excess against max(null excess, floor, noise-driven RMSE)."""
+    thr = max(b.excess_null, floor, b.null_median_rmse)
+    fr = "diverged" if b.diverged else _g(b.freerun_rmse)
+    detail = (f"one-step RMSE {_g(b.osa_rmse)}, free-run RMSE {fr}; driven by its own "
+              f"resampled one-step residuals ({b.n_boot} runs) the model's free-run RMSE "
+              f"would be {_g(b.null_median_rmse)} (median), {_g(b.null_quantile_rmse)} "
+              f"({100 * (1 - alpha):g} % quantile): excess free-run error "
+              f"{_g(b.excess)} against {_g(b.excess_null)} by chance; materiality: at "
+              f"least the noise-driven RMSE {_g(b.null_median_rmse)} and the resolution "
+              f"floor {_g(floor)}")
+    return Check("free-run excess", "prediction-bias", b.excess, thr, detail)
+
+
+def _run(ctx) -> Outcome:
+    b = prediction_bias_test(ctx.model, ctx.fit, n_boot=ctx.budget.bootstrap,
+                             alpha=ctx.alpha, seed=ctx.seed + 7)
+    return Outcome([bias_check(b, ctx.alpha, ctx.floor)], b)
+
+
+#: The prediction-bias bootstrap (seed: the diagnosis's seed + 7).
+PREDICTION_BIAS = DiagnosticTest("prediction bias", ("prediction-bias",), _run)

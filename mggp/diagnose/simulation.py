@@ -1,0 +1,80 @@
+"""Simulations the diagnose tests share: the bounded simulation of a model,
+its residual, the free-run RMSE, the direction of input change, and a fresh
+signal name for models augmented with extra inputs.
+
+Typical use::
+
+    from mggp.diagnose.simulation import bounded_mode, simulation_residual
+    kwargs, result, text = bounded_mode(model, data)     # free run, or MS if it leaves
+    e, text = simulation_residual(model, data)           # y - ŷ, NaN where undefined
+"""
+from __future__ import annotations
+
+from typing import Optional, Tuple
+
+import numpy as np
+
+from narx import Model
+from narx.data import Data
+
+__all__ = ["direction_of_change", "bounded_mode", "simulation_residual", "freerun_rmse",
+           "fresh_name"]
+
+
+def direction_of_change(u) -> np.ndarray:
+    """sign(u_k − u_{k−1}); 0 at k = 0 and where the input does not move."""
+    u = np.asarray(u, dtype=float)
+    s = np.zeros(u.size)
+    s[1:] = np.sign(np.diff(u))
+    return s
+
+
+def bounded_mode(model: Model, data: Data):
+    """The longest simulation of ``model`` that stays in the data's range.
+
+    The free run is used when it stays bounded (RMSE at most the output's
+    standard deviation); otherwise multiple shooting with the largest window
+    N/2, N/4, ... (down to 10·maxlag) that does. Returns ``(kwargs, result,
+    description)`` where ``kwargs`` are the ``simulate`` arguments.
+    """
+    sd = float(np.std(data.y)) or 1.0
+    r = model.simulate(data, mode="freerun")
+    if not r.diverged and r.rmse <= sd:
+        return {"mode": "freerun"}, r, "free run"
+    w = (data.n - model.max_lag) // 2
+    while w >= max(10 * model.max_lag, 20):
+        kw = {"mode": "ms", "window": int(w)}
+        rw = model.simulate(data, **kw)
+        if not rw.diverged and rw.rmse <= sd:
+            return kw, rw, (f"multiple shooting, windows of {int(w)} samples (the free run "
+                            f"left the data's range)")
+        w //= 2
+    return {"mode": "freerun"}, r, "free run (unbounded)"
+
+
+def simulation_residual(model: Model, data: Data) -> Tuple[np.ndarray, str]:
+    """Residual of :func:`bounded_mode`'s simulation (NaN where there is no
+    prediction) and its description."""
+    _, r, text = bounded_mode(model, data)
+    e = np.full(r.y.shape, np.nan)
+    with np.errstate(all="ignore"):
+        e[r.valid] = (r.y - r.y_hat)[r.valid]
+    e[~np.isfinite(e)] = np.nan
+    return e, text
+
+
+def freerun_rmse(model: Optional[Model], data: Data, **simulate) -> float:
+    """RMSE of ``model.simulate(data, **simulate)`` (default: the free run);
+    ``inf`` when the simulation diverges or there is no model."""
+    if model is None:
+        return float("inf")
+    r = model.simulate(data, **(simulate or {"mode": "freerun"}))
+    return float("inf") if r.diverged else r.rmse
+
+
+def fresh_name(taken, base: str) -> str:
+    """``base``, ``base`` doubled, tripled, ... : the first not in ``taken``."""
+    name = base
+    while name in taken:
+        name += base
+    return name

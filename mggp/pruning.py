@@ -1,0 +1,85 @@
+"""Backward elimination of the terms of a chosen structure.
+
+Typical use (``MGGPRegressor(prune=...)`` calls these)::
+
+    from mggp.pruning import prune_by_criterion, prune_by_t, t_threshold_of
+    terms = prune_by_criterion(scorer, terms, n)                  # prune='bic'
+    terms = prune_by_t(terms, t_of, t_threshold_of(est, 1))       # prune='t'
+
+* :func:`prune_by_criterion` drops, one at a time, the term whose removal
+  lowers the information criterion of the search fitness most, while one
+  does (BIC: :math:`n \\ln J + p \\ln n` [1]_).
+* :func:`prune_by_t` drops the least significant term while its
+  :math:`|t|` is below a threshold, refitting each time; the default
+  threshold (:func:`t_threshold_of`) shares a two-sided 5 % level among
+  every candidate monomial the search can build (Bonferroni).
+
+References
+----------
+.. [1] Schwarz, G., "Estimating the dimension of a model", Annals of
+   Statistics 6(2), 1978.
+"""
+from __future__ import annotations
+
+from typing import Callable, Tuple
+
+import numpy as np
+
+from narx.terms import Term
+
+from .evaluate import criterion_value
+
+__all__ = ["prune_by_criterion", "prune_by_t", "bonferroni_t", "t_threshold_of"]
+
+
+def prune_by_criterion(scorer, terms: Tuple[Term, ...], n: int, criterion: str = "bic"):
+    """Backward elimination: drop the term whose removal lowers the
+    information criterion (of the scorer's fitness, ``n`` samples) most,
+    while one does."""
+    cur = criterion_value(scorer.score(terms), len(terms), n, criterion)
+    while len(terms) > 1:
+        trials = []
+        for i in range(len(terms)):
+            sub = terms[:i] + terms[i + 1:]
+            trials.append((criterion_value(scorer.score(sub), len(sub), n, criterion), i))
+        best, i = min(trials)
+        if not best < cur:
+            break
+        cur, terms = best, terms[:i] + terms[i + 1:]
+    return terms
+
+
+def prune_by_t(terms, t_of: Callable, crit: float) -> Tuple:
+    """Backward elimination: while the least significant of ``terms`` has
+    |t| < ``crit`` (``t_of(terms)``, refitted each time), drop it; at least
+    one term stays."""
+    terms = tuple(terms)
+    while len(terms) > 1:
+        t = t_of(terms)
+        i = int(np.argmin(t))
+        if t[i] >= crit:
+            break
+        terms = terms[:i] + terms[i + 1:]
+    return terms
+
+
+def bonferroni_t(n_inputs: int, max_lag: int, max_degree: int, alpha: float = 0.05) -> float:
+    """Two-sided t threshold at level ``alpha`` shared among the
+    :math:`m = \\binom{(n_u + 1)L + d}{d} - 1` candidate monomials of
+    lags up to ``L`` and degree up to ``d`` (Bonferroni)."""
+    from math import comb
+    from scipy.stats import norm
+    m = comb((n_inputs + 1) * max_lag + max_degree, max_degree) - 1
+    return float(norm.ppf(1 - alpha / (2 * m)))
+
+
+def t_threshold_of(est, n_inputs: int) -> float:
+    """An estimator's ``t_threshold``, or by default :func:`bonferroni_t`
+    over the monomials its trees can build (lags up to ``max_lag`` but no
+    longer than ``max_height`` trees reach: a larger ``max_lag`` has no
+    effect; degree up to ``max_degree``, else 3)."""
+    if est.t_threshold is not None:
+        return float(est.t_threshold)
+    from .primitives import max_lag_for_height
+    reach = max_lag_for_height(est.max_height)
+    return bonferroni_t(n_inputs, min(est.max_lag or reach, reach), est.max_degree or 3)

@@ -1,0 +1,317 @@
+"""The stages of :meth:`mggp.MGGPRegressor.fit` after the structure search.
+
+Typical use (``fit`` does this)::
+
+    from mggp.stages import FitContext, STAGES, run_stages
+    ctx = FitContext(est, data, registry, start, scorer)
+    ctx.result = evolve(...)                       # the search
+    terms = run_stages(shape(ctx.result.best.terms), data, ctx)
+
+Each stage is a function ``stage(terms, data, ctx) -> terms`` of the
+structure so far, the training record and the :class:`FitContext`; it sets
+the fitted attributes it is responsible for on ``ctx.est``. In order
+(:data:`STAGES`):
+
+``select``
+    The structure among the best of the run (``select``), or the best
+    fitness; sets ``selection_`` and ``search_terms_``.
+``prune``
+    Backward elimination by BIC of the fitness or by t-statistics
+    (``prune``; :mod:`mggp.pruning`).
+``noise``
+    Moving-average noise terms by extended least squares (``noise_lags``;
+    :mod:`mggp.noise`).
+``record``
+    ``terms_``, ``fitness_`` and the ``meta`` every model of the fit carries.
+``qr_refit``
+    ``model_``: θ by least squares (QR) on the whole record.
+``precision``
+    The fitness with the search's θ and with the QR θ (``precision_``,
+    :mod:`mggp.precision`); ``model_`` keeps the search's θ when the QR
+    refit simulates worse.
+``cls_refit``
+    ``model_cls_``: θ by constrained least squares under the
+    continuum-of-steady-states equalities of the terms (``constraints``).
+``refine``
+    θ of both models by minimising the simulation error (``refine``).
+``cls_verdict``
+    ``cls_rejected_``: why the CLS refit is not the default model
+    (:func:`cls_rejection`), with a :class:`CLSRejectedWarning`.
+``pareto``
+    ``pareto_front_`` of the run, with the θ the search scored.
+
+All stages score with the one :class:`narx.fitness.StructureScorer` of the
+search's settings (``ctx.scorer``, also the search's own in this process);
+a stage that simulates with other settings asks :meth:`FitContext.scorer_for`,
+which builds at most one scorer per setting.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from typing import Callable, Dict, Optional, Tuple
+
+from narx import Model
+from narx.data import Data
+from narx.fitness import StructureScorer
+from narx.model import ignore_rank_warnings
+
+from .evaluate import criterion_value
+from .exceptions import CLSRejectedWarning
+from .noise import full_ma, prune_process, select_noise
+from .pareto import ParetoFront, front_rows
+from .precision import search_precision
+from .pruning import prune_by_criterion, prune_by_t, t_threshold_of
+from .selection import run_candidates, select_freerun, select_hold
+
+__all__ = ["FitContext", "STAGES", "run_stages", "cls_rejection", "CLS_WORSE"]
+
+#: a CLS refit whose free-run RMSE on the training record is more than this
+#: many times the LS fit's is not preferred to it
+CLS_WORSE = 2.0
+
+#: warnings point at the caller of ``fit`` (fit -> run_stages -> stage)
+_CALLER = 4
+
+
+@dataclass
+class FitContext:
+    """What the stages share.
+
+    Attributes
+    ----------
+    est : MGGPRegressor
+        The settings; the stages set its fitted attributes.
+    data : Data
+        The training record.
+    registry : PhiRegistry
+    start : int
+        First row of estimation and scoring (fixed by ``max_height``).
+    scorer : StructureScorer
+        The search's scorer (its fitness, window, horizon, constraints).
+    result : EvolutionResult
+        The search's outcome.
+    shape : callable
+        Decoded terms -> the scored structure (allowed terms, the constant).
+    screen : StabilityScreen or None
+        The search's stability screen.
+    seed : int
+        The search's seed.
+    meta : dict
+        What every model of the fit records (set by the ``record`` stage).
+    """
+
+    est: object
+    data: Data
+    registry: object
+    start: int
+    scorer: StructureScorer
+    result: object = None
+    shape: Callable = tuple
+    screen: object = None
+    seed: Optional[int] = None
+    meta: dict = field(default_factory=dict)
+    _scorers: Dict[Tuple, StructureScorer] = field(default_factory=dict)
+
+    def scorer_for(self, fitness: str, constraints: Optional[str] = None) -> StructureScorer:
+        """The scorer of ``fitness`` (and ``constraints``) on the record from
+        ``start``: the search's when they are its settings, else one built
+        once per setting."""
+        sc = self.scorer
+        if fitness == sc.fitness and constraints == sc.constraints:
+            return sc
+        key = (fitness, constraints)
+        if key not in self._scorers:
+            self._scorers[key] = StructureScorer(
+                self.data, fitness, window=sc.window, k=sc.k, start=self.start,
+                constraints=constraints, registry=self.registry)
+        return self._scorers[key]
+
+
+# ---------------------------------------------------------------- stages
+def select(terms, data, ctx):
+    """The structure among the best distinct ones of the run (``select``)."""
+    est = ctx.est
+    if est.select == "freerun":
+        cands = run_candidates(ctx.result, data.signals, ctx.shape, est.select_candidates)
+        chosen, est.selection_ = select_freerun(cands, data, ctx.start, ctx.registry,
+                                                scorer=ctx.scorer_for("freerun"))
+        terms = chosen or terms
+    elif est.select == "hold":
+        cands = run_candidates(ctx.result, data.signals, ctx.shape, est.select_candidates)
+        scr = ctx.screen
+        shared = scr if (scr is not None and scr.hold is not None
+                         and est.search_constraints is None) else None
+        chosen, est.selection_ = select_hold(cands, data, ctx.start, ctx.registry,
+                                             est.screen_band, screen=shared)
+        if not chosen:
+            warnings.warn(f"select='hold': none of the {len(est.selection_)} candidates "
+                          f"holds its output on a held input; model_ is the best-fitness "
+                          f"structure (see selection_)", UserWarning, stacklevel=_CALLER)
+        terms = chosen or terms
+    est.search_terms_ = terms
+    return terms
+
+
+def prune(terms, data, ctx):
+    """Backward elimination of terms (``prune``: 'bic' or 't')."""
+    est = ctx.est
+    if est.prune == "bic":
+        return prune_by_criterion(ctx.scorer, terms, data.n - ctx.start)
+    if est.prune == "t":
+        from narx.estimate import t_statistics
+        from narx.regressors import regressor_matrix
+        crit = est.t_threshold_ = t_threshold_of(est, len(data.inputs))
+        return prune_by_t(terms, lambda ts: t_statistics(
+            *regressor_matrix(ts, data, start=ctx.start)[:2]), crit)
+    return terms
+
+
+def noise(terms, data, ctx):
+    """Moving-average noise terms (``noise_lags`` > 0); with ``prune='t'``
+    the process terms that only predicted the noise are dropped first."""
+    est = ctx.est
+    if not est.noise_lags:
+        return terms
+    crit = t_threshold_of(est, len(data.inputs))
+    q = int(est.noise_lags)
+    if est.prune == "t":
+        terms = prune_process(data, terms, full_ma(data, q, ctx.registry), ctx.start,
+                              ctx.registry, crit)
+    return terms + select_noise(data, terms, ctx.start, ctx.registry, q, crit)
+
+
+def record(terms, data, ctx):
+    """``terms_``, ``fitness_`` and the meta of the fit's models."""
+    from . import versions
+    from .params import meta_of
+    est = ctx.est
+    est.terms_ = terms
+    est.fitness_ = ctx.result.best.fitness if terms == est.search_terms_ else \
+        criterion_value(ctx.scorer.score(terms), len(terms), data.n - ctx.start,
+                        est.criterion)
+    ctx.meta = dict(meta_of(est), seed=ctx.seed,
+                    cls_refit=est.constraints == "steady-state",
+                    search_fitness_value=est.fitness_, versions=versions())
+    return terms
+
+
+def _model(terms, data, ctx, estimation, theta=None, **extra) -> Model:
+    return Model(terms, theta, inputs=data.inputs, output=data.output,
+                 meta=dict(ctx.meta, estimation=estimation, **extra), registry=ctx.registry)
+
+
+def qr_refit(terms, data, ctx):
+    """``model_``: least squares by QR on the record. Terms the record cannot
+    tell apart (``rank_`` below their number) get the minimum-norm θ."""
+    est = ctx.est
+    with ignore_rank_warnings():
+        est.model_ = _model(terms, data, ctx, "ls").fit(data)
+    est.rank_ = int(est.model_.fit_info_["rank"])
+    return terms
+
+
+def precision(terms, data, ctx):
+    """``precision_``: the fitness with the search's θ and the QR θ; the
+    search's θ is kept when the QR refit simulates worse. Not compared for
+    ELS fits of noise terms and CLS fits of a constrained search, which are
+    not what ``model_`` (LS) is."""
+    est = ctx.est
+    est.precision_ = check = None if (any(t.has_noise for t in terms)
+                                      or est.search_constraints) else \
+        search_precision(ctx.scorer, terms, est.model_.theta)
+    if check is not None and check.refit_worse:
+        est.model_ = _model(terms, data, ctx, "ls-search", check.search_theta,
+                            qr_refit_fitness_value=check.refit_mse)
+    return terms
+
+
+def cls_refit(terms, data, ctx):
+    """``model_cls_`` (``constraints='steady-state'``), or ``cls_error_``
+    saying why the constrained fit is not possible.
+
+    .. math:: \\theta_{CLS} = \\theta_{LS} - (\\Psi^T\\Psi)^{-1} S^T
+              [S (\\Psi^T\\Psi)^{-1} S^T]^{-1} (S \\theta_{LS} - c)
+
+    with :math:`S \\theta = c` the continuum-of-steady-states equalities of
+    the terms (Abreu et al., Nonlinear Dynamics, 2020)."""
+    est = ctx.est
+    est.model_cls_ = None
+    if est.constraints == "steady-state":
+        try:
+            with ignore_rank_warnings():
+                est.model_cls_ = _model(terms, data, ctx, "cls").fit(
+                    data, constraints="steady-state")
+        except ValueError as exc:
+            est.cls_error_ = str(exc)
+    return terms
+
+
+def refine(terms, data, ctx):
+    """θ of ``model_`` and ``model_cls_`` by least simulation error
+    (``refine``; ``refinement_`` holds the errors before and after)."""
+    est = ctx.est
+    est.refinement_ = None
+    if est.refine:
+        from narx.refine import refine_both
+        est.refinement_, est.model_, est.model_cls_, why = refine_both(
+            est.model_, est.model_cls_, data, est.refine, est.refine_window or est.window)
+        if why:
+            warnings.warn(f"refine={est.refine!r} is not applied: {why}", UserWarning,
+                          stacklevel=_CALLER)
+    return terms
+
+
+def cls_rejection(model, model_cls, data, held: bool = False) -> Optional[str]:
+    """Why the CLS refit should not replace the LS fit ``model`` (None: it
+    may): its free run on the training record diverges, or (unless the
+    structure was chosen for its CLS refit's holding, ``held``) its RMSE is
+    over :data:`CLS_WORSE` times the LS fit's."""
+    fr_cls = model_cls.simulate(data, mode="freerun")
+    if fr_cls.diverged:
+        return "diverges on the training record"
+    if held:
+        return None
+    fr_ls = model.simulate(data, mode="freerun")
+    if not fr_ls.diverged and fr_ls.rmse > 0 and fr_cls.rmse > CLS_WORSE * fr_ls.rmse:
+        return f"is {fr_cls.rmse / fr_ls.rmse:.3g} times the LS fit's free-run RMSE"
+    return None
+
+
+def cls_verdict(terms, data, ctx):
+    """``cls_rejected_``: why ``get_best`` uses the LS model, None if the
+    CLS refit is used. A structure chosen for its CLS refit's holding
+    (``screen='hold'``, or ``select='hold'`` with a candidate that holds)
+    is not rejected for its error alone."""
+    est = ctx.est
+    held = est.screen == "hold" or (est.select == "hold" and any(
+        ok for ok, _ in getattr(est, "selection_", ())))
+    est.cls_rejected_ = None if est.model_cls_ is None else cls_rejection(
+        est.model_, est.model_cls_, data, held)
+    if est.cls_rejected_:
+        warnings.warn(f"the CLS refit {est.cls_rejected_}: get_best(), simulate() and "
+                      f"predict() use the LS model (constrained=True for the CLS one)",
+                      CLSRejectedWarning, stacklevel=_CALLER)
+    return terms
+
+
+def pareto(terms, data, ctx):
+    """``pareto_front_``: the run's front with the θ the search scored."""
+    est = ctx.est
+    est.pareto_front_ = ParetoFront(front_rows(ctx.result.pareto, ctx.scorer, ctx.shape),
+                                    inputs=data.inputs, output=data.output,
+                                    registry=ctx.registry)
+    return terms
+
+
+#: the stages of ``fit`` after the search, in order
+STAGES = (("select", select), ("prune", prune), ("noise", noise), ("record", record),
+          ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
+          ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))
+
+
+def run_stages(terms, data: Data, ctx: FitContext, stages=STAGES):
+    """Pass ``terms`` through ``stages``; returns the final structure."""
+    for _, stage in stages:
+        terms = stage(terms, data, ctx)
+    return terms

@@ -1,0 +1,112 @@
+"""StructureScorer: memory that grows with use, its divergence bound, and the
+multiple-shooting kernel it owns."""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+import narx
+import narx.ms_kernel as msk
+from narx.data import Data
+from narx.fitness import ColumnStore, StructureScorer
+
+
+def _record(n, seed=0):
+    rng = np.random.default_rng(seed)
+    u = np.cumsum(rng.standard_normal(n))
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.9 * y[k - 1] + 0.1 * u[k - 1]
+    return Data(u, y)
+
+
+def _rss() -> int:
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs /proc")
+def test_column_store_memory_grows_with_the_columns_held():
+    n, mb = 200_000, 2**20
+    rows = ColumnStore.slots_for(n, 64 * mb)
+    full = rows * 8 * n                                   # ~100 MB
+    before = _rss()
+    lazy = ColumnStore(n, 64 * mb)
+    assert _rss() - before < full / 10
+    for i in range(4):
+        lazy.get(f"c{i}", lambda row: row.fill(1.0))
+    grown = _rss() - before
+    assert 3 * 8 * n <= grown < full / 4                  # about four columns
+    del lazy
+    before = _rss()
+    eager = ColumnStore(n, 64 * mb, prefault=True)        # control: all written now
+    assert _rss() - before > full / 2
+    del eager
+
+
+def test_lazy_and_prefaulted_scorers_score_the_same():
+    d = _record(3000)
+    sets = [narx.parse_terms(t) for t in (["y[k-1]", "u[k-1]"],
+                                          ["y[k-1]", "Phi1(u[k-1],u[k-2])", "y[k-2]*u[k-1]"],
+                                          ["y[k-1]", "Phi2(y[k-1],y[k-2])", "u[k-2]"])]
+    for fitness in ("pem", "freerun", "ms"):
+        a = StructureScorer(d, fitness, start=4, window=50)
+        b = StructureScorer(d, fitness, start=4, window=50, prefault=True)
+        assert [a.score(s) for s in sets] == [b.score(s) for s in sets]
+
+
+def test_bound_is_set_by_argument_or_method_and_checked():
+    d = _record(2000)
+    sc = StructureScorer(d, "freerun", start=2)
+    assert sc.bound == 1e4 * np.max(np.abs(d.y))
+    terms = narx.parse_terms(["y[k-1]", "u[k-1]"])
+    mse = sc.score(terms)
+    assert np.isfinite(mse)
+    peak = float(np.max(np.abs(d.y[2:])))
+    assert sc.set_bound(0.5 * peak) is sc and sc.bound == 0.5 * peak
+    assert sc.score(terms) == np.inf                      # the simulation leaves the bound
+    assert StructureScorer(d, "freerun", start=2, bound=0.5 * peak).score(terms) == np.inf
+    assert StructureScorer(d, "freerun", start=2, bound=10 * peak).score(terms) == mse
+    for bad in (-1.0, np.inf, np.nan, "x"):
+        with pytest.raises(ValueError, match="bound must be a finite number >= 0"):
+            sc.set_bound(bad)
+    with pytest.raises(AttributeError):
+        sc.bound = 1.0                                    # read-only: use set_bound
+
+
+def test_scorer_owns_its_multiple_shooting_kernel(monkeypatch):
+    d = _record(3000)
+    terms = tuple(narx.parse_terms(["y[k-1]", "u[k-1]", "Phi1(u[k-1],u[k-2])"]))
+    sc = StructureScorer(d, "ms", start=3, window=40)
+    assert isinstance(sc.shooting, msk.MultipleShooting)
+    assert StructureScorer(d, "ms", window=40).shooting is None       # no fixed start
+    assert StructureScorer(d, "freerun", start=3).shooting is None
+    fast = sc.score(terms)
+    assert sc.shooting.store.builds == 3
+    monkeypatch.setattr(msk, "ENABLED", False)
+    assert sc.shooting.mse(terms, sc.fit(terms)[0], 3, sc.bound, sc.input_column) is None
+    assert StructureScorer(d, "ms", start=3, window=40).score(terms) == fast
+    monkeypatch.setattr(msk, "ENABLED", True)
+    sc.clear_cache()
+    assert not sc.shooting.store.slots and not sc.shooting.info
+    assert sc.score(terms) == fast and sc.shooting.store.builds == 6
+
+
+@pytest.mark.parametrize("fitness", ["pem", "freerun", "ms"])
+def test_a_dropped_scorer_is_freed_at_once(fitness):
+    # no reference cycle: a fit builds several scorers one after the other,
+    # and each must release its stores when dropped, not at the next GC
+    import gc
+    import weakref
+    d = _record(2000)
+    gc.disable()
+    try:
+        sc = StructureScorer(d, fitness, start=3, window=40)
+        sc.score(narx.parse_terms(["y[k-1]", "u[k-1]", "Phi2(y[k-1],y[k-2])"]))
+        ref = weakref.ref(sc)
+        del sc
+        assert ref() is None
+    finally:
+        gc.enable()
