@@ -133,7 +133,7 @@ class MGGPRegressor:
                  phi_outputs=False, constant=False, max_lag=None, max_degree=None,
                  select="fitness", select_candidates=20,
                  screen=None, screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
-                 t_threshold=None, refine=None, refine_window=None,
+                 t_threshold=None, estimator="ls", refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
                  resume=False, callbacks=None, registry=None):
@@ -166,6 +166,7 @@ class MGGPRegressor:
         self.screen_band = screen_band
         self.prune = prune
         self.noise_lags = noise_lags
+        self.estimator = estimator
         self.refine = refine
         self.refine_window = refine_window
         self.t_threshold = t_threshold
@@ -247,7 +248,7 @@ class MGGPRegressor:
         # process, then every stage's
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
-                                 registry=registry)
+                                 registry=registry, estimator=self.estimator)
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
                          screen=self._make_screen(data, start, registry))
         ctx.seed, ctx.result = self._search(ctx)
@@ -269,7 +270,8 @@ class MGGPRegressor:
                          phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
                               constraints=self.search_constraints, start=ctx.start,
-                              criterion=self.criterion, n_jobs=self.n_jobs,
+                              estimator=self.estimator, criterion=self.criterion,
+                              n_jobs=self.n_jobs,
                               backend=self.backend, scheduler=self.scheduler,
                               registry=ctx.registry, scorer=ctx.scorer)
         callbacks = list(self.callbacks or [])

@@ -318,6 +318,12 @@ _ROWS = (
     Param("t_threshold", None, Real(0, lo_open=True, none=True),
           "|t| below which a term is pruned (default: Bonferroni over the candidate "
           "monomials)", "selection"),
+    Param("estimator", "ls", OneOf(("ls", "oe")),
+          "θ of every structure scored in the search: least squares (ls), or output error "
+          "(oe: instrumental variables, then Gauss-Newton on the simulation error), which "
+          "white measurement noise on the output does not bias; oe needs --fitness ms or "
+          "freerun and scores each window from its 50th step (ms: at most half a window)",
+          "selection", "--estimator", context=True, meta=True),
     Param("refine", None, OneOf((None, "ms", "freerun")),
           "refine θ by minimising the simulation error (ms: windows of --refine-window "
           "samples) instead of the one-step error of least squares, which is biased by "
@@ -397,6 +403,14 @@ _COMBINED = (
     (lambda e: not (e.phi_outputs and not e.use_phi),
      lambda e: f"phi_outputs=True needs Φ-functions in the search, got use_phi={e.use_phi}",
      "--phi-outputs needs Φ-functions in the search: drop --no-phi"),
+    (lambda e: e.estimator != "oe" or e.fitness in ("ms", "freerun"),
+     lambda e: f"estimator='oe' needs a simulation fitness ('ms' or 'freerun'), got "
+               f"fitness={e.fitness!r}",
+     "--estimator oe needs --fitness ms or freerun"),
+    (lambda e: e.estimator != "oe" or e.search_constraints is None,
+     lambda e: f"estimator='oe' estimates unconstrained θ, got "
+               f"search_constraints={e.search_constraints!r}",
+     "--estimator oe estimates unconstrained θ: drop --search-constraints"),
 )
 
 

@@ -28,8 +28,8 @@ Conventions shared by every generator:
   the generators with ``noise_std`` the input does not depend on it;
 * :func:`system_by_name` with ``output_snr`` (dB) adds white measurement
   noise to the returned output, :math:`y^m_k = y_k + v_k`,
-  :math:`v_k \sim N(0, \sigma_v^2)` with
-  :math:`\sigma_v = \mathrm{std}(y)\,10^{-\mathrm{SNR}/20}`, drawn last
+  :math:`v_k \\sim N(0, \\sigma_v^2)` with
+  :math:`\\sigma_v = \\mathrm{std}(y)\\,10^{-\\mathrm{SNR}/20}`, drawn last
   from the same generator (so ``u`` and ``e`` do not depend on it). The
   true model then holds for the noise-free ``y_true``, not for ``y``.
 
