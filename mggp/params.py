@@ -191,7 +191,8 @@ class Param:
         Command-line flag (None: not on the command line).
     context : bool or 'if set'
         Whether it enters the checkpoint context; ``'if set'``: only when
-        true, so checkpoints written without the parameter still resume.
+        it differs from its default, so checkpoints written without the
+        parameter still resume.
     meta : bool
         Whether it is recorded in the model's ``meta``.
     flag_help : str, optional
@@ -323,7 +324,7 @@ _ROWS = (
           "(oe: instrumental variables, then Gauss-Newton on the simulation error), which "
           "white measurement noise on the output does not bias; oe needs --fitness ms or "
           "freerun and scores each window from its 50th step (ms: at most half a window)",
-          "selection", "--estimator", context=True, meta=True),
+          "selection", "--estimator", context="if set", meta=True),
     Param("refine", None, OneOf((None, "ms", "freerun")),
           "refine θ by minimising the simulation error (ms: windows of --refine-window "
           "samples) instead of the one-step error of least squares, which is biased by "
@@ -428,7 +429,12 @@ def check_params(est, cli: bool = False) -> None:
 def context_of(est) -> dict:
     """The parameters the fitness values depend on (checkpoint context)."""
     return {p.name: getattr(est, p.name) for p in PARAMS.values()
-            if p.context is True or (p.context == "if set" and getattr(est, p.name))}
+            if p.context is True or (p.context == "if set" and not _is_default(p, est))}
+
+
+def _is_default(p: Param, est) -> bool:
+    v = getattr(est, p.name)
+    return v is p.default or (type(v) is type(p.default) and v == p.default)
 
 
 def meta_of(est) -> dict:
