@@ -28,6 +28,7 @@ replaced by the next seed not yet used.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
 from mggp import MGGPRegressor
@@ -71,14 +72,22 @@ def main(argv=None):
     p.add_argument("--fitness", default=SETTINGS["fitness"], help="search fitness (pem)")
     p.add_argument("--estimator", default="ls", help="θ in the search: ls or oe (ls)")
     p.add_argument("--systems", nargs="+", default=list(SYSTEMS), metavar="S")
+    p.add_argument("--show-misses", action="store_true",
+                   help="print the structure of every miss (stderr)")
     a = p.parse_args(argv)
     print("| system | exact structure | seconds per run |")
     print("|---|---:|---:|")
     for name in a.systems:
         t0 = time.perf_counter()
         ds = data_seeds(name, a.seeds, a.n, a.noise_snr) if a.vary_data else [0] * a.seeds
-        hits = sum(run(name, s, d, a.n, a.noise_snr, fitness=a.fitness,
-                       estimator=a.estimator)[0] for s, d in zip(range(a.seeds), ds))
+        hits = 0
+        for s, d in zip(range(a.seeds), ds):
+            hit, est = run(name, s, d, a.n, a.noise_snr, fitness=a.fitness,
+                           estimator=a.estimator)
+            hits += hit
+            if not hit and a.show_misses:
+                print(f"  {name} seed {s} data seed {d}: {', '.join(est.model_.term_texts)}",
+                      file=sys.stderr, flush=True)
         dt = (time.perf_counter() - t0) / a.seeds
         print(f"| {name} | {hits}/{a.seeds} | {dt:.1f} |", flush=True)
 
