@@ -363,7 +363,7 @@ class StructureScorer:
         """The :class:`~narx.output_error.OutputErrorProblem` of ``terms``
         (regressor columns in store ``slots``) from row ``s``."""
         n = self.data.n
-        Psi = self.store.array[slots, s:].T
+        Psi = self.store.array[slots, s:]
         plan = Plan.from_terms(terms, self.data.inputs, self.registry)
         idx = np.array([self._in_slot(t) for t in terms], dtype=np.int64)
 
@@ -376,7 +376,7 @@ class StructureScorer:
         return OutputErrorProblem(
             self.y, Psi, s,
             lambda x: regressor_matrix(terms, self.data, y=x, start=s,
-                                       registry=self.registry)[0],
+                                       registry=self.registry)[0].T,
             windows(np.array([s], dtype=np.int64), n - s, 0),
             windows(starts, length, self.burn))
 

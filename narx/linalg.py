@@ -339,21 +339,24 @@ def gram_lstsq(G, g, S=None, c=None, rcond: float = GRAM_RCOND
     return space.gram_lstsq(Gs, gs, rcond) / d, space
 
 
-def iv_lstsq(Psi, Z, b, rcond: float = GRAM_RCOND) -> np.ndarray:
-    r"""Instrumental-variable estimate: θ solving :math:`Z^T\Psi\theta = Z^Tb`.
+def iv_lstsq(ZtPsi, Ztb, z_norms, psi_norms, rcond: float = GRAM_RCOND) -> np.ndarray:
+    r"""Instrumental-variable estimate from cross products: θ solving
+    :math:`Z^T\Psi\theta = Z^Tb`.
 
     .. math:: \hat\theta_{IV} = (Z^T\Psi)^{-1} Z^T b
 
-    with one instrument column per regressor ([4]_). Both matrices are
-    taken on unit-norm columns (:func:`scale_columns`) and the p × p system
-    is solved by ``gelsy`` with relative rank tolerance ``rcond``
-    (:data:`GRAM_RCOND`: like normal equations, :math:`Z^T\Psi` squares
-    the columns' condition), so a rank-deficient system gives the
-    minimum-norm solution. LS is the case :math:`Z = \Psi`.
+    with one instrument column per regressor ([4]_). The system is taken on
+    unit-norm columns of both matrices (``z_norms`` and ``psi_norms``, the
+    column norms :math:`\|z_j\|`, :math:`\|\psi_j\|`, 0 read as 1 as in
+    :func:`column_norms`) and solved by ``gelsy`` with relative rank
+    tolerance ``rcond`` (:data:`GRAM_RCOND`: like normal equations,
+    :math:`Z^T\Psi` squares the columns' condition), so a rank-deficient
+    system gives the minimum-norm solution. LS is the case :math:`Z = \Psi`.
     """
-    A, d = scale_columns(Psi)
-    Zs, _ = scale_columns(Z)
-    return lstsq(Zs.T @ A, Zs.T @ b, rcond=rcond)[0] / d
+    dz = _unit_scale(np.array(z_norms, dtype=np.float64))
+    dp = _unit_scale(np.array(psi_norms, dtype=np.float64))
+    M = np.asarray(ZtPsi, dtype=np.float64) / np.outer(dz, dp)
+    return lstsq(M, np.asarray(Ztb, dtype=np.float64) / dz, rcond=rcond)[0] / dp
 
 
 def range_basis(A) -> np.ndarray:

@@ -53,6 +53,7 @@ from typing import Callable, Tuple
 
 import numpy as np
 
+from .gram import cross_products, fixed_dot
 from .linalg import gram_lstsq, iv_lstsq
 
 __all__ = ["ESTIMATORS", "IV_ITERATIONS", "GN_ITERATIONS", "GN_RTOL", "BURN_IN",
@@ -118,13 +119,14 @@ class OutputErrorProblem:
     ----------
     y : ndarray, shape (N,)
         Measured output.
-    Psi : ndarray, shape (N - start, p)
-        Regressors from the measured output, rows ``start..N-1``.
+    Psi : ndarray, shape (p, N - start)
+        Regressors from the measured output, one row per term, samples
+        ``start..N-1``.
     start : int
-        First row of ``Psi``.
+        First sample of ``Psi``.
     instruments : callable
         ``instruments(x)``: the regressors rebuilt from a simulated output
-        ``x`` (length N), rows ``start..N-1``.
+        ``x`` (length N), laid out as ``Psi``.
     freerun : callable
         ``freerun(theta) -> (out, diverged)``: the free run from ``start``
         (``out`` of length N, NaN before ``start``).
@@ -143,15 +145,23 @@ class OutputErrorProblem:
 def iv_theta(problem: OutputErrorProblem, theta: np.ndarray,
              iterations: int = IV_ITERATIONS) -> np.ndarray:
     """θ after ``iterations`` IV passes, each with instruments from the
-    free run of the previous θ (stops at a diverging free run)."""
+    free run of the previous θ (stops at a diverging free run). Every cross
+    product is summed in a fixed order (:func:`narx.gram.cross_products`),
+    so θ does not depend on the process that computes it."""
     s, y = problem.start, problem.y
+    Psi = problem.Psi
+    b = np.ascontiguousarray(y[s:])[None, :]
+    psi_norms = np.sqrt([fixed_dot(row, row) for row in Psi])
     for _ in range(iterations):
         out, diverged = problem.freerun(theta)
         if diverged:
             break
         x = out.copy()
         x[:s] = y[:s]                     # the free run's initial conditions
-        new = iv_lstsq(problem.Psi, problem.instruments(x), y[s:])
+        Z = np.ascontiguousarray(problem.instruments(x))
+        z_norms = np.sqrt([fixed_dot(row, row) for row in Z])
+        new = iv_lstsq(cross_products(Z, Psi), cross_products(Z, b)[:, 0], z_norms,
+                       psi_norms)
         if not np.all(np.isfinite(new)):
             break
         theta = new
@@ -173,7 +183,7 @@ def gauss_newton(problem: OutputErrorProblem, theta: np.ndarray,
     simulation error.
 
     Each step solves :math:`J^TJ\,\delta = J^Tr` (:func:`narx.linalg.gram_lstsq`,
-    unit-diagonal scaling) with :math:`J_{ki} = \partial\hat y_k/\partial\theta_i`
+    unit-diagonal scaling; products in a fixed order) with :math:`J_{ki} = \partial\hat y_k/\partial\theta_i`
     by forward differences (:math:`h_i = 10^{-6}\max(1, |\theta_i|)`), and
     takes the first of :math:`\delta, \delta/2, \dots` (:data:`GN_HALVINGS`)
     that lowers :math:`\|r\|^2`; it stops when none does or the decrease is
@@ -183,11 +193,11 @@ def gauss_newton(problem: OutputErrorProblem, theta: np.ndarray,
     if first is None:
         return theta
     r, mask = first
-    cost = float(r @ r)
+    cost = fixed_dot(r, r)
     out = problem.y[mask] - r
     p = theta.size
     for _ in range(iterations):
-        J = np.empty((r.size, p))
+        J = np.empty((p, r.size))            # one row per parameter
         for i in range(p):
             h = 1e-6 * max(1.0, abs(theta[i]))
             th = theta.copy()
@@ -195,14 +205,14 @@ def gauss_newton(problem: OutputErrorProblem, theta: np.ndarray,
             o, diverged = problem.scored(th)
             if diverged:
                 return theta
-            J[:, i] = (o[mask] - out) / h
-        step = gram_lstsq(J.T @ J, J.T @ r)[0]
+            J[i] = (o[mask] - out) / h
+        step = gram_lstsq(cross_products(J, J), cross_products(J, r[None, :])[:, 0])[0]
         lam, accepted = 1.0, None
         for _ in range(GN_HALVINGS):
             th = theta + lam * step
             e = _error(problem, th)
-            if e is not None and float(e[0] @ e[0]) < cost:
-                accepted = th, e[0], float(e[0] @ e[0])
+            if e is not None and fixed_dot(e[0], e[0]) < cost:
+                accepted = th, e[0], fixed_dot(e[0], e[0])
                 break
             lam *= 0.5
         if accepted is None:

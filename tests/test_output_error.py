@@ -6,6 +6,7 @@ import pytest
 from mggp import MGGPRegressor
 from narx.data import as_data
 from narx.fitness import StructureScorer
+from narx.gram import cross_products, fixed_dot
 from narx.linalg import iv_lstsq, scaled_lstsq
 from narx.output_error import burn_in
 from narx.terms import parse_term
@@ -57,7 +58,22 @@ def test_iv_with_the_regressors_as_instruments_is_ls():
     rng = np.random.default_rng(0)
     Psi = rng.normal(size=(200, 3)) * [1.0, 1e3, 1e-3]
     b = Psi @ [1.0, 2.0, 3.0] + rng.normal(size=200)
-    np.testing.assert_allclose(iv_lstsq(Psi, Psi, b), scaled_lstsq(Psi, b)[0], rtol=1e-8)
+    d = np.linalg.norm(Psi, axis=0)
+    theta = iv_lstsq(Psi.T @ Psi, Psi.T @ b, d, d)
+    np.testing.assert_allclose(theta, scaled_lstsq(Psi, b)[0], rtol=1e-8)
+
+
+def test_cross_products_in_a_fixed_order():
+    rng = np.random.default_rng(1)
+    A, B = rng.normal(size=(3, 1001)), rng.normal(size=(2, 1001))
+    C = cross_products(A, B)
+    np.testing.assert_allclose(C, A @ B.T, rtol=1e-12)
+    assert C[1, 0] == fixed_dot(A[1], B[0])
+    # the same values from arrays at another offset in memory
+    buf = np.empty(A.size + 1)
+    A2 = buf[1:].reshape(A.shape)
+    A2[:] = A
+    assert np.array_equal(cross_products(A2, B), C)
 
 
 def test_burn_in_rule():
