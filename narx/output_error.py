@@ -183,7 +183,8 @@ def gauss_newton(problem: OutputErrorProblem, theta: np.ndarray,
     simulation error.
 
     Each step solves :math:`J^TJ\,\delta = J^Tr` (:func:`narx.linalg.gram_lstsq`,
-    unit-diagonal scaling; products in a fixed order) with :math:`J_{ki} = \partial\hat y_k/\partial\theta_i`
+    unit-diagonal scaling; products in a fixed order) with
+    :math:`J_{ki} = \partial\hat y_k/\partial\theta_i`
     by forward differences (:math:`h_i = 10^{-6}\max(1, |\theta_i|)`), and
     takes the first of :math:`\delta, \delta/2, \dots` (:data:`GN_HALVINGS`)
     that lowers :math:`\|r\|^2`; it stops when none does or the decrease is
