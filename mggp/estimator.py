@@ -147,7 +147,7 @@ class MGGPRegressor:
                  phi_outputs=False, operators=None, constant=False, max_lag=None,
                  max_degree=None, select="auto", size="auto", select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
-                 t_threshold=None, refine=None, refine_window=None,
+                 t_threshold=None, estimator="ls", refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
                  resume=False, callbacks=None, registry=None):
@@ -182,6 +182,7 @@ class MGGPRegressor:
         self.screen_band = screen_band
         self.prune = prune
         self.noise_lags = noise_lags
+        self.estimator = estimator
         self.refine = refine
         self.refine_window = refine_window
         self.t_threshold = t_threshold
@@ -263,7 +264,7 @@ class MGGPRegressor:
         # process, then every stage's
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
-                                 registry=registry)
+                                 registry=registry, estimator=self.estimator)
         half = self.population // 2 if (self.use_phi == "auto"
                                         and not self.phi_outputs) else None
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure)
@@ -338,7 +339,8 @@ class MGGPRegressor:
                          operators=search_operators(self.operators, data.U))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
                               constraints=self.search_constraints, start=ctx.start,
-                              criterion=self.criterion, n_jobs=self.n_jobs,
+                              estimator=self.estimator, criterion=self.criterion,
+                              n_jobs=self.n_jobs,
                               backend=self.backend, scheduler=self.scheduler,
                               registry=ctx.registry, scorer=ctx.scorer)
         callbacks = list(self.callbacks or [])

@@ -196,6 +196,8 @@ class Evaluator:
         Fixed first row for estimation and scoring (>= every set's lag;
         ``MGGPRegressor`` fixes it from ``max_height``, so all structures
         are scored on the same rows). Default: each set's own largest lag.
+    estimator : {'ls', 'oe'}
+        θ of each set (:class:`narx.fitness.StructureScorer`).
     criterion : {'mse', 'bic', 'aic'}
     n_jobs : int
         Worker count (``-1``: all cores). Results do not depend on it.
@@ -221,7 +223,7 @@ class Evaluator:
 
     def __init__(self, data: Data, fitness: str = "ms", *, window: int = 100,
                  k: int = 10, constraints: Optional[str] = None,
-                 start: Optional[int] = None,
+                 start: Optional[int] = None, estimator: str = "ls",
                  criterion: str = "mse", n_jobs: int = 1, backend: str = "loky",
                  scheduler=None, registry: Optional[PhiRegistry] = None,
                  max_retries: int = 3, scorer: Optional[StructureScorer] = None):
@@ -231,7 +233,7 @@ class Evaluator:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
         self.data = data
         self.settings = dict(fitness=fitness, window=window, k=k,
-                             constraints=constraints, start=start)
+                             constraints=constraints, start=start, estimator=estimator)
         if scorer is None:
             StructureScorer(data, **self.settings)       # validate settings now
         self.criterion = criterion

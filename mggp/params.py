@@ -202,7 +202,8 @@ class Param:
         Command-line flag (None: not on the command line).
     context : bool or 'if set'
         Whether it enters the checkpoint context; ``'if set'``: only when
-        true, so checkpoints written without the parameter still resume.
+        it differs from its default, so checkpoints written without the
+        parameter still resume.
     meta : bool
         Whether it is recorded in the model's ``meta``.
     flag_help : str, optional
@@ -347,6 +348,12 @@ _ROWS = (
     Param("t_threshold", None, Real(0, lo_open=True, none=True),
           "|t| below which a term is pruned (default: Bonferroni over the candidate "
           "monomials)", "selection"),
+    Param("estimator", "ls", OneOf(("ls", "oe")),
+          "θ of every structure scored in the search: least squares (ls), or output error "
+          "(oe: instrumental variables, then Gauss-Newton on the simulation error), which "
+          "white measurement noise on the output does not bias; oe needs --fitness ms or "
+          "freerun and scores each window from its 50th step (ms: at most half a window)",
+          "selection", "--estimator", context="if set", meta=True),
     Param("refine", None, OneOf((None, "ms", "freerun")),
           "refine θ by minimising the simulation error (ms: windows of --refine-window "
           "samples) instead of the one-step error of least squares, which is biased by "
@@ -428,6 +435,14 @@ _COMBINED = (
     (lambda e: not (e.phi_outputs and not e.use_phi),
      lambda e: f"phi_outputs=True needs Φ-functions in the search, got use_phi={e.use_phi}",
      "--phi-outputs needs Φ-functions in the search: drop --no-phi"),
+    (lambda e: e.estimator != "oe" or e.fitness in ("ms", "freerun"),
+     lambda e: f"estimator='oe' needs a simulation fitness ('ms' or 'freerun'), got "
+               f"fitness={e.fitness!r}",
+     "--estimator oe needs --fitness ms or freerun"),
+    (lambda e: e.estimator != "oe" or e.search_constraints is None,
+     lambda e: f"estimator='oe' estimates unconstrained θ, got "
+               f"search_constraints={e.search_constraints!r}",
+     "--estimator oe estimates unconstrained θ: drop --search-constraints"),
 )
 
 
@@ -445,7 +460,12 @@ def check_params(est, cli: bool = False) -> None:
 def context_of(est) -> dict:
     """The parameters the fitness values depend on (checkpoint context)."""
     return {p.name: getattr(est, p.name) for p in PARAMS.values()
-            if p.context is True or (p.context == "if set" and getattr(est, p.name))}
+            if p.context is True or (p.context == "if set" and not _is_default(p, est))}
+
+
+def _is_default(p: Param, est) -> bool:
+    v = getattr(est, p.name)
+    return v is p.default or (type(v) is type(p.default) and v == p.default)
 
 
 def meta_of(est) -> dict:

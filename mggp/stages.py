@@ -28,7 +28,8 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
 ``record``
     ``terms_``, ``fitness_`` and the ``meta`` every model of the fit carries.
 ``qr_refit``
-    ``model_``: θ by least squares (QR) on the whole record.
+    ``model_``: θ by least squares (QR) on the whole record; with
+    ``estimator='oe'`` the output-error θ of the search's scorer.
 ``precision``
     The fitness with the search's θ and with the QR θ (``precision_``,
     :mod:`mggp.precision`); ``model_`` keeps the search's θ when the QR
@@ -125,15 +126,17 @@ class FitContext:
     def scorer_for(self, fitness: str, constraints: Optional[str] = None) -> StructureScorer:
         """The scorer of ``fitness`` (and ``constraints``) on the record from
         ``start``: the search's when they are its settings, else one built
-        once per setting."""
+        once per setting (with the search's ``estimator`` where it applies)."""
         sc = self.scorer
         if fitness == sc.fitness and constraints == sc.constraints:
             return sc
         key = (fitness, constraints)
         if key not in self._scorers:
+            oe = sc.estimator == "oe" and fitness in ("ms", "freerun") and constraints is None
             self._scorers[key] = StructureScorer(
                 self.data, fitness, window=sc.window, k=sc.k, start=self.start,
-                constraints=constraints, registry=self.registry)
+                constraints=constraints, registry=self.registry,
+                estimator="oe" if oe else "ls")
         return self._scorers[key]
 
 
@@ -259,22 +262,31 @@ def _model(terms, data, ctx, estimation, theta=None, **extra) -> Model:
 
 def qr_refit(terms, data, ctx):
     """``model_``: least squares by QR on the record. Terms the record cannot
-    tell apart (``rank_`` below their number) get the minimum-norm θ."""
+    tell apart (``rank_`` below their number) get the minimum-norm θ.
+    With ``estimator='oe'`` (and no noise terms) θ is the output-error
+    estimate of the search's scorer (:mod:`narx.output_error`), which
+    measurement noise does not bias, and ``model_.meta['estimation']`` is
+    ``'oe'``."""
     est = ctx.est
     with ignore_rank_warnings():
         est.model_ = _model(terms, data, ctx, "ls").fit(data)
     est.rank_ = int(est.model_.fit_info_["rank"])
+    if est.estimator == "oe" and not any(t.has_noise for t in terms):
+        theta, _ = ctx.scorer.fitted(terms)
+        if theta is not None:
+            est.model_ = _model(terms, data, ctx, "oe", theta)
     return terms
 
 
 def precision(terms, data, ctx):
     """``precision_``: the fitness with the search's θ and the QR θ; the
     search's θ is kept when the QR refit simulates worse. Not compared for
-    ELS fits of noise terms and CLS fits of a constrained search, which are
-    not what ``model_`` (LS) is."""
+    ELS fits of noise terms, CLS fits of a constrained search and
+    output-error fits, which are not what the QR refit (LS) is."""
     est = ctx.est
     est.precision_ = check = None if (any(t.has_noise for t in terms)
-                                      or est.search_constraints) else \
+                                      or est.search_constraints
+                                      or est.model_.meta["estimation"] == "oe") else \
         search_precision(ctx.scorer, terms, est.model_.theta)
     if check is not None and check.refit_worse:
         est.model_ = _model(terms, data, ctx, "ls-search", check.search_theta,

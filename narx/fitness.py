@@ -53,7 +53,8 @@ from .kernels import Plan, run_windows
 from .linalg import divergence_bound, gram_lstsq
 from .ms_kernel import BUDGET as MS_BUDGET, MultipleShooting, window_sse
 from .phi import PhiRegistry, default_registry
-from .regressors import factor_column, input_part_into
+from .output_error import OutputErrorProblem, burn_in, check_estimator, output_error_theta
+from .regressors import factor_column, input_part_into, regressor_matrix
 from .simulate import MODES, mode_name, recursion_windows
 from .steady import steady_state_constraints
 from .terms import Term
@@ -183,6 +184,14 @@ class StructureScorer:
     prefault : bool
         Write the column cache at construction, so the resident size does
         not grow later (for long-lived worker processes).
+    estimator : {'ls', 'oe'}
+        θ of a term set: least squares (default), or output error
+        (:mod:`narx.output_error`: IV from the LS θ, then Gauss–Newton on
+        the simulation error), which is not biased by white noise on the
+        measured output; for the ``ms`` and ``freerun`` fitness, without
+        ``constraints``. With ``'oe'`` the first
+        :func:`narx.output_error.burn_in` steps of each simulated window
+        are not scored.
 
     Attributes
     ----------
@@ -197,8 +206,10 @@ class StructureScorer:
                  k: Optional[int] = None, constraints: Optional[str] = None,
                  start: Optional[int] = None, registry: Optional[PhiRegistry] = None,
                  budget_bytes: int = SCORER_BUDGET, bound: Optional[float] = None,
-                 prefault: bool = False):
+                 prefault: bool = False, estimator: str = "ls"):
         fitness = mode_name(fitness, "fitness")
+        check_estimator(estimator, fitness, constraints)
+        self.estimator = estimator
         if constraints not in (None, "steady-state"):
             raise ValueError(f"constraints must be None or 'steady-state', got {constraints!r}")
         self.data = data
@@ -208,6 +219,8 @@ class StructureScorer:
         self.k = int(k) if k is not None else 10
         if self.window < 1 or self.k < 1:
             raise ValueError(f"window and k must be >= 1, got window={window!r}, k={k!r}")
+        #: simulated steps of each window left out of the score
+        self.burn = burn_in(fitness, self.window) if estimator == "oe" else 0
         self.constraints = constraints
         self.start = None if start is None else int(start)
         self.registry = registry or default_registry()
@@ -335,12 +348,37 @@ class StructureScorer:
         slots = np.array([self._reg_slot(t) for t in terms], dtype=np.int64)
         G, b = self._gram(slots, s)
         if constraints is None:
-            return gram_lstsq(G, b)[0], s
+            theta = gram_lstsq(G, b)[0]
+            if self.estimator == "oe" and any(t.output_factors for t in terms) \
+                    and np.all(np.isfinite(theta)):
+                theta = output_error_theta(self._output_error(terms, slots, s), theta)
+            return theta, s
         cons = steady_state_constraints(terms, self.registry)
         theta, space = gram_lstsq(G, b, cons.S, cons.c)
         if not space.consistent:
             raise EstimationError("inconsistent steady-state constraints")
         return theta, s
+
+    def _output_error(self, terms, slots, s) -> OutputErrorProblem:
+        """The :class:`~narx.output_error.OutputErrorProblem` of ``terms``
+        (regressor columns in store ``slots``) from row ``s``."""
+        n = self.data.n
+        Psi = self.store.array[slots, s:]
+        plan = Plan.from_terms(terms, self.data.inputs, self.registry)
+        idx = np.array([self._in_slot(t) for t in terms], dtype=np.int64)
+
+        def windows(starts, length, write_from):
+            return lambda theta: run_windows(plan, self.store.array, self.data.U, self.y,
+                                             theta, starts, length, write_from,
+                                             bound=self.bound, registry=self.registry,
+                                             idx=idx)
+        starts, length, _, _ = recursion_windows(self.fitness, n, s, self.window)
+        return OutputErrorProblem(
+            self.y, Psi, s,
+            lambda x: regressor_matrix(terms, self.data, y=x, start=s,
+                                       registry=self.registry)[0].T,
+            windows(np.array([s], dtype=np.int64), n - s, 0),
+            windows(starts, length, self.burn))
 
     # ------------------------------------------------------------ scoring
     def evaluate(self, terms: Sequence[Term]) -> Tuple[float, Optional[np.ndarray]]:
@@ -384,6 +422,8 @@ class StructureScorer:
 
     def _simulate_mse(self, terms, theta, s) -> float:
         n, y = self.data.n, self.y
+        if self.burn:
+            return self._burnt_mse(terms, theta, s)
         if self.fitness == "osa":
             idx = np.array([self._reg_slot(t) for t in terms], dtype=np.int64)
             mse = _osa_sse(self.store.array, idx, theta, y, s) / (n - s)
@@ -402,4 +442,17 @@ class StructureScorer:
         r = y[first:] - out[first:]
         if self.fitness == "ms":                 # the fast path's summation order
             return float(window_sse(r, self.window) / r.size)
+        return float(fixed_dot(r, r) / r.size)
+
+    def _burnt_mse(self, terms, theta, s) -> float:
+        """MSE of the ``ms``/``freerun`` simulation without the first
+        ``self.burn`` steps of each window; ``inf`` when it diverges."""
+        starts, length, _, _ = recursion_windows(self.fitness, self.data.n, s, self.window)
+        out, diverged = self.run_windows(terms, theta, starts, length, self.burn)
+        if diverged:
+            return float("inf")
+        scored = np.isfinite(out)
+        if not scored.any():
+            return float("inf")
+        r = self.y[scored] - out[scored]
         return float(fixed_dot(r, r) / r.size)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["fixed_dot", "fill_gram"]
+__all__ = ["fixed_dot", "fill_gram", "cross_products"]
 
 
 @njit(cache=True, nogil=True)
@@ -144,3 +144,15 @@ def fill_gram(G, bv, arr, slots, y, s):
         for j in range(t):
             sub[i, j] = G[a, slots[j]]
     return sub, b
+
+
+@njit(cache=True, nogil=True)
+def cross_products(A, B):
+    """:math:`AB^T` of row-major column sets ``A`` (p, n) and ``B`` (q, n):
+    entry (i, j) is :func:`fixed_dot` of rows ``A[i]`` and ``B[j]``, so the
+    products do not depend on the arrays' alignment or on BLAS threads."""
+    out = np.empty((A.shape[0], B.shape[0]))
+    for i in range(A.shape[0]):
+        for j in range(B.shape[0]):
+            out[i, j] = fixed_dot(A[i], B[j])
+    return out

@@ -58,6 +58,8 @@ References
    Theory Appl., 2004.
 .. [3] Draper, N. R., Smith, H., *Applied Regression Analysis*, 3rd ed.,
    Wiley, 1998.
+.. [4] Söderström, T., Stoica, P., *System Identification*, Prentice Hall,
+   1989, ch. 8 (instrumental variable methods).
 """
 from __future__ import annotations
 
@@ -70,7 +72,7 @@ import scipy.linalg
 __all__ = ["EPS", "GRAM_RCOND", "T_RTOL", "CONSISTENCY_RTOL", "DIVERGENCE_FACTOR",
            "column_norms", "scale_columns", "scale_gram", "rank_tolerance",
            "numerical_rank", "matrix_rank", "lstsq", "ConstraintSpace",
-           "constraint_space", "null_space", "scaled_lstsq", "gram_lstsq",
+           "constraint_space", "null_space", "scaled_lstsq", "gram_lstsq", "iv_lstsq",
            "range_basis", "t_values", "added_column_t", "divergence_bound"]
 
 #: machine epsilon of float64
@@ -335,6 +337,26 @@ def gram_lstsq(G, g, S=None, c=None, rcond: float = GRAM_RCOND
         return lstsq(Gs, gs, rcond=rcond)[0] / d, None
     space = constraint_space(S, c, d)
     return space.gram_lstsq(Gs, gs, rcond) / d, space
+
+
+def iv_lstsq(ZtPsi, Ztb, z_norms, psi_norms, rcond: float = GRAM_RCOND) -> np.ndarray:
+    r"""Instrumental-variable estimate from cross products: θ solving
+    :math:`Z^T\Psi\theta = Z^Tb`.
+
+    .. math:: \hat\theta_{IV} = (Z^T\Psi)^{-1} Z^T b
+
+    with one instrument column per regressor ([4]_). The system is taken on
+    unit-norm columns of both matrices (``z_norms`` and ``psi_norms``, the
+    column norms :math:`\|z_j\|`, :math:`\|\psi_j\|`, 0 read as 1 as in
+    :func:`column_norms`) and solved by ``gelsy`` with relative rank
+    tolerance ``rcond`` (:data:`GRAM_RCOND`: like normal equations,
+    :math:`Z^T\Psi` squares the columns' condition), so a rank-deficient
+    system gives the minimum-norm solution. LS is the case :math:`Z = \Psi`.
+    """
+    dz = _unit_scale(np.array(z_norms, dtype=np.float64))
+    dp = _unit_scale(np.array(psi_norms, dtype=np.float64))
+    M = np.asarray(ZtPsi, dtype=np.float64) / np.outer(dz, dp)
+    return lstsq(M, np.asarray(Ztb, dtype=np.float64) / dz, rcond=rcond)[0] / dp
 
 
 def range_basis(A) -> np.ndarray:

@@ -25,7 +25,13 @@ Conventions shared by every generator:
   sample with ``k >= max lag``;
 * the input is drawn first, then the noise, from
   ``numpy.random.default_rng(seed)`` (``seed``: int or Generator), so for
-  the generators with ``noise_std`` the input does not depend on it.
+  the generators with ``noise_std`` the input does not depend on it;
+* :func:`system_by_name` with ``output_snr`` (dB) adds white measurement
+  noise to the returned output, :math:`y^m_k = y_k + v_k`,
+  :math:`v_k \\sim N(0, \\sigma_v^2)` with
+  :math:`\\sigma_v = \\mathrm{std}(y)\\,10^{-\\mathrm{SNR}/20}`, drawn last
+  from the same generator (so ``u`` and ``e`` do not depend on it). The
+  true model then holds for the noise-free ``y_true``, not for ``y``.
 
 References
 ----------
@@ -36,8 +42,8 @@ Methods in the Time, Frequency, and Spatio-Temporal Domains*, Wiley, 2013.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Tuple
+from dataclasses import dataclass, replace
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -45,7 +51,7 @@ from .systems import _count, _num, _rng
 
 __all__ = ["TestSystemData", "TRANSIENT", "SYSTEMS", "system_S1", "system_S2",
            "system_S3", "system_S4", "system_S5", "system_S6", "system_piroddi",
-           "system_by_name", "polynomial_narx", "hammerstein"]
+           "system_by_name", "polynomial_narx", "hammerstein", "with_output_noise"]
 
 #: samples simulated and discarded before the returned record
 TRANSIENT = 100
@@ -61,13 +67,16 @@ class TestSystemData:
     Attributes
     ----------
     u, y, e : ndarray, shape (N,)
-        Input, output and noise (the equation error :math:`e_k`).
+        Input, (measured) output and noise (the equation error :math:`e_k`).
     terms : tuple of str
         Canonical term texts of the true model.
     theta : tuple of float
         True parameters, in the order of ``terms``.
     name : str
         Name of the system.
+    v : ndarray or None
+        White measurement noise added to the output
+        (:func:`with_output_noise`); None when there is none.
     """
 
     __test__ = False  # not a pytest test class despite its name
@@ -78,6 +87,12 @@ class TestSystemData:
     terms: Tuple[str, ...]
     theta: Tuple[float, ...]
     name: str
+    v: Optional[np.ndarray] = None
+
+    @property
+    def y_true(self) -> np.ndarray:
+        """The output before measurement noise (``y`` when there is none)."""
+        return self.y if self.v is None else self.y - self.v
 
 
 def _start(n, seed, u_kind, u_scale, e_std):
@@ -214,12 +229,40 @@ def system_piroddi(n=1000, seed=0, noise_std=0.0):
     return _s6("piroddi", n, seed, _num("noise_std", noise_std, "nonneg"))
 
 
-def system_by_name(name, n=500, seed=0):
-    """The system called ``name`` (one of :data:`SYSTEMS`, case-insensitive)."""
+def system_by_name(name, n=500, seed=0, output_snr=None):
+    """The system called ``name`` (one of :data:`SYSTEMS`, case-insensitive).
+
+    ``output_snr`` (dB, optional): add white measurement noise to the
+    output at this signal-to-noise ratio (:func:`with_output_noise`), drawn
+    from the same generator after the input and the equation noise.
+    """
     key = name.upper() if isinstance(name, str) else name
     if key not in SYSTEMS:
         raise ValueError(f"name must be one of {', '.join(SYSTEMS)}, got {name!r}")
-    return globals()[f"system_{key}"](n=n, seed=seed)
+    if output_snr is None:
+        return globals()[f"system_{key}"](n=n, seed=seed)
+    snr = _num("output_snr", output_snr)
+    rng = _rng(seed)
+    return with_output_noise(globals()[f"system_{key}"](n=n, seed=rng), snr, rng)
+
+
+def with_output_noise(d: TestSystemData, snr_db: float, seed=0) -> TestSystemData:
+    r"""``d`` with white measurement noise on its output at ``snr_db`` dB.
+
+    .. math:: y^m_k = y_k + v_k,\qquad v_k \sim N(0, \sigma_v^2),\qquad
+              \sigma_v = \mathrm{std}(y)\,10^{-\mathrm{SNR}/20}
+
+    (SNR = 10 log10 of the ratio of the variances; 20 dB: σ_v is 10 % of
+    the output's standard deviation). The noise enters the regressors of
+    every output lag, so least squares on the measured record is biased
+    (errors in variables). ``seed``: int or Generator; the noise is in
+    ``v`` and the noise-free output in ``y_true``.
+    """
+    if d.v is not None:
+        raise ValueError(f"the output of {d.name} already has measurement noise")
+    snr = _num("snr_db", snr_db)
+    v = _rng(seed).normal(0.0, 1.0, d.y.shape[0]) * (np.std(d.y) * 10.0 ** (-snr / 20.0))
+    return replace(d, y=d.y + v, v=v)
 
 
 def polynomial_narx(n=1000, seed=0, noise_std=0.0):
