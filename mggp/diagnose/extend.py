@@ -133,7 +133,7 @@ class Extension:
     changes: Tuple[str, ...] = ()
 
 
-def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data):
+def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data, callbacks=None):
     from ..estimator import MGGPRegressor
     return MGGPRegressor(fitness=setting.fitness or "ms", window=setting.window,
                          use_phi=setting.use_phi, constraints=setting.constraints,
@@ -141,18 +141,23 @@ def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data):
                          population=budget.population, generations=budget.generations,
                          max_terms=setting.max_terms, max_height=setting.max_height,
                          max_degree=setting.max_degree, random_state=int(seed),
-                         n_jobs=jobs, inputs=list(data.inputs), output=data.output)
+                         n_jobs=jobs, inputs=list(data.inputs), output=data.output,
+                         callbacks=callbacks(budget.generations) if callbacks else None)
 
 
 def _fit_window(window: int, data: Data) -> int:
     return int(max(1, min(window, data.n // 4)))
 
 
-def baseline_search(data: Data, budget: Budget, seed=0, jobs=1) -> Tuple[Model, Setting]:
-    """MGGP with MS fitness and no Φ on ``data``; returns the LS model."""
+def baseline_search(data: Data, budget: Budget, seed=0, jobs=1,
+                    callbacks=None) -> Tuple[Model, Setting]:
+    """MGGP with MS fitness and no Φ on ``data``; returns the LS model.
+
+    ``callbacks(generations)``, if given, returns the search's per-generation
+    callbacks (:class:`~mggp.estimator.MGGPRegressor` ``callbacks``)."""
     setting = Setting("ms", _fit_window(budget.window, data), False, None, budget.max_degree,
                       budget.max_height, budget.max_terms)
-    est = _regressor(setting, budget, seed, jobs, data).fit(data)
+    est = _regressor(setting, budget, seed, jobs, data, callbacks).fit(data)
     model = est.model_
     model.meta.update({"source": "mggp diagnose baseline", "fitness": "ms",
                        "use_phi": False})
@@ -295,7 +300,7 @@ def _candidate(terms, data: Data, constraints, registry) -> Optional[Model]:
 
 
 def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budget,
-                  seed=0, jobs=1, floor: float = 0.0) -> Extension:
+                  seed=0, jobs=1, floor: float = 0.0, callbacks=None) -> Extension:
     """Fit the planned extension on ``data`` (the fitting samples).
 
     With CLS (drift named: the system holds) a candidate must also keep
@@ -319,7 +324,7 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
         setting = replace(plan.setting, window=_fit_window(plan.setting.window, data))
         with warnings.catch_warnings():       # only its LS structure is used
             warnings.simplefilter("ignore", CLSRejectedWarning)
-            est = _regressor(setting, budget, int(seed) + 1, jobs, data).fit(data)
+            est = _regressor(setting, budget, int(seed) + 1, jobs, data, callbacks).fit(data)
         found = [str(t) for t in est.model_.terms]
         sets += [("search", found), ("search + baseline terms", base + found)]
     if plan.direction:
