@@ -28,6 +28,7 @@ from ..quasistatic_report import diagnosis_figure
 from ..report import _save, figure
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
+from .correlation import propagation_factor
 from .simulation import direction_of_change, simulation_residual
 
 __all__ = ["terminal_summary", "write_report", "verdict"]
@@ -184,6 +185,7 @@ def _plot_correlation(path, dx):
     for ax, t in zip(axes, tests):
         ax.bar(t.lags, t.r, width=0.6, color="tab:gray")
         rms = dx.evidence.osa_rms if t.rms is None else t.rms     # of the residual tested
+        rms *= propagation_factor(dx.evidence.osa_rms, dx.evidence.context.freerun_rms)
         floor = dx.evidence.floor / rms if rms > 0 else 2.0
         for v, ls, lab in ((t.band95, "-", "±1.96/√N"), (t.band, "--", "Bonferroni"),
                            (floor, ":", "resolution floor")):
