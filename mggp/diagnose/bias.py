@@ -141,7 +141,8 @@ def bias_check(b: BiasTest, alpha: float, floor: float) -> Check:
               f"{_g(b.excess)} against {_g(b.excess_null)} by chance; materiality: at "
               f"least the noise-driven RMSE {_g(b.null_median_rmse)} and the resolution "
               f"floor {_g(floor)}")
-    return Check("free-run excess", "prediction-bias", b.excess, thr, detail)
+    return Check("free-run excess", "prediction-bias", b.excess, thr, detail,
+                 bound=b.excess_null)
 
 
 def _run(ctx) -> Outcome:
