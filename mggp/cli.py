@@ -170,7 +170,7 @@ def _cmd_simulate(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import __version__
+    from .version import __version__
     p = _Parser(prog="mggp", description="NARX models of hysteretic systems by "
                 "multi-gene genetic programming.")
     p.add_argument("--version", action="version", version=f"mggp {__version__}")

@@ -28,6 +28,8 @@ from typing import List, Optional
 
 import numpy as np
 
+from .plotting import figure
+
 __all__ = ["plot_quasistatic", "summary_markdown", "conclusion", "loop_orientation",
            "pulls", "model_figure", "diagnosis_figure", "probe_sine"]
 
@@ -247,7 +249,6 @@ def plot_quasistatic(path, qs, title: str = "Quasi-static analysis",
     -------
     path
     """
-    from .report import figure
     fig, ax = figure(figsize=(8.2, 6.4))
     lo, hi = _view(qs)
     b = qs.bounding

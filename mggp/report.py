@@ -16,22 +16,9 @@ from typing import Optional
 
 import numpy as np
 
+from .plotting import figure, save as _save
+
 __all__ = ["write_fit_report", "plot_freerun", "plot_loop", "plot_convergence", "figure"]
-
-
-def figure(*args, **kw):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt.subplots(*args, **kw)
-
-
-def _save(fig, path):
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    import matplotlib.pyplot as plt
-    plt.close(fig)
-    return path
 
 
 def _band(y):

@@ -183,7 +183,7 @@ def noise(terms, data, ctx):
 
 def record(terms, data, ctx):
     """``terms_``, ``fitness_`` and the meta of the fit's models."""
-    from . import versions
+    from .version import versions
     from .params import meta_of
     est = ctx.est
     est.terms_ = terms

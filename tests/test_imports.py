@@ -1,11 +1,13 @@
-"""Every module of narx and mggp imports alone, and narx has no import cycle.
+"""Every module of narx and mggp imports alone, and neither has an import cycle.
 
 An import cycle works or fails depending on which module of the cycle is
 imported first; importing each module alone, first, in an interpreter that
 has loaded no module of the project, finds such failures. The interpreter
 is forked from one that has loaded only the third-party dependencies, so
 the check takes seconds, not a minute. The cycle check reads every import
-statement of narx (also those inside functions) with ``ast``.
+statement of narx and of mggp with ``ast``, also those inside functions
+(they run when the function does); imports under ``if TYPE_CHECKING:``
+never run and are left out.
 """
 from __future__ import annotations
 
@@ -34,7 +36,7 @@ def _imports(module, path):
     is_pkg = path.name == "__init__.py"
     base = module if is_pkg else module.rpartition(".")[0]
     out = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in _run_time_nodes(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.ImportFrom):
             if node.level:
                 parts = base.split(".")
@@ -47,6 +49,22 @@ def _imports(module, path):
         elif isinstance(node, ast.Import):
             out.update(a.name for a in node.names)
     return out
+
+
+def _type_checking(test):
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or \
+        (isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def _run_time_nodes(node):
+    """Every node under ``node`` except the bodies of ``if TYPE_CHECKING:``."""
+    yield node
+    if isinstance(node, ast.If) and _type_checking(node.test):
+        children = [node.test, *node.orelse]
+    else:
+        children = ast.iter_child_nodes(node)
+    for child in children:
+        yield from _run_time_nodes(child)
 
 
 def _cycles(graph):
@@ -95,9 +113,28 @@ def test_cycle_finder_finds_a_cycle():
     assert _cycles({"a": ["b"], "b": []}) == []
 
 
+def test_imports_under_type_checking_are_left_out(tmp_path):
+    # control: a run-time import is read, in a function too; a TYPE_CHECKING one is not
+    path = tmp_path / "m.py"
+    path.write_text("from typing import TYPE_CHECKING\nimport typing\n"
+                    "if TYPE_CHECKING:\n    from .a import A\nelse:\n    from .b import B\n"
+                    "if typing.TYPE_CHECKING:\n    import pkg.c\n"
+                    "def f():\n    from .d import D\n", encoding="utf-8")
+    found = _imports("pkg.m", path)
+    assert {"pkg.b", "pkg.d"} <= found
+    assert not {"pkg.a", "pkg.a.A", "pkg.c"} & found
+
+
 def test_narx_has_no_import_cycle():
     graph = _graph("narx")
     assert len(graph) > 20 and "narx.kernels" in graph["narx.simulate"]
+    assert _cycles(graph) == []
+
+
+def test_mggp_has_no_import_cycle():
+    graph = _graph("mggp")
+    assert len(graph) > 40 and "mggp.stages" in graph["mggp.estimator"]
+    assert "mggp.estimator" in graph["mggp"]          # the lazy attribute is read
     assert _cycles(graph) == []
 
 

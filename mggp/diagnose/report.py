@@ -25,7 +25,7 @@ import numpy as np
 from narx.atomic import atomic_write_text
 
 from ..quasistatic_report import diagnosis_figure
-from ..report import _save, figure
+from ..plotting import figure, save as _save
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
 from .correlation import propagation_factor
