@@ -248,7 +248,7 @@ def augmentation_check(a: AugmentationTest, alpha: float, floor: float, output: 
               f"shifted in time ({a.n_shifts} shifts) drop it by at most "
               f"{_g(a.null_quantile)} ({pct} quantile); resolution floor {_g(floor)}")
     return Check("Φ-augmentation", "hysteresis", a.statistic, max(a.null_quantile, floor),
-                 detail, bound=a.null_quantile)
+                 detail)
 
 
 def _run(ctx) -> Outcome:

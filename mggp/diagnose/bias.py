@@ -141,8 +141,7 @@ def bias_check(b: BiasTest, alpha: float, floor: float) -> Check:
               f"{_g(b.excess)} against {_g(b.excess_null)} by chance; materiality: at "
               f"least the noise-driven RMSE {_g(b.null_median_rmse)} and the resolution "
               f"floor {_g(floor)}")
-    return Check("free-run excess", "prediction-bias", b.excess, thr, detail,
-                 bound=b.excess_null)
+    return Check("free-run excess", "prediction-bias", b.excess, thr, detail)
 
 
 def _run(ctx) -> Outcome:

@@ -172,10 +172,8 @@ def control_checks(test: DiagnosticTest, *, kinds: Sequence[str] = CONTROL_KINDS
 def threshold_factors(checks_per_realisation, rate: float = 0.01) -> Dict[str, float]:
     """Factor of each check family (:func:`~mggp.diagnose.thresholds.check_family`)
     that gives a false-alarm rate of at most ``rate`` on the realisations:
-    the (1 − rate) quantile (``'higher'``) over them of the largest
-    statistic / bound of the family's checks whose statistic is above the
-    floor (statistic / threshold for a check without a separate bound; a
-    realisation without that family, or without power, counts 0).
+    the (1 − rate) quantile (``'higher'``) of statistic / raw threshold over
+    them (a realisation without that family, or without power, counts 0).
 
     Parameters
     ----------
@@ -189,26 +187,10 @@ def threshold_factors(checks_per_realisation, rate: float = 0.01) -> Dict[str, f
     fams = sorted({check_family(c.test) for cs in rows for c in cs})
     out = {}
     for f in fams:
-        r = [max([_bound_ratio(c) for c in cs if check_family(c.test) == f] or [0.0])
+        r = [np.nan_to_num(_ratio([c for c in cs if check_family(c.test) == f]), nan=0.0)
              for cs in rows]
         out[f] = float(np.quantile(r, 1.0 - rate, method="higher"))
     return out
-
-
-def _bound_ratio(c) -> float:
-    """The smallest factor on ``c``'s bound that keeps it from beating:
-    statistic / bound when the statistic is above the floor part of the
-    threshold (statistic / threshold when there is no separate bound); 0
-    when it cannot beat whatever the factor, or has no power."""
-    if not (c.power and np.isfinite(c.threshold)):
-        return 0.0
-    b = float(c.bound)
-    if b != b:
-        return c.statistic / c.threshold if c.threshold > 0 else 0.0
-    floor = c.threshold if c.threshold > b else 0.0
-    if not c.statistic > floor:
-        return 0.0
-    return c.statistic / b if b > 0 else float("inf")
 
 
 def false_alarm_rate(test: DiagnosticTest, *, kinds: Sequence[str] = CONTROL_KINDS,

@@ -336,8 +336,7 @@ def correlation_checks(tests: List[CorrelationTest], floor: float, osa_rms: floa
             why = no_power_reason(t, scale, floor, resolution)
             detail += (f"; no power: the threshold {_g(thr)} is at least 1, the largest "
                        f"correlation there is, because {why}: this test could not fire")
-        out.append(Check(t.label, _EFFECT[t.key], t.max_abs, thr, detail, 1.0, why,
-                         bound=t.band))
+        out.append(Check(t.label, _EFFECT[t.key], t.max_abs, thr, detail, 1.0, why))
     return out
 
 

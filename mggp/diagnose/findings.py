@@ -148,11 +148,6 @@ class Check:
     why : str
         One line saying why a check without power has none (what made its
         threshold that high, or why the test could not run).
-    bound : float
-        The statistical part of the threshold (the threshold is the larger
-        of it and a floor), which calibration scales
-        (:func:`~mggp.diagnose.thresholds.calibrated`); NaN when the
-        threshold is not made that way (then the whole threshold is scaled).
     """
 
     test: str
@@ -162,7 +157,6 @@ class Check:
     detail: str
     ceiling: float = float("inf")
     why: str = ""
-    bound: float = float("nan")
 
     @property
     def beats(self) -> bool:

@@ -127,7 +127,7 @@ def loop_gap_check(g: LoopGapTest, alpha: float, floor: float) -> Check:
               f"rising {g.signal} ({g.gaps.size} reversals, t-test p = {g.p_value:.3g}, "
               f"{pct} bound {_g(g.bound)}); resolution floor {_g(floor)}")
     return Check(f"loop gap ({g.signal})", "hysteresis", g.statistic, max(g.bound, floor),
-                 detail, bound=g.bound)
+                 detail)
 
 
 def _run(ctx) -> Outcome:
