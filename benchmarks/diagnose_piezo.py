@@ -2,7 +2,7 @@
 
 Typical use::
 
-    python -m benchmarks.diagnose_piezo --out dx_piezo --jobs 2          # N = 50,000
+    python -m benchmarks.diagnose_piezo --out dx_piezo --jobs 2 --strict   # N = 50,000
     python -m benchmarks.diagnose_piezo --n 10000 --population 60 --generations 10   # quick
 
 Both published structures are fitted by LS on the training record of the
@@ -12,9 +12,13 @@ on each with the held-input sine as validation record (the input stops for
 table gives the findings and the free-run RMSE/MAPE of the baseline and of
 the extended model on the held sine (the gain) and, for reference, on the
 published validation sine 40 sin(2πt). Each case writes its JSON document
-and Markdown report under ``--out``. Expected (issue 5): the PEM model is
-named ``prediction-bias`` and ``hysteresis``, the MS-LS model
-``steady-state-drift``.
+and Markdown report under ``--out``. Expected at the default budget: the
+PEM model is named ``prediction-bias`` and ``hysteresis``, the MS-LS model
+``steady-state-drift``; each case's last line says whether it was. The
+exit code is 0 when the study ran; with ``--strict``, 1 when a case misses
+an expected finding (a smaller budget or record may miss one: the quick
+command names ``hysteresis`` and ``steady-state-drift`` for PEM but not
+``prediction-bias``).
 """
 from __future__ import annotations
 
@@ -93,13 +97,21 @@ def table(rows) -> str:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--n", type=int, default=50_000)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--jobs", type=int, default=1)
-    p.add_argument("--population", type=int, default=500)
-    p.add_argument("--generations", type=int, default=100)
-    p.add_argument("--out", default=None, help="folder for JSON documents and reports")
-    p.add_argument("--json", default=None, help="write the rows here")
+    p.add_argument("--n", type=int, default=50_000,
+                   help="samples of the training record (default 50000)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the record and of the diagnosis's searches (default 0)")
+    p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("--population", type=int, default=500,
+                   help="population of the diagnosis's searches (default 500)")
+    p.add_argument("--generations", type=int, default=100,
+                   help="generations of the diagnosis's searches (default 100)")
+    p.add_argument("--strict", action="store_true",
+                   help="exit 1 when a case misses an expected finding (default: exit 0 "
+                        "once the study ran)")
+    p.add_argument("--out", default=None,
+                   help="folder for JSON documents and reports (default: none written)")
+    p.add_argument("--json", default=None, help="write the rows here (default: not written)")
     a = p.parse_args(argv)
     say = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
     rows = run(a.n, a.seed, a.jobs, a.population, a.generations, a.out, say)
@@ -111,7 +123,7 @@ def main(argv=None) -> int:
     if a.json:
         with open(a.json, "w") as fh:
             json.dump(rows, fh, indent=2)
-    return 0 if all(r["named_expected"] for r in rows) else 1
+    return 1 if a.strict and not all(r["named_expected"] for r in rows) else 0
 
 
 if __name__ == "__main__":

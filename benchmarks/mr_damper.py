@@ -31,19 +31,26 @@ import numpy as np
 from narx import Data, PhiRegistry, rrse
 from narx.csvdata import read_columns
 
-__all__ = ["load_damper", "run_damper", "damper_path", "data_path"]
+__all__ = ["load_damper", "run_damper", "damper_path", "data_path", "data_dirs"]
 
 PUBLISHED = {"FROLS (sysidentpy tutorial)": 0.0451, "MetaMSS": 0.0557}
 
 
-def data_path(name):
-    """Path of the shared data file ``name`` from ``$MGGP_SHARED_DATA`` if
-    set, else the copy shipped in ``benchmarks/data``, else the project's
-    ``shared/data`` beside the repository; None if none has it."""
+def data_dirs():
+    """Folders searched for shared data files, in order: ``$MGGP_SHARED_DATA``
+    if set, the copies shipped in ``benchmarks/data``, and ``../shared/data``
+    from the project root (where the project's shared data sit beside a
+    clone)."""
     env = os.environ.get("MGGP_SHARED_DATA")
     here = os.path.dirname(os.path.abspath(__file__))
-    for folder in ([env] if env else []) + [os.path.join(here, "data"),
-                                            os.path.join(here, "..", "..", "shared", "data")]:
+    return ([env] if env else []) + [os.path.join(here, "data"), os.path.normpath(
+        os.path.join(here, "..", "..", "shared", "data"))]
+
+
+def data_path(name):
+    """Path of the shared data file ``name`` in the first of
+    :func:`data_dirs` that has it; None if none has it."""
+    for folder in data_dirs():
         p = os.path.join(folder, name)
         if os.path.exists(p):
             return os.path.normpath(p)
@@ -107,16 +114,19 @@ def run_damper(args, log):
     for k, v in PUBLISHED.items():
         md.append(f"| {k}, published | {v} | | |")
     md.append("")
-    md.append(f"Median over {len(rows)} seed(s): {med:.4f}; "
-              + ("at or below" if med <= 0.0451 else "above")
-              + " the published FROLS 0.0451.")
+    ref = PUBLISHED["FROLS (sysidentpy tutorial)"]
+    md.append(f"Median over {len(rows)} seed(s): {med:.4f}, "
+              + (f"better than the published FROLS {ref} (lower RRSE is better)"
+                 if med < ref else f"as good as the published FROLS {ref}" if med == ref
+                 else f"worse than the published FROLS {ref} by {100 * (med / ref - 1):.0f} % "
+                      f"(lower RRSE is better)") + ".")
     return {"available": True, "rows": rows, "median_rrse": med, "peer": {
         k: v for k, v in peer.items() if k != "y"}, "markdown": "\n".join(md)}
 
 
 def _frols_damper(tr, te, mode, log):
     from .study_peers import _ready
-    st = _ready("sysidentpy", mode)
+    st = _ready("sysidentpy", mode, log)
     if not st["available"]:
         return st
     from . import peers
@@ -136,6 +146,8 @@ if __name__ == "__main__":
     p = argparse.ArgumentParser(prog="python -m benchmarks.mr_damper")
     p.add_argument("--full", action="store_true")
     p.add_argument("--jobs", type=int, default=2)
-    p.add_argument("--peers", choices=["auto", "yes", "no"], default="auto")
+    p.add_argument("--peers", choices=["auto", "yes", "no"], default="yes",
+                   help="yes: run FROLS beside it, installing its environment on first "
+                        "use; auto: only if installed; no: skip (default yes)")
     a = p.parse_args()
     print(run_damper(a, print)["markdown"])

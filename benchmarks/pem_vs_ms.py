@@ -37,6 +37,7 @@ import numpy as np
 from mggp import MGGPRegressor
 from narx import Model
 
+from .study_report import fmt as _fmt
 from .casestudy import (MODEL19, PUBLISHED, TRAINING_FILTER_ORDER, case_data, model19,
                         score_model)
 
@@ -104,14 +105,6 @@ def summarise(rows):
     return out
 
 
-def _fmt(v, digits=3):
-    if v is None or (isinstance(v, float) and np.isnan(v)):
-        return "—"
-    if isinstance(v, float) and not np.isfinite(v):
-        return "diverged"
-    return f"{v:.{digits}g}" if abs(v) < 1e-3 and v != 0 else f"{v:.{digits}f}"
-
-
 def table(summary, peers):
     head = ("| model | runs | train MAPE % | val MAPE % | published train / val | val RMSE µm "
             "| terms | drift load / unload µm | ss error load / unload µm "
@@ -176,15 +169,21 @@ def _jsonable(o):
 def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m benchmarks.pem_vs_ms", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--full", action="store_true", help="published setup over 5 seeds")
-    p.add_argument("--n", type=int)
-    p.add_argument("--population", type=int)
-    p.add_argument("--generations", type=int)
-    p.add_argument("--seeds", type=int, nargs="+")
-    p.add_argument("--window", type=int, help="MS window Δm (samples)")
-    p.add_argument("--jobs", type=int, default=2)
-    p.add_argument("--peers", choices=["auto", "yes", "no"], default="auto",
-                   help="auto: run peer tools whose environments are installed")
+    p.add_argument("--full", action="store_true",
+                   help="the published setup (population 500, 200 generations) over seeds "
+                        "1-5 (default: quick, population 300, 60 generations, seed 1)")
+    p.add_argument("--n", type=int, help="training samples (default 50000)")
+    p.add_argument("--population", type=int, help="(default 300 quick, 500 --full)")
+    p.add_argument("--generations", type=int, help="(default 60 quick, 200 --full)")
+    p.add_argument("--seeds", type=int, nargs="+",
+                   help="GP seeds, one PEM and one MS search each (default 1; --full 1 2 3 4 5)")
+    p.add_argument("--window", type=int, help="MS window Δm in samples (default 1000)")
+    p.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    p.add_argument("--peers", choices=["auto", "yes", "no"], default="yes",
+                   help="yes: run the peer tools (sysidentpy FROLS, the published "
+                        "toolbox), installing each into its own environment under "
+                        "benchmarks/.peers/ on first use; auto: only those installed; "
+                        "no: none (default yes)")
     p.add_argument("--no-damper", action="store_true", help="skip the MR damper study")
     p.add_argument("--no-screen", action="store_true",
                    help="search without the free-run stability screen (mggp.screen)")
@@ -193,8 +192,10 @@ def main(argv=None):
                         "(default %(default)s; see benchmarks.casestudy.case_data)")
     p.add_argument("--data-seed", type=int, default=0,
                    help="seed of the training input realisation (default %(default)s)")
-    p.add_argument("--out", default="report")
-    p.add_argument("--json", default=None)
+    p.add_argument("--out", default="report",
+                   help="folder of report.md and the PNG figures (default report)")
+    p.add_argument("--json", default=None,
+                   help="also write every figure as JSON here (default: not written)")
     args = p.parse_args(argv)
     for name in ("filter_order", "n", "population", "generations", "window", "jobs"):
         v = getattr(args, name)

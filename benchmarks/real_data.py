@@ -5,8 +5,9 @@ Typical call::
     python -m benchmarks.real_data                   # 3 seeds, population 300, 60 generations
     python -m benchmarks.real_data --seeds 1 2 3 4 5 --jobs 2 --json real.json
 
-Two records of the project's shared data (``shared/data``; or the folder in
-``$MGGP_SHARED_DATA``), neither of them hysteretic, used as a newcomer would
+Two records of the project's shared data (``../shared/data`` from the
+project root, or the folder in ``$MGGP_SHARED_DATA``; a missing file stops
+the study with one ``error:`` line and exit code 2), neither of them hysteretic, used as a newcomer would
 use ``mggp fit``: the default search (the published setup: Φ-functions,
 multiple shooting with Δm = 100), the search without Φ-functions
 (``--no-phi``) and with a constant term as well (``--constant``); each model
@@ -38,15 +39,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 
 import numpy as np
 
 from narx import Data, Model
 
-from .mr_damper import data_path
+from .mr_damper import data_dirs, data_path
 
-__all__ = ["RECORDS", "SETTINGS", "load_record", "run"]
+__all__ = ["RECORDS", "SETTINGS", "load_record", "missing_files", "run"]
 
 #: name -> (training file, validation file, training columns, validation
 #: columns, published free-run RMSE on the validation record)
@@ -75,6 +77,12 @@ def load_record(name):
         arr, _ = read_columns(path, list(cols))
         out.append(Data(arr[:, :1], arr[:, 1]))
     return tuple(out)
+
+
+def missing_files() -> list:
+    """Data files of :data:`RECORDS` that :func:`data_path` does not find."""
+    names = dict.fromkeys(f for rec in RECORDS.values() for f in rec[:2])
+    return [f for f in names if data_path(f) is None]
 
 
 def run(seeds=(1, 2, 3), population=300, generations=60, jobs=2, log=print) -> dict:
@@ -129,13 +137,21 @@ def markdown(res: dict, seeds) -> str:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m benchmarks.real_data")
-    p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
-    p.add_argument("--population", type=int, default=300)
-    p.add_argument("--generations", type=int, default=60)
-    p.add_argument("--jobs", type=int, default=2)
-    p.add_argument("--json", help="also write the figures here")
+    p = argparse.ArgumentParser(prog="python -m benchmarks.real_data",
+                                description=__doc__.split("\n")[0])
+    p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3],
+                   help="GP seeds, one search each (default 1 2 3)")
+    p.add_argument("--population", type=int, default=300, help="(default 300)")
+    p.add_argument("--generations", type=int, default=60, help="(default 60)")
+    p.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    p.add_argument("--json", help="also write the figures here (default: not written)")
     a = p.parse_args(argv)
+    missing = missing_files()
+    if missing:
+        print(f"error: shared data not found: {', '.join(missing)} (looked in "
+              f"{', '.join(data_dirs())}; set MGGP_SHARED_DATA to the folder that has them)",
+              file=sys.stderr)
+        return 2
     t0 = time.perf_counter()
     res = run(a.seeds, a.population, a.generations, a.jobs)
     print()

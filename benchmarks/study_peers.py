@@ -9,8 +9,10 @@ metric (range-normalised free-run MAPE), on the same machine, in the same
 run. FROLS is given a small grid of its settings (degree, lags, and the
 Φ-like regressors Δu and sign(Δu) as extra inputs) and the best validation
 row is reported with the grid; the published toolbox runs its own MGGP
-search with multiple-shooting fitness under a time limit. A peer whose
-environment is not installed gives a row that says so.
+search with multiple-shooting fitness under a time limit. With
+``--peers yes`` (the study's default) a peer's environment is installed on
+first use (one line says so); a peer that cannot be installed or run gives
+a row that says why.
 """
 from __future__ import annotations
 
@@ -24,19 +26,30 @@ FROLS_GRID = [dict(degree=2, ylag=2, xlag=2, phi=False), dict(degree=3, ylag=3, 
               dict(degree=2, ylag=2, xlag=2, phi=True), dict(degree=3, ylag=2, xlag=2, phi=True)]
 
 
-def _ready(name, mode):
+def _ready(name, mode, log=None):
+    """The environment of peer ``name``; with ``mode='yes'`` a missing one is
+    installed, and one line on ``log`` says so (or why it could not be)."""
     from .peers import envs
     if mode == "no":
         return {"available": False, "reason": "skipped (--peers no)"}
-    st = envs.ensure_env(name, install=(mode == "yes"))
-    if not st["available"] and mode == "auto":
+    st = envs.ensure_env(name, install=False)
+    if st["available"]:
+        return st
+    if mode == "auto":
         st["reason"] = "not installed (run with --peers yes to install it)"
+        return st
+    if log is not None:
+        log(f"  installing peer {name} ({', '.join(envs.PEERS[name]['packages'])}) into its "
+            f"own environment {envs.peers_dir() / name} (first use only, about a minute)")
+    st = envs.ensure_env(name, install=True)
+    if not st["available"] and log is not None:
+        log(f"  peer {name} not available: {st['reason']}")
     return st
 
 
 def _frols(cs, args, log):
     from . import peers
-    row = {**_ready("sysidentpy", args.peers), "name": "sysidentpy FROLS"}
+    row = {**_ready("sysidentpy", args.peers, log), "name": "sysidentpy FROLS"}
     if not row["available"]:
         return row
     grid = FROLS_GRID if args.full else FROLS_GRID[::2]
@@ -62,7 +75,7 @@ def _frols(cs, args, log):
 
 def _toolbox(cs, args, log):
     from . import peers
-    row = {**_ready("toolbox", args.peers), "name": "published toolbox (MS)"}
+    row = {**_ready("toolbox", args.peers, log), "name": "published toolbox (MS)"}
     if not row["available"]:
         return row
     limit = 600.0 if args.full else 90.0
@@ -79,7 +92,7 @@ def _toolbox(cs, args, log):
                val_rmse=rmse(cs.yv[-yh.size:], yh) if yh.size and np.all(np.isfinite(yh))
                else float("inf"), y_val=yh if yh.size == cs.yv.size else None)
     log(f"  toolbox: {r.get('generations_completed')} generations in {r.get('fit_seconds', 0):.0f} s "
-        f"(limit {limit:.0f} s), val MAPE {row['val_mape']}")
+        f"(limit {limit:.0f} s), val MAPE {float(row['val_mape'] if row['val_mape'] is not None else 'nan'):.3g} %")
     return row
 
 

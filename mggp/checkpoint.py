@@ -13,15 +13,20 @@ written with ``repr`` precision (exact round trip) and non-finite values as
 the strings ``"inf"``, ``"-inf"``, ``"nan"``. Writing goes to a temporary
 file in the same folder, is fsync'ed and then renamed over the target with
 ``os.replace``, so a crash leaves either the old or the new checkpoint.
+:class:`CheckpointWriter` spaces the writes of a run so that they take at
+most :data:`CHECKPOINT_SHARE` (5 %) of its wall time, and encodes only the
+fitness-cache entries added since its previous write.
 """
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import math
 import os
 import random
 import tempfile
+import time
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Tuple
 
@@ -31,12 +36,17 @@ from .exceptions import CheckpointError
 from .individual import Individual, ParetoArchive, ParetoRow
 from .primitives import Decoder, tree_from_tokens, tree_to_tokens
 
-__all__ = ["EvolutionState", "save_checkpoint", "load_checkpoint",
+__all__ = ["EvolutionState", "save_checkpoint", "load_checkpoint", "CheckpointWriter",
+           "CachePacker", "CHECKPOINT_SHARE",
            "settings_fingerprint", "data_digest", "checkpoint_seed", "checkpoint_settings",
            "FORMAT", "VERSION"]
 
 FORMAT = "mggp-checkpoint"
 VERSION = 1
+
+#: share of a run's wall time its periodic checkpoints may take (half of the 10 %
+#: they must stay under, leaving room for the last write and for timing noise)
+CHECKPOINT_SHARE = 0.05
 
 
 def pset_signature(pset) -> List[List[str]]:
@@ -143,14 +153,41 @@ def _jsonable(v):
     return v
 
 
+class CachePacker:
+    """The fitness cache in its packed JSON form, encoded incrementally.
+
+    Packed form: ``terms`` (the distinct term texts, each written once) and
+    ``entries`` ``[[index, ...], fitness]`` (a run scores tens of thousands
+    of structures that share a few hundred terms). The cache of a run only
+    grows (a structure is scored once), so each :meth:`text` encodes only
+    the entries added since the previous one; a cache that is another
+    object or has shrunk is encoded anew.
+    """
+
+    def __init__(self):
+        self._reset(None)
+
+    def _reset(self, cache):
+        self.source, self.done = cache, 0
+        self.index: Dict[str, int] = {}
+        self.entries: List[str] = []
+
+    def text(self, cache: Dict[Tuple[str, ...], float]) -> str:
+        """JSON text of the packed cache."""
+        if cache is not self.source or len(cache) < self.done:
+            self._reset(cache)
+        index = self.index
+        for key, v in itertools.islice(cache.items(), self.done, None):
+            ids = ",".join(str(index.setdefault(t, len(index))) for t in key)
+            self.entries.append(f"[[{ids}],{json.dumps(_num(v), allow_nan=False)}]")
+        self.done = len(cache)
+        return ('{"terms":' + json.dumps(list(index), separators=(",", ":"))
+                + ',"entries":[' + ",".join(self.entries) + "]}")
+
+
 def _pack_cache(cache: Dict[Tuple[str, ...], float]) -> dict:
-    """The fitness cache with every term text written once: ``terms`` (the
-    distinct texts) and ``entries`` ``[[index, ...], fitness]`` (a run
-    scores tens of thousands of structures that share a few hundred terms)."""
-    index: Dict[str, int] = {}
-    entries = [[[index.setdefault(t, len(index)) for t in key], _num(v)]
-               for key, v in cache.items()]
-    return {"terms": list(index), "entries": entries}
+    """The fitness cache in packed form (see :class:`CachePacker`)."""
+    return json.loads(CachePacker().text(cache))
 
 
 def _unpack_cache(packed) -> Dict[Tuple[str, ...], float]:
@@ -178,13 +215,18 @@ def _unpack_cache(packed) -> Dict[Tuple[str, ...], float]:
     return cache
 
 
-def save_checkpoint(path, state: EvolutionState) -> None:
+def save_checkpoint(path, state: EvolutionState,
+                    packer: Optional[CachePacker] = None) -> None:
     """Write ``state`` to ``path`` atomically (temp file, fsync, replace).
 
     Parameters
     ----------
     path : str or os.PathLike
     state : EvolutionState
+    packer : CachePacker, optional
+        Kept across the saves of one run, it encodes only the fitness-cache
+        entries added since the previous save (the cache is most of the
+        file); the file is the same with or without it.
     """
     path = os.fspath(path)
     version, internal, gauss = state.rng.getstate()
@@ -204,10 +246,11 @@ def save_checkpoint(path, state: EvolutionState) -> None:
         "pareto": [{"complexity": r.complexity, "fitness": _num(r.fitness),
                     "genes": [list(g) for g in r.genes]}
                    for r in state.archive.best_per_complexity()],
-        "fitness_cache": _pack_cache(state.cache),
         "evaluations": state.evaluations,
     }
     text = json.dumps(doc, allow_nan=False, separators=(",", ":"))
+    text = (text[:-1] + ',"fitness_cache":' + (packer or CachePacker()).text(state.cache)
+            + "}")
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".ckpt-", suffix=".tmp", dir=folder)
     try:
@@ -230,6 +273,48 @@ def save_checkpoint(path, state: EvolutionState) -> None:
             os.close(dfd)
     except OSError:
         pass
+
+
+class CheckpointWriter:
+    """Writes the checkpoints of one run within a share of its wall time.
+
+    A call writes the state when ``force`` is true, on the first call, or
+    when the time since the end of the previous write is at least that
+    write's duration divided by ``share``: the periodic writes then take at
+    most ``share`` of the run's wall time, however large the state grows
+    (the fitness cache grows with every generation). A run killed between
+    two writes resumes from the last one and, its random state being in
+    the file, still ends as an uninterrupted run does.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    share : float
+        In (0, 1]; 1 writes on every call.
+    clock : callable
+        Seconds, monotonic (``time.perf_counter``).
+    """
+
+    def __init__(self, path, share: float = CHECKPOINT_SHARE, clock=time.perf_counter):
+        if not 0 < share <= 1:
+            raise ValueError(f"share must be in (0, 1], got {share!r}")
+        self.path, self.share, self.clock = path, share, clock
+        self.packer = CachePacker()
+        self.written = 0
+        self._end: Optional[float] = None
+        self._cost = 0.0
+
+    def __call__(self, state: EvolutionState, force: bool = False) -> bool:
+        """Write ``state`` if due (or ``force``); returns whether it did."""
+        start = self.clock()
+        if (not force and self._end is not None and self.share < 1
+                and start - self._end < self._cost / self.share):
+            return False
+        save_checkpoint(self.path, state, self.packer)
+        self._end = self.clock()
+        self._cost = self._end - start
+        self.written += 1
+        return True
 
 
 def _rebuild_individual(genes, fitness, pset, where):

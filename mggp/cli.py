@@ -63,11 +63,13 @@ class _Parser(argparse.ArgumentParser):
         return ns, rest
 
 
-def add_signal_args(p):
+def add_signal_args(p, inputs: str = "u", output: str = "y"):
+    """``--input NAME [NAME ...]`` and ``--output NAME``; ``inputs`` and
+    ``output`` describe the defaults in the help."""
     p.add_argument("--input", nargs="+", metavar="NAME", default=None,
-                   help="input column name(s) (default: u)")
+                   help=f"input column name(s) in the CSV files (default: {inputs})")
     p.add_argument("--output", metavar="NAME", default=None,
-                   help="output column name (default: y)")
+                   help=f"output column name in the CSV files (default: {output})")
 
 
 def fmt(v: float) -> str:
@@ -138,9 +140,11 @@ def _cmd_simulate(args) -> int:
     if len(inputs) != len(model.inputs):
         raise CLIError(f"--input: the model has {len(model.inputs)} input(s) "
                        f"{list(model.inputs)}, got {len(inputs)} column name(s)")
+    column = f"{output}_hat"
     if args.out:
         from narx.atomic import check_writable
         check_writable(args.out, "--out")
+        _check_new_column(args.data, column)
     data = read_csv(args.data, inputs=inputs, output=output)
     if data.n <= model.max_lag + 1:
         raise CLIError(f"{args.data}: {data.n} samples are too few for the model's "
@@ -158,7 +162,7 @@ def _cmd_simulate(args) -> int:
         raise CLIError(f"the model is unstable on {args.data}: its {args.mode} simulation "
                        f"diverged (output beyond 1e4 times the data's magnitude)")
     if args.out:
-        write_with_column(args.data, args.out, "y_hat", res.y_hat)
+        write_with_column(args.data, args.out, column, res.y_hat)
     scored = int(res.valid.sum())
     why = ("initial conditions" if args.mode != "ksa" else
            f"initial conditions and the first {kw['k']}-step horizon")
@@ -167,6 +171,18 @@ def _cmd_simulate(args) -> int:
     if args.out:
         print(f"prediction written to {args.out}")
     return 0
+
+
+def _check_new_column(path, column: str) -> None:
+    """Refuse to add ``column`` to a CSV file whose header already has it."""
+    from narx.csvdata import delimiter, iter_rows
+    try:
+        _, header = next(iter_rows(path, delimiter(path)))
+    except StopIteration:
+        return                                 # read_csv names the empty file
+    if column in [h.strip() for h in header]:
+        raise CLIError(f"{path}: already has a column {column!r}, the name of the "
+                       f"prediction --out would add; rename it")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -182,23 +198,41 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     e = sub.add_parser("estimate", help="fit θ of given terms by LS or CLS")
-    e.add_argument("data", metavar="DATA.csv")
-    e.add_argument("--terms", nargs="+", required=True, metavar="TERM")
-    e.add_argument("--constraints", choices=["steady-state"], default=None)
+    e.add_argument("data", metavar="DATA.csv",
+                   help="training record: CSV with a header row, one column per signal")
+    e.add_argument("--terms", nargs="+", required=True, metavar="TERM",
+                   help="the model's terms in the term language, e.g. \"y[k-1]\" "
+                        "\"Phi1(u[k-1],u[k-2])\" (required)")
+    e.add_argument("--constraints", choices=["steady-state"], default=None,
+                   help="steady-state: constrained LS (CLS) under the continuum-of-steady-"
+                        "states conditions (Σ_y = 1, other cluster sums 0) derived from the "
+                        "terms (default: none, plain LS)")
     add_refine_args(e, "100")
-    e.add_argument("--out", metavar="MODEL.json")
+    e.add_argument("--out", metavar="MODEL.json",
+                   help="write the fitted model here (default: not written, only printed)")
     add_signal_args(e)
     e.set_defaults(func=_cmd_estimate)
 
     s = sub.add_parser("simulate", help="simulate a model file on data")
-    s.add_argument("model", metavar="MODEL.json")
-    s.add_argument("data", metavar="DATA.csv")
-    s.add_argument("--mode", choices=["freerun", "osa", "ksa", "ms"], default="freerun")
-    s.add_argument("--k", type=int, default=None, help="horizon for --mode ksa (default 10)")
-    s.add_argument("--window", type=int, default=None,
+    s.add_argument("model", metavar="MODEL.json", help="a model written by fit or estimate")
+    s.add_argument("data", metavar="DATA.csv",
+                   help="record to simulate on: CSV with a header row holding the model's "
+                        "input and output columns (the output gives the initial conditions "
+                        "and the error)")
+    s.add_argument("--mode", choices=["freerun", "osa", "ksa", "ms"], default="freerun",
+                   help="freerun: the whole record recursively from its first samples; "
+                        "osa: one step ahead from measured outputs; ksa: K steps ahead "
+                        "from every sample; ms: free runs over windows of W samples, each "
+                        "from measured initial conditions (default freerun)")
+    s.add_argument("--k", type=int, default=None, help="horizon K for --mode ksa (default 10)")
+    s.add_argument("--window", type=int, default=None, metavar="W",
                    help="window Δm for --mode ms (default 100, as for fit)")
-    s.add_argument("--out", metavar="PRED.csv")
-    add_signal_args(s)
+    s.add_argument("--out", metavar="PRED.csv",
+                   help="copy DATA.csv here with one more column, the prediction, named "
+                        "after the model's output (y_hat for output y, f_hat for f; empty "
+                        "where not simulated) (default: not written, only the scores are "
+                        "printed)")
+    add_signal_args(s, inputs="the model's input names", output="the model's output name")
     s.set_defaults(func=_cmd_simulate)
 
     for name in ("cli_fit", "cli_diagnose", "cli_compensate", "cli_quasistatic"):
@@ -251,7 +285,8 @@ def add_refine_args(p, window_default: str) -> None:
     p.add_argument("--refine", choices=["ms", "freerun"], default=None,
                    help="refine θ by minimising the simulation error (ms: windows of "
                         "--refine-window samples) instead of the one-step error of LS, "
-                        "which is biased by output noise")
+                        "which is biased by output noise (default: none, θ as LS or CLS "
+                        "gives it)")
     p.add_argument("--refine-window", type=int, default=None, metavar="W",
                    help=f"Δm for --refine ms (default {window_default})")
 

@@ -34,25 +34,33 @@ __all__ = ["register"]
 
 def register(sub):
     p = sub.add_parser("compensate", help="compute the actuator input that tracks a reference")
-    p.add_argument("model", metavar="MODEL.json")
-    p.add_argument("reference", metavar="REFERENCE.csv")
-    p.add_argument("--out", metavar="INPUT.csv")
+    p.add_argument("model", metavar="MODEL.json",
+                   help="an identified actuator model (fit or estimate), or a data-driven "
+                        "compensator saved by InverseCompensator.save")
+    p.add_argument("reference", metavar="REFERENCE.csv",
+                   help="CSV with a header row and the desired output in a column")
+    p.add_argument("--out", metavar="INPUT.csv",
+                   help="write the columns: the reference, the model's input (the actuator input to "
+                        "apply), y_model and fallback here (default: not written, only "
+                        "the summary is printed)")
     p.add_argument("--reference-column", "--reference", dest="column", default="r",
                    metavar="NAME", help="column of the reference (default r)")
     p.add_argument("--input-range", nargs=2, type=float, metavar=("LOW", "HIGH"),
-                   default=None, help="actuator input bounds")
-    p.add_argument("--lead", type=int, default=None,
+                   default=None, help="bounds of the actuator input; roots outside are "
+                                      "not admissible (default: unbounded)")
+    p.add_argument("--lead", type=int, default=None, metavar="L",
                    help="samples of reference preview (default: the model's input delay d)")
     p.add_argument("--fallback", choices=["minimise", "hold"], default="minimise",
-                   help="input when no root is admissible (default minimise |y - r|)")
+                   help="input when no root is admissible: minimise: the input that "
+                        "minimises |y - r|; hold: the last input (default minimise)")
     p.add_argument("--max-step", type=float, default=None, metavar="DU",
-                   help="largest input change per sample (slew limit)")
-    p.add_argument("--u-past", type=float, default=None,
+                   help="largest input change per sample, a slew limit (default: none)")
+    p.add_argument("--u-past", type=float, default=None, metavar="U",
                    help="actuator input before the record (default: where the model "
                         "rests with its output at --y-past, within the input range it was "
                         "fitted on; the middle of that range when any or no input rests "
                         "there; 0 without a recorded range)")
-    p.add_argument("--y-past", type=float, default=None,
+    p.add_argument("--y-past", type=float, default=None, metavar="Y",
                    help="model output before the record (default: the reference's first "
                         "value, at rest on it)")
     p.add_argument("--allow-fallbacks", action="store_true",
@@ -64,7 +72,7 @@ def register(sub):
 
 def _cmd_compensate(args) -> int:
     from narx import load_model
-    from narx.compensate import NonMinimumPhaseWarning, RootCompensator
+    from narx.compensate import NonMinimumPhaseWarning, RootCompensator, operator_refusal
     from narx.csvdata import read_columns
     from narx.atomic import atomic_writer
     from .compensate import INVERSE_KIND, InverseCompensator
@@ -90,6 +98,8 @@ def _cmd_compensate(args) -> int:
         args.y_past = float(r[0])
     info = model.meta.get("compensator")
     inverse = isinstance(info, dict) and info.get("kind") == INVERSE_KIND
+    if not inverse and operator_refusal(model):
+        raise CLIError(f"{args.model}: {operator_refusal(model)}")
     if args.u_past is None:
         args.u_past = _rest_input(model, args.y_past, inverse)
     if inverse:

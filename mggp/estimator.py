@@ -47,7 +47,7 @@ from .evolve import evolve
 from .params import PARAMS, check_params, context_of, params_doc
 from .pareto import ParetoFront
 from .precision import data_warnings
-from .primitives import identically_zero, make_pset, max_lag_for_height
+from .primitives import identically_zero, make_pset, max_lag_for_height, search_operators
 from .screen import StabilityScreen
 from .stages import FitContext, run_stages
 
@@ -130,8 +130,8 @@ class MGGPRegressor:
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi=True, phi_names=None,
-                 phi_outputs=False, constant=False, max_lag=None, max_degree=None,
-                 select="fitness", select_candidates=20,
+                 phi_outputs=False, operators=None, constant=False, max_lag=None,
+                 max_degree=None, select="fitness", select_candidates=20,
                  screen=None, screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
@@ -156,6 +156,7 @@ class MGGPRegressor:
         self.use_phi = use_phi
         self.phi_names = phi_names
         self.phi_outputs = phi_outputs
+        self.operators = operators
         self.constant = constant
         self.max_lag = max_lag
         self.max_degree = max_degree
@@ -266,7 +267,8 @@ class MGGPRegressor:
         """The evolution: ``(seed, EvolutionResult)``."""
         data, screen, shape = ctx.data, ctx.screen, ctx.shape
         pset = make_pset(data.signals, ctx.registry, use_phi=self.use_phi,
-                         phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs))
+                         phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs),
+                         operators=search_operators(self.operators, data.U))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
                               constraints=self.search_constraints, start=ctx.start,
                               criterion=self.criterion, n_jobs=self.n_jobs,
@@ -295,7 +297,8 @@ class MGGPRegressor:
                          elite_fraction=self.elite_fraction, max_terms=self.max_terms,
                          max_height=self.max_height, on_generation=on_generation,
                          checkpoint=self.checkpoint, resume=self.resume,
-                         context=json.loads(json.dumps(context, default=str)))
+                         context=json.loads(json.dumps(context, default=str)),
+                         structure=shape)
         finally:
             evaluator.close()
         if res.best is None or not np.isfinite(res.best.fitness):

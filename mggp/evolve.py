@@ -49,8 +49,8 @@ from deap import base, tools
 
 from narx.terms import Term
 
-from .checkpoint import (EvolutionState, checkpoint_settings, load_checkpoint,
-                         save_checkpoint, settings_fingerprint)
+from .checkpoint import (CHECKPOINT_SHARE, CheckpointWriter, EvolutionState,
+                         checkpoint_settings, load_checkpoint, settings_fingerprint)
 from .exceptions import CheckpointError
 from .individual import Individual, ParetoArchive, ParetoRow
 from .operators import (cx_high_level, cx_low_level, mut_high_level,
@@ -250,13 +250,13 @@ def _evaluate(pop, toolbox, decoder, state: EvolutionState, evaluate_batch):
     return len(pending), hits
 
 
-def _record(state: EvolutionState, decoder, nevals, hits):
+def _record(state: EvolutionState, decoder, nevals, hits, structure=None):
     fits = [ind.fitness.values[0] for ind in state.population]
     ibest = min(range(len(fits)), key=lambda i: (fits[i], i))
+    terms = decoder.decode_individual(state.population[ibest])
     state.logbook.record(gen=state.generation, nevals=nevals, cache_hits=hits,
                          best=fits[ibest], median=float(np.median(fits)),
-                         best_terms=len(decoder.decode_individual(
-                             state.population[ibest])))
+                         best_terms=len(terms if structure is None else structure(terms)))
 
 
 def _step(state: EvolutionState, toolbox, s: EvolutionSettings):
@@ -299,8 +299,10 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
            decoder: Optional[Decoder] = None,
            toolbox: Optional[base.Toolbox] = None,
            on_generation: Optional[Callable[[EvolutionState], None]] = None,
-           checkpoint=None, resume: bool = False, checkpoint_every: int = 1,
-           context: Optional[dict] = None, **params) -> EvolutionResult:
+           checkpoint=None, resume: bool = False, checkpoint_every: Optional[int] = None,
+           context: Optional[dict] = None,
+           structure: Optional[Callable[[Tuple[Term, ...]], Tuple[Term, ...]]] = None,
+           **params) -> EvolutionResult:
     """Run MGGP structure search.
 
     Parameters
@@ -323,7 +325,12 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         ``on_generation(state)`` after every generation (0 included), after
         the checkpoint is written; for progress bars and logging.
     checkpoint : path, optional
-        Written every ``checkpoint_every`` generations and at the end.
+        Written after the initial population, then every
+        ``checkpoint_every`` generations, and at the end; with
+        ``checkpoint_every=None`` (default) whenever the writes so far leave
+        it within :data:`mggp.checkpoint.CHECKPOINT_SHARE` (5 %) of the
+        wall time (:class:`mggp.checkpoint.CheckpointWriter`), which is every
+        generation while a write is cheap beside a generation.
     resume : bool
         Continue from ``checkpoint`` if the file exists (its settings, the
         number of generations aside, must match); otherwise start anew.
@@ -332,6 +339,11 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         data, the fitness mode and its settings...); stored with the
         settings, so a checkpoint is resumed only by a run that scores
         structures the same way.
+    structure : callable, optional
+        ``structure(terms)``: the structure actually scored for an
+        individual's decoded terms (terms dropped, a constant added); the
+        logbook's ``best_terms`` counts its terms (default: the decoded
+        terms as they are).
 
     Returns
     -------
@@ -344,7 +356,8 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         ``evaluate_batch`` returning the wrong number of results.
     """
     s = dataclasses.replace(settings or EvolutionSettings(), **params)
-    if not isinstance(checkpoint_every, int) or checkpoint_every < 1:
+    if checkpoint_every is not None and (not isinstance(checkpoint_every, int)
+                                         or checkpoint_every < 1):
         raise ValueError(f"checkpoint_every must be an integer >= 1, got {checkpoint_every!r}")
     if s.seed is None:
         s = dataclasses.replace(s, seed=random.SystemRandom().randrange(2 ** 32))
@@ -355,9 +368,12 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         sdict["context"] = dict(context)
     fingerprint = settings_fingerprint(sdict, pset)
 
-    def save(state):
-        if checkpoint is not None:
-            save_checkpoint(checkpoint, state)
+    writer = None if checkpoint is None else CheckpointWriter(
+        checkpoint, share=1.0 if checkpoint_every else CHECKPOINT_SHARE)
+
+    def save(state, force=False):
+        if writer is not None:
+            writer(state, force=force)
 
     if resume and checkpoint is not None and os.path.exists(checkpoint):
         try:
@@ -387,7 +403,7 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         state.logbook.header = list(LOG_FIELDS)
         nevals, hits = _evaluate(state.population, toolbox, decoder, state,
                                  evaluate_batch)
-        _record(state, decoder, nevals, hits)
+        _record(state, decoder, nevals, hits, structure)
         save(state)
         if on_generation is not None:
             on_generation(state)
@@ -397,9 +413,10 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         state.generation += 1
         nevals, hits = _evaluate(state.population, toolbox, decoder, state,
                                  evaluate_batch)
-        _record(state, decoder, nevals, hits)
-        if state.generation % checkpoint_every == 0 or state.generation == s.generations:
-            save(state)
+        _record(state, decoder, nevals, hits, structure)
+        last = state.generation == s.generations
+        if checkpoint_every is None or last or state.generation % checkpoint_every == 0:
+            save(state, force=last)
         if on_generation is not None:
             on_generation(state)
 

@@ -57,13 +57,15 @@ def _min_heights(pset) -> Dict[type, float]:
 def _choices(pset, minh) -> Dict[type, List[tuple]]:
     """Per type, ``(room needed, primitives)`` with the primitives of one
     name and need grouped, in order of first appearance: the variants of a
-    Φ-function over several inputs form one choice."""
+    Φ-function over several inputs, and of an operator over its parameters
+    (the part of the name before ``@``), form one choice."""
     table = {}
     for t, prims in pset.primitives.items():
         groups: Dict[tuple, list] = {}
         for p in prims:
             need = 1 + max(minh.get(a, math.inf) for a in p.args)
-            groups.setdefault((p.name, need), []).append(p)
+            # an operator's parameter variants (Play@0.1, Play@0.2) are one choice
+            groups.setdefault((p.name.split("@")[0], need), []).append(p)
         table[t] = [(need, g) for (_, need), g in groups.items()]
     return table
 

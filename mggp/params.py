@@ -165,7 +165,18 @@ def _path(v) -> bool:
     return v is None or isinstance(v, (str, os.PathLike))
 
 
+def _operators(v) -> bool:
+    from .primitives import operator_names
+    try:
+        operator_names(v)
+    except ValueError:
+        return False
+    return True
+
+
 ANY = Kind("anything", lambda v: True)
+OPERATORS = Kind("None or names among play, dengtan (a list, or comma-separated text)",
+                 _operators)
 NAMES = Kind("None or a list of names", _names)
 PATH = Kind("None or a path", _path)
 
@@ -284,6 +295,10 @@ _ROWS = (
           "Phi1(y[k-1],y[k-2]) (hysteresis driven by the output's rate)", "model class",
           "--phi-outputs", context="if set", meta=True, const=True,
           default_text="inputs only"),
+    Param("operators", None, OPERATORS, "memory operators of the inputs in the search, "
+          "comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range) "
+          "and dengtan (Deng–Tan operator)", "model class", "--operators",
+          context="if set", metavar="NAMES", default_text="none"),
     Param("constant", False, Bool(), "every structure also holds the constant term 1 (an "
           "intercept), for an output that rests at an offset the lag terms cannot express",
           "model class", "--constant", context="if set", meta=True, const=True,

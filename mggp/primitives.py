@@ -46,6 +46,15 @@ DEAP selects candidates by type; the types are:
     Only the search is restricted: a hand-written model (``narx.Model``,
     ``mggp estimate``) may still use a Φ-call mixing inputs.
 
+Memory operators (``operators``, see :mod:`narx.memory`) are primitives
+``(InputLag) -> Expr``: ``Play@0.2(u[k-1])`` decodes to
+``Play(u[k-1],0.2)``, ``DengTan(q1(u[k-1]))`` to ``DengTan(u[k-2])``. The
+node name is the operator's name, then ``@`` and its parameters (a play
+once per radius of :func:`play_radii`); the plays of all radii are one
+choice for the tree generator (:mod:`mggp.operators`), so adding radii does
+not make plays more frequent. Operators take lagged inputs only: their
+columns depend on the input alone and are computed once per record.
+
 Back-shifts, input terminals and Φ-functions exist once per type under the
 same name; the type of a node follows from its parent's argument type, and
 the type of a Φ-call from its first argument's input terminal, so a tree's
@@ -65,12 +74,83 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 from deap import gp
 
+from narx.memory import default_operators
 from narx.phi import PhiRegistry, default_registry
-from narx.terms import Lag, PhiCall, Signals, Term
+from narx.terms import Lag, OpCall, PhiCall, Signals, Term, format_param
 
 __all__ = ["Expr", "InputLag", "input_lag_type", "LagSymbol", "SHIFTS", "make_pset",
            "tree_from_tokens", "tree_to_tokens", "decode", "Decoder",
-           "decode_individual", "max_lag_for_height"]
+           "decode_individual", "max_lag_for_height", "play_radii", "OPERATOR_CHOICES",
+           "operator_node_name", "search_operators", "operator_names"]
+
+#: operators ``make_pset(operators=...)`` accepts, by their command-line name
+OPERATOR_CHOICES = {"play": "Play", "dengtan": "DengTan"}
+
+#: play radii as fractions of the input's range (max - min)
+PLAY_RADIUS_FRACTIONS = (0.05, 0.1, 0.2, 0.35)
+
+
+def play_radii(u) -> Tuple[float, ...]:
+    """Play radii of the search for an input ``u``: the fractions
+    :data:`PLAY_RADIUS_FRACTIONS` of its range ``max(u) - min(u)``, each
+    rounded to two significant digits (0.1, 0.2, 0.4, 0.7 for an input
+    spanning [-1, 1]); empty for a constant input."""
+    import numpy as np
+    span = float(np.max(u) - np.min(u))
+    if not span > 0:
+        return ()
+    return tuple(float(f"{f * span:.2g}") for f in PLAY_RADIUS_FRACTIONS)
+
+
+def operator_names(names) -> Tuple[str, ...]:
+    """Operator names (keys of :data:`OPERATOR_CHOICES`) from None, a
+    sequence of names or comma-separated text, lower-cased.
+
+    Raises
+    ------
+    ValueError
+        An unknown name, or a value of another kind.
+    """
+    if names is None:
+        return ()
+    if isinstance(names, str):
+        names = [n for n in names.split(",") if n.strip()] or [names]
+    if not isinstance(names, (list, tuple)) or not all(isinstance(n, str) for n in names):
+        raise ValueError(f"operators must be None, names or comma-separated text, "
+                         f"got {names!r}")
+    out = tuple(n.strip().lower() for n in names)
+    bad = [n for n in out if n not in OPERATOR_CHOICES]
+    if bad:
+        raise ValueError(f"operators must name some of {', '.join(OPERATOR_CHOICES)}, "
+                         f"got {bad[0]!r}")
+    return out
+
+
+def search_operators(names, U):
+    """The ``operators`` argument of :func:`make_pset` for operator names
+    (:func:`operator_names`) and the inputs ``U`` (rows): plays of
+    :func:`play_radii` of the widest input range, Deng-Tan once.
+
+    Raises
+    ------
+    ValueError
+        An unknown name.
+    """
+    import numpy as np
+    out = {}
+    for n in operator_names(names):
+        if n == "play":
+            U = np.atleast_2d(U)
+            widest = U[int(np.argmax(np.ptp(U, axis=1)))]
+            out["Play"] = [(r,) for r in play_radii(widest)]
+        else:
+            out[OPERATOR_CHOICES[n]] = [()]
+    return out
+
+
+def operator_node_name(name: str, params: Sequence[float]) -> str:
+    """Node name of an operator primitive: ``Play@0.2``, ``DengTan``."""
+    return name + "".join("@" + format_param(p) for p in params)
 
 #: the back-shift operators q⁻¹..q⁻³, by node name
 SHIFTS = {"q1": 1, "q2": 2, "q3": 3}
@@ -183,7 +263,9 @@ _PRIM_FUNCS = {n: _symbolic(n) for n in _RESERVED}
 def make_pset(signals: Optional[Signals] = None,
               registry: Optional[PhiRegistry] = None, use_phi: bool = True,
               phi_names: Optional[Iterable[str]] = None,
-              phi_outputs: bool = False) -> gp.PrimitiveSetTyped:
+              phi_outputs: bool = False,
+              operators: Optional[Dict[str, Sequence[Tuple[float, ...]]]] = None
+              ) -> gp.PrimitiveSetTyped:
     """Build the typed primitive set for NARX terms.
 
     Parameters
@@ -200,6 +282,10 @@ def make_pset(signals: Optional[Signals] = None,
     phi_outputs : bool
         Φ-functions of output lags too (``Phi1(y[k-1],y[k-2])``: hysteresis
         driven by a velocity); default False, the published setup.
+    operators : dict, optional
+        Memory operators of the inputs: operator name -> parameter tuples,
+        one primitive each, e.g. ``{"Play": [(0.1,), (0.2,)], "DengTan":
+        [()]}`` (see :func:`play_radii`); default none.
 
     Returns
     -------
@@ -244,8 +330,13 @@ def make_pset(signals: Optional[Signals] = None,
     pset.addPrimitive(_PRIM_FUNCS["mul"], [Expr, Expr], Expr, name="mul")
     for q in SHIFTS:
         pset.addPrimitive(_PRIM_FUNCS[q], [Expr], Expr, name=q)
-    phi_signals = list(signals.inputs) + ([signals.output] if phi_outputs else [])
-    lag_types = _lag_types(phi_signals) if phis else {}
+    ops = []
+    for name, plist in (operators or {}).items():
+        op = default_operators().get(name)
+        for params in plist:
+            ops.append((op.name, op.check_params(tuple(params))))
+    phi_signals = list(signals.inputs) + ([signals.output] if phi_outputs and phis else [])
+    lag_types = _lag_types(phi_signals) if phis or ops else {}
     # one input: the historical order (terminal, q1..q3, Φs) on InputLag
     for name, t in lag_types.items():
         pset.addTerminal(LagSymbol(Lag(name, 1, "y" if name == signals.output else "u")), t)
@@ -254,10 +345,16 @@ def make_pset(signals: Optional[Signals] = None,
     for f in phis:
         for t in lag_types.values():
             pset.addPrimitive(f.func, [t] * f.arity, Expr, name=f.name)
+    for name, params in ops:
+        node = operator_node_name(name, params)
+        func = _PRIM_FUNCS.setdefault(node, _symbolic(node))
+        for iname in signals.inputs:
+            pset.addPrimitive(func, [lag_types[iname]], Expr, name=node)
     pset.signals = signals
     pset.lag_types = lag_types
     pset.phi_names = tuple(f.name for f in phis)
     pset.phi_outputs = bool(phi_outputs and phis)
+    pset.operator_nodes = tuple(operator_node_name(n, p) for n, p in ops)
     return pset
 
 
@@ -349,6 +446,8 @@ def _shift(factors, d):
     for f in factors:
         if isinstance(f, Lag):
             out.append(Lag(f.signal, f.lag + d, f.role))
+        elif isinstance(f, OpCall):
+            out.append(OpCall(f.name, Lag(f.arg.signal, f.arg.lag + d, f.arg.role), f.params))
         else:
             out.append(PhiCall(f.name, tuple(Lag(a.signal, a.lag + d, a.role)
                                              for a in f.args)))
@@ -399,6 +498,12 @@ def decode(tree, signals: Optional[Signals] = None) -> Term:
             a, d = args[0], SHIFTS[name]
             stack.append(Lag(a.signal, a.lag + d, a.role) if isinstance(a, Lag)
                          else _shift(a, d))
+        elif name.split("@")[0] in default_operators():
+            a = args[0]
+            if not (isinstance(a, Lag) and a.role == "u"):
+                raise ValueError(f"{name} argument must be a lagged input in {tree!s}")
+            op, *params = name.split("@")
+            stack.append((OpCall(op, a, tuple(float(p) for p in params)),))
         else:
             if not all(isinstance(a, Lag) and a.role in ("u", "y") for a in args):
                 raise ValueError(f"{name} arguments must be lagged signals in {tree!s}")

@@ -18,7 +18,23 @@ import numpy as np
 
 from .plotting import figure, save as _save
 
-__all__ = ["write_fit_report", "plot_freerun", "plot_loop", "plot_convergence", "figure"]
+__all__ = ["write_fit_report", "plot_freerun", "plot_loop", "plot_convergence", "figure",
+           "error_groups", "plot_errors", "fitness_words", "figure_lines"]
+
+#: fitness name -> the simulation whose error it scores
+FITNESS_WORDS = {"pem": "one-step-ahead prediction", "freerun": "free-run simulation",
+                 "ksa": "k-steps-ahead prediction", "ms": "multiple-shooting simulation"}
+
+
+def fitness_words(fitness: str, criterion: str = "mse", unit: str = "output units") -> str:
+    """What a fitness value is, in words, with its unit."""
+    what = FITNESS_WORDS.get(fitness, fitness)
+    mse = f"the mean squared error J of the {what} over the training record ({unit}²)"
+    if criterion == "bic":
+        return f"BIC = N ln J + p ln N (dimensionless; J is {mse}, p the number of terms)"
+    if criterion == "aic":
+        return f"AIC = N ln J + 2p (dimensionless; J is {mse}, p the number of terms)"
+    return mse
 
 
 def _band(y):
@@ -34,29 +50,71 @@ def _label(name, yh, lims):
     return f"{name} (leaves the plot)" if out else name
 
 
+def error_groups(y, sims: dict, ratio: float = 10.0) -> list:
+    """The simulations split into groups of similar error size, largest first.
+
+    The size of a simulation's error is the 99.9 % quantile of
+    :math:`|\\hat y - y|`; a new group starts at the first size more than
+    ``ratio`` times smaller than the largest of the current group, so that
+    errors of 0.2 and 20 are never drawn on one axis (the small ones would
+    look like zero).
+    """
+    size = {}
+    for name, yh in sims.items():
+        e = np.abs(np.asarray(yh, dtype=float) - y)
+        e = e[np.isfinite(e)]
+        size[name] = float(np.quantile(e, 0.999)) if e.size else np.inf
+    order = sorted(size, key=lambda n: -size[n] if np.isfinite(size[n]) else -np.inf)
+    groups = []
+    for name in order:
+        if groups and size[name] * ratio >= size[groups[-1][0]]:
+            groups[-1].append(name)
+        else:
+            groups.append([name])
+    return groups
+
+
+def plot_errors(axes, x, y, sims: dict, groups: list, ylabel: str) -> None:
+    """One error panel per group of :func:`error_groups`, each scaled to its
+    own largest error (colours kept from the order of ``sims``)."""
+    colour = {n: f"C{i}" for i, n in enumerate(sims)}
+    for ax, names in zip(axes, groups):
+        top = 0.0
+        for n in names:
+            e = sims[n] - y
+            ax.plot(x, e, lw=0.8, color=colour[n], label=n)
+            fin = np.abs(e[np.isfinite(e)])
+            top = max(top, float(np.quantile(fin, 0.999)) if fin.size else 0.0)
+        top = top or 1.0
+        ax.set_ylim(-1.1 * top, 1.1 * top)
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_ylabel(ylabel)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+
+
 def plot_freerun(path, t, y, sims: dict, title="Free-run simulation", ylabel="y",
-                 xlabel="t (s)"):
-    """Data and free runs (top) and each simulation's error ŷ − y (bottom);
-    ``t=None`` plots against the sample index."""
-    fig, ax = figure(2, 1, figsize=(8, 5.2), sharex=True,
-                     gridspec_kw={"height_ratios": [2, 1]})
+                 xlabel="t (s)", error_label=None):
+    """Data and free runs (top) and each simulation's error ŷ − y below, one
+    panel per group of similar error size (:func:`error_groups`), so that
+    small errors are not flattened by large ones; ``t=None`` plots against
+    the sample index."""
+    groups = error_groups(y, sims) if sims else []
+    n = 1 + len(groups)
+    fig, ax = figure(n, 1, figsize=(8, 3.4 + 1.8 * len(groups)), sharex=True, squeeze=False,
+                     gridspec_kw={"height_ratios": [2] + [1] * len(groups)})
+    ax = ax[:, 0]
     x = np.arange(len(y)) if t is None else t
     lims = _band(y)
+    colour = {nm: f"C{i}" for i, nm in enumerate(sims)}
     for name, yh in sims.items():
-        ax[0].plot(x, yh, lw=1.0, ls="--", label=_label(name, yh, lims))
-        ax[1].plot(x, yh - y, lw=0.8, label=name)
+        ax[0].plot(x, yh, lw=1.0, ls="--", color=colour[name], label=_label(name, yh, lims))
     ax[0].plot(x, y, "k", lw=0.8, label="data", zorder=5)
     ax[0].set_ylim(*lims)
     ax[0].set_ylabel(ylabel)
     ax[0].set_title(title)
     ax[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
-    err = np.concatenate([np.abs(yh - y)[np.isfinite(yh)] for yh in sims.values()]
-                         or [np.zeros(1)])
-    top = float(np.quantile(err, 0.999)) if err.size else 1.0
-    ax[1].set_ylim(-1.1 * top or -1, 1.1 * top or 1)
-    ax[1].axhline(0.0, color="k", lw=0.6)
-    ax[1].set_ylabel(f"error ŷ − {ylabel}")
-    ax[1].set_xlabel("sample" if t is None else xlabel)
+    plot_errors(ax[1:], x, y, sims, groups, error_label or f"error ŷ − {ylabel}")
+    ax[-1].set_xlabel("sample" if t is None else xlabel)
     return _save(fig, path)
 
 
@@ -74,10 +132,12 @@ def plot_loop(path, u, y, sims: dict, title="Input-output loop", xlabel="u", yla
     return _save(fig, path)
 
 
-def plot_convergence(path, logbooks: dict, title="Convergence of the best fitness"):
+def plot_convergence(path, logbooks: dict, title="Convergence of the best fitness",
+                     ylabels: Optional[dict] = None):
     """Best fitness by generation, one panel per search: fitness values of
     different kinds (one-step against multiple-shooting MSE) are not on one
-    scale."""
+    scale. ``ylabels`` maps a search's name to its axis label (default
+    ``best NAME fitness``)."""
     names = list(logbooks)
     fig, ax = figure(len(names), 1, figsize=(6, 2.4 + 1.6 * len(names)), sharex=True,
                      squeeze=False)
@@ -90,11 +150,21 @@ def plot_convergence(path, logbooks: dict, title="Convergence of the best fitnes
             a.semilogy(gens[ok], best[ok], color="C0")
         else:
             a.plot(gens, best, color="C0")
-        a.set_ylabel(f"best {name}\nfitness")
+        a.set_ylabel((ylabels or {}).get(name, f"best {name}\nfitness"))
         a.grid(True, which="both", lw=0.3)
     ax[0, 0].set_title(title)
     ax[-1, 0].set_xlabel("generation")
     return _save(fig, path)
+
+
+def figure_lines(figs) -> list:
+    """Markdown for ``(path, caption)`` pairs: each image with its caption
+    in italics on the line below it."""
+    lines = []
+    for i, (path, caption) in enumerate(figs, 1):
+        name = os.path.basename(path)
+        lines += [f"![{name}]({name})", "", f"*Figure {i}. {caption}*", ""]
+    return lines
 
 
 def write_fit_report(folder, est, data, data_name: str = "data",
@@ -110,16 +180,34 @@ def write_fit_report(folder, est, data, data_name: str = "data",
         o = m.simulate(data, mode="osa")
         sims[name] = r.y_hat
         rows.append((name, r.rmse, r.mape, o.rmse, r.diverged))
-    u0 = data.U[0]
-    figs = [plot_freerun(os.path.join(folder, "freerun.png"), None, data.y, sims,
-                         ylabel=data.output),
-            plot_loop(os.path.join(folder, "loop.png"), u0, data.y, sims,
-                      xlabel=data.inputs[0], ylabel=data.output),
-            plot_convergence(os.path.join(folder, "convergence.png"),
-                             {est.fitness: est.logbook_})]
+    j = os.path.join
+    out = data.output
+    words = fitness_words(est.fitness, est.criterion, f"{out} units")
+    figs = [(plot_freerun(j(folder, "freerun.png"), None, data.y, sims, ylabel=out,
+                          title=f"Free run on {data_name}"),
+             f"Free-run simulation of each fit against the data ({out} against the sample "
+             f"index), and below the error ŷ − {out}; fits whose errors differ by more "
+             f"than ten times get their own error panel, scaled to them.")]
+    for i, name in enumerate(data.inputs):
+        file = "loop.png" if len(data.inputs) == 1 else f"loop_{name}.png"
+        figs.append((plot_loop(j(folder, file), data.U[i], data.y, sims, xlabel=name,
+                               ylabel=out, title=f"Input-output loop: {out} against {name}"),
+                     f"The input-output loop: {out} against the input {name}, data and "
+                     f"the free run of each fit; a hysteretic system traces a loop, "
+                     f"and a good model's loop lies on the data's."))
+    figs.append((plot_convergence(j(folder, "convergence.png"), {est.fitness: est.logbook_},
+                                  ylabels={est.fitness: f"best {est.fitness} fitness\n" + (
+                                      f"MSE ({out} units², log)" if est.criterion == "mse"
+                                      else est.criterion.upper())}),
+                 f"The best fitness of each generation of the search (lower is better): "
+                 f"{words}. A flat tail means more generations would not have helped."))
     from .quasistatic_report import model_figure          # the model written, on a probe sine
-    figs += [f for f in [model_figure(os.path.join(folder, "quasistatic.png"),
-                                      est.get_best(), data.U.T)] if f]
+    qs = model_figure(j(folder, "quasistatic.png"), est.get_best(), data.U.T)
+    if qs:
+        figs.append((qs, "Quasi-static analysis of the model written (on a probe sine over "
+                         "the training input's range): its free-run loop between the "
+                         "attracting and repelling solutions of the frozen equation under "
+                         "loading and unloading (narx.quasistatic)."))
     lines = [f"# mggp fit: {data_name}", ""]
     if command:
         lines += ["Command:", "", f"    {command}", ""]
@@ -148,7 +236,7 @@ def write_fit_report(folder, est, data, data_name: str = "data",
                   ", ".join(f"Σ_{k} = {v:.4g}" for k, v in sums.items()), ""]
     lines += ["## Pareto front (complexity = number of terms)", "",
               est.pareto_front_.to_markdown(), "", "## Figures", ""]
-    lines += [f"![{os.path.basename(f)}]({os.path.basename(f)})" for f in figs]
+    lines += figure_lines(figs)
     path = os.path.join(folder, "summary.md")
     from narx.atomic import atomic_write_text
     atomic_write_text(path, "\n".join(lines) + "\n")

@@ -185,6 +185,7 @@ def record(terms, data, ctx):
     """``terms_``, ``fitness_`` and the meta of the fit's models."""
     from .version import versions
     from .params import meta_of
+    from .primitives import operator_names
     est = ctx.est
     est.terms_ = terms
     est.fitness_ = ctx.result.best.fitness if terms == est.search_terms_ else \
@@ -193,6 +194,8 @@ def record(terms, data, ctx):
     ctx.meta = dict(meta_of(est), seed=ctx.seed,
                     cls_refit=est.constraints == "steady-state",
                     search_fitness_value=est.fitness_, versions=versions())
+    if est.operators:
+        ctx.meta["operators"] = list(operator_names(est.operators))
     return terms
 
 

@@ -124,6 +124,19 @@ class CompensationResult:
         return self.fallbacks / max(1, self.m.size)
 
 
+def operator_refusal(model) -> str:
+    """Why the root compensator cannot invert ``model``'s memory-operator
+    terms (``''`` when it has none): an operator carries a state the
+    step-by-step root search does not track."""
+    for term, th in zip(model.terms, model.theta if model.theta is not None
+                        else [1.0] * len(model.terms)):
+        if th != 0.0 and term.operator_factors:
+            return (f"term {term}: the memory operator {term.operator_factors[0]} "
+                    f"cannot be inverted by the model-based compensator (it tracks no "
+                    f"operator state); drop the term or use a data-driven compensator")
+    return ""
+
+
 def _invertible_names() -> str:
     """The built-ins with a polynomial form in an argument, e.g. 'Phi1 and Phi2'."""
     names = [f.name for f in BUILTINS if f.form in ("difference", "sign")]
@@ -286,6 +299,9 @@ class RootCompensator:
 
     def __init__(self, model, *, input_range=None, lead=None, fallback="minimise",
                  max_step=None, u_past=0.0, y_past=0.0, rtol=1e-9):
+        refusal = operator_refusal(model)
+        if refusal:
+            raise ValueError(refusal)
         lags = [la for t, _ in active_terms(model) for la in input_lags(t)]
         if not lags:
             raise ValueError("the model has no input term with a nonzero parameter: there "

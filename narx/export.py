@@ -10,7 +10,7 @@ Lagged signals become sympy symbols named like the term text (``y[k-1]``);
 """
 from __future__ import annotations
 
-from .terms import Lag
+from .terms import Lag, format_param
 
 __all__ = ["to_sympy", "to_latex", "factor_latex"]
 
@@ -25,9 +25,13 @@ def factor_latex(f) -> str:
     name = f.name
     if name.startswith("Phi") and name[3:].isdigit():
         name = f"\\Phi_{{{name[3:]}}}"
+    elif name == "Play" and getattr(f, "params", None):
+        name = f"P_{{{format_param(f.params[0])}}}"       # play of radius r: P_r
     else:
         name = f"\\mathrm{{{name}}}"
-    return f"{name}({', '.join(_lag_latex(a) for a in f.args)})"
+    params = "".join(", " + format_param(p) for p in getattr(f, "params", ())
+                     if f.name != "Play")
+    return f"{name}({', '.join(_lag_latex(a) for a in f.args)}{params})"
 
 
 def to_sympy(model):
@@ -45,6 +49,7 @@ def to_sympy(model):
                 prod *= syms.setdefault(str(f), sympy.Symbol(str(f)))
             else:
                 args = [syms.setdefault(str(a), sympy.Symbol(str(a))) for a in f.args]
+                args += [sympy.Float(p) for p in getattr(f, "params", ())]
                 prod *= sympy.Function(f.name)(*args)
         expr += prod
     return expr

@@ -25,6 +25,17 @@ the built-in Φ-functions are compiled (numba, cached on disk); a user
 Φ-function with output arguments runs in a numpy loop vectorised over
 windows. A window whose output leaves ``bound`` or becomes non-finite
 flags the simulation as diverged and stops quietly.
+
+A memory operator of an output lag (``Play(y[k-1],0.1)``, see
+:mod:`narx.memory`) carries a state. Each window starts it from the state
+the operator reaches on the *measured* output before the window's first
+sample :math:`s_w` (its initial state, then one step per measured sample
+:math:`y_0..y_{s_w-1}`); from there it steps on the simulated output.
+Free run therefore starts it on the measured initial conditions, and every
+multiple-shooting or k-steps-ahead window on the measured history before
+it, as its lags start on measured values. The built-in operators are
+compiled (:func:`narx.memory.operator_step`); plug-ins run in the numpy
+loop.
 """
 from __future__ import annotations
 
@@ -36,7 +47,8 @@ import numpy as np
 from numba import njit
 
 from .phi import PhiRegistry, builtin_code, check_codes, default_registry, phi_value
-from .terms import Lag, Term
+from .memory import default_operators, operator_step
+from .terms import Lag, OpCall, Term
 
 __all__ = ["Plan", "run_windows", "KIND_USER"]
 
@@ -45,16 +57,22 @@ KIND_USER = 99
 
 @njit(cache=True, nogil=True)
 def _kernel(y_meas, U, P, idx, theta, static, dyn, d_ptr, d_code, p_kind, p_sig, p_lag,
-            starts, length, write_from, maxlag, bound, out):
+            starts, length, write_from, maxlag, bound, out, o_code, o_lag, o_par, o_meas,
+            o_state0):
     # Input-only terms (``static``) are summed once, outside the recursion.
     # Each term with output factors (``dyn``) gets θ times its input part
     # laid out step-major in C[k, i], and a short list of factor reads from
     # ``buf``: code c > 0 is the output lag c (``buf[pos - c]``), c <= 0 the
     # slot -c holding a Φ-call with an output argument at the current step
-    # (slots 1..n_phi). Same products in the same order as the reference
-    # path, so results are bit-identical to it.
+    # (slots 1..n_phi), then the operators of output lags (slots after the
+    # Φ-calls): from their measured values while j < lag, then stepped from
+    # the window's measured-history state o_state0[o, w] on the simulated
+    # output. Same products in the same order as the reference path, so
+    # results are bit-identical to it.
     n = y_meas.shape[0]
     n_phi = p_kind.shape[0]
+    n_op = o_code.shape[0]
+    state = np.empty((n_op, o_state0.shape[2]))
     n_dyn = dyn.shape[0]
     first = n
     for w in range(starts.shape[0]):
@@ -74,7 +92,7 @@ def _kernel(y_meas, U, P, idx, theta, static, dyn, d_ptr, d_code, p_kind, p_sig,
         th = theta[t]
         for k in range(first, n):
             C[k, i] = th * P[row, k]
-    off = 1 + n_phi
+    off = 1 + n_phi + n_op
     buf = np.empty(off + maxlag + length)
     buf[0] = 1.0
     bad = 0
@@ -82,6 +100,8 @@ def _kernel(y_meas, U, P, idx, theta, static, dyn, d_ptr, d_code, p_kind, p_sig,
         s = starts[w]
         for j in range(maxlag):
             buf[off + j] = y_meas[s - maxlag + j]
+        for o in range(n_op):
+            state[o, :] = o_state0[o, w, :]
         for j in range(length):
             k = s + j
             if k >= n:
@@ -97,8 +117,15 @@ def _kernel(y_meas, U, P, idx, theta, static, dyn, d_ptr, d_code, p_kind, p_sig,
                 else:
                     b = U[p_sig[f, 1], k - p_lag[f, 1]]
                 buf[1 + f] = phi_value(p_kind[f], a, b)
+            for o in range(n_op):
+                d = o_lag[o]
+                if j < d:
+                    buf[1 + n_phi + o] = o_meas[o, k - d]
+                else:
+                    buf[1 + n_phi + o] = operator_step(o_code[o], state[o], buf[pos - d],
+                                                       o_par[o])
             acc = base[k]
-            if n_phi == 0:                       # output lags only
+            if n_phi == 0 and n_op == 0:         # output lags only
                 for i in range(n_dyn):
                     v = C[k, i]
                     for q in range(d_ptr[i], d_ptr[i + 1]):
@@ -140,6 +167,7 @@ class Plan:
     p_lag: np.ndarray
     noise_terms: np.ndarray     # bool: term has e[k-j] (zero in simulation)
     inputs: Tuple[str, ...]
+    out_operators: tuple = ()   # memory operators of output lags (OpCall)
 
     @classmethod
     def from_terms(cls, terms: Sequence[Term], inputs: Sequence[str],
@@ -157,7 +185,8 @@ class Plan:
                     facs.append(f)
                 t_fac.append(index[f])
             t_ptr.append(len(t_fac))
-        phis = [f for f in facs if not isinstance(f, Lag)]
+        phis = [f for f in facs if not isinstance(f, (Lag, OpCall))]
+        ops = [f for f in facs if isinstance(f, OpCall)]
         arity = max([2] + [len(f.args) for f in phis])
         kind = np.zeros(len(phis), dtype=np.int64)
         sig = np.full((len(phis), arity), -1, dtype=np.int64)
@@ -175,19 +204,22 @@ class Plan:
         for i in dyn:
             for fi in t_fac[t_ptr[i]:t_ptr[i + 1]]:
                 f = facs[fi]
-                d_code.append(f.lag if isinstance(f, Lag) else -(1 + phis.index(f)))
+                d_code.append(f.lag if isinstance(f, Lag) else
+                              -(1 + len(phis) + ops.index(f)) if isinstance(f, OpCall)
+                              else -(1 + phis.index(f)))
             d_ptr.append(len(d_code))
         ml = max((t.max_lag for t in terms), default=0)
         return cls(terms, ml, tuple(facs), np.asarray(t_ptr, dtype=np.int64),
                    np.asarray(t_fac, dtype=np.int64),
                    np.asarray(static, dtype=np.int64), np.asarray(dyn, dtype=np.int64),
                    np.asarray(d_ptr, dtype=np.int64), np.asarray(d_code, dtype=np.int64),
-                   kind, sig, lag, noise, inputs)
+                   kind, sig, lag, noise, inputs, tuple(ops))
 
     @property
     def compiled(self) -> bool:
         """True when every output-dependent factor runs in the kernel."""
-        return not np.any(self.p_kind == KIND_USER)
+        return not np.any(self.p_kind == KIND_USER) and all(
+            default_operators().get(f.name).builtin for f in self.out_operators)
 
     def input_parts(self, data, registry: Optional[PhiRegistry] = None) -> np.ndarray:
         """(T, N) matrix of input parts (row i: term i)."""
@@ -208,6 +240,7 @@ def _run_python(plan, P, idx, U, y_meas, theta, starts, length, write_from, boun
     if ml:
         buf[:, :ml] = y_meas[starts[:, None] - ml + np.arange(ml)[None, :]]
     rows = np.arange(W)
+    ops = {f: _OperatorWindows(f, y_meas, starts) for f in plan.out_operators}
     for j in range(length):
         k = starts + j
         live = k < n
@@ -219,6 +252,9 @@ def _run_python(plan, P, idx, U, y_meas, theta, starts, length, write_from, boun
         for f in plan.out_factors:
             if isinstance(f, Lag):
                 fv.append(buf[:, pos - f.lag])
+                continue
+            if isinstance(f, OpCall):
+                fv.append(ops[f].value(j, buf[:, pos - f.arg.lag], live))
                 continue
             args = []
             for a in f.args:
@@ -241,6 +277,58 @@ def _run_python(plan, P, idx, U, y_meas, theta, starts, length, write_from, boun
         if j >= write_from:
             out[kk[live]] = acc[live]
     return False
+
+
+class _OperatorWindows:
+    """Values of an operator of an output lag, ``f = Op(y[k-d], ...)``, in
+    every window: at step ``j`` of window ``w`` (sample ``k = s_w + j``)
+    the operator's value at sample ``k - d``, from the measured output
+    while ``j < d``, else stepped on the simulated ``y[k-d]``."""
+
+    def __init__(self, f: OpCall, y_meas, starts):
+        self.op = default_operators().get(f.name)
+        self.p = np.asarray(f.params, dtype=np.float64)
+        self.d = f.arg.lag
+        self.measured = self.op.sequence(y_meas, f.params)
+        self.starts = starts
+        self.state = self.op.states_after(y_meas, f.params, starts)
+        self.play = self.op.builtin and f.name == "Play"
+
+    def value(self, j, y_sim, live):
+        if j < self.d:
+            return self.measured[self.starts + j - self.d]
+        if self.play:                       # vectorised over the windows
+            r = self.p[0]
+            v = np.maximum(np.minimum(y_sim + r, self.state[:, 0]), y_sim - r)
+            self.state[:, 0] = np.where(live, v, self.state[:, 0])
+            return v
+        out = np.zeros(y_sim.shape[0])
+        for w in np.flatnonzero(live):
+            out[w] = self.op.step(self.state[w], float(y_sim[w]), self.p)
+        return out
+
+
+def _operator_arrays(plan: Plan, y_meas, starts):
+    """Kernel arrays of the operators of output lags: codes, lags,
+    parameters, measured values (n_op, N) and window start states
+    (n_op, W, S), see :class:`_OperatorWindows`."""
+    ops = plan.out_operators
+    W = starts.shape[0]
+    if not ops:
+        return (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
+                np.zeros((0, 1)), np.zeros((0, 1)), np.zeros((0, W, 1)))
+    from .memory import BUILTIN_OPERATOR_CODES
+    win = [_OperatorWindows(f, y_meas, starts) for f in ops]
+    width = max(w.state.shape[1] for w in win)
+    npar = max([1] + [len(f.params) for f in ops])
+    par = np.zeros((len(ops), npar))
+    st0 = np.zeros((len(ops), W, width))
+    for o, (f, w) in enumerate(zip(ops, win)):
+        par[o, :len(f.params)] = f.params
+        st0[o, :, :w.state.shape[1]] = w.state
+    return (np.array([BUILTIN_OPERATOR_CODES[f.name] for f in ops], dtype=np.int64),
+            np.array([f.arg.lag for f in ops], dtype=np.int64), par,
+            np.array([w.measured for w in win]), st0)
 
 
 def run_windows(plan: Plan, P, U, y_meas, theta, starts, length: int,
@@ -274,7 +362,7 @@ def run_windows(plan: Plan, P, U, y_meas, theta, starts, length: int,
                            plan.dyn, plan.d_ptr, plan.d_code, plan.p_kind, plan.p_sig,
                            plan.p_lag, starts,
                            int(length), int(write_from), int(plan.maxlag),
-                           float(bound), out)
+                           float(bound), out, *_operator_arrays(plan, y_meas, starts))
     else:
         diverged = _run_python(plan, P, idx, U, y_meas, theta, starts, int(length),
                                int(write_from), float(bound), out, registry)

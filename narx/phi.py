@@ -48,10 +48,12 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Callable, Dict, Iterator, Optional, Union
+from typing import Callable, Optional, Union
 
 import numpy as np
 from numba import njit
+
+from .registry import NamedRegistry
 
 __all__ = ["PhiFunction", "PhiRegistry", "register_phi", "unregister_phi",
            "get_phi", "default_registry", "BUILTINS", "BUILTIN_KERNEL_CODES",
@@ -174,17 +176,19 @@ def check_codes(codes) -> None:
                          f"narx.phi.BUILTINS has {sorted(known)}")
 
 
-class PhiRegistry:
+class PhiRegistry(NamedRegistry):
     """Mapping name -> :class:`PhiFunction`; the :data:`BUILTINS` are always there."""
 
+    what = "Φ-function"
+
     def __init__(self, functions=None):
-        self._f: Dict[str, PhiFunction] = {f.name: f for f in BUILTINS}
+        super().__init__(BUILTINS)
         for f in (functions or ()):
-            if f.builtin and f.name not in self._f:
+            if f.builtin and f.name not in self._items:
                 raise ValueError(f"Φ-function {f.name!r} has kernel code {f.code!r} but "
                                  f"is not in narx.phi.BUILTINS")
-            if f.name not in self._f:
-                self._f[f.name] = f
+            if f.name not in self._items:
+                self._items[f.name] = f
 
     def register(self, name: str, arity: int, func: Callable,
                  steady: Union[float, Callable], *, doc: str = "",
@@ -217,45 +221,10 @@ class PhiRegistry:
                                  f"{steady!r}") from None
             if not np.isfinite(steady):
                 raise ValueError(f"steady must be finite, got {steady!r}")
-        old = self._f.get(name)
-        if old is not None and (old.builtin or not overwrite):
-            raise ValueError(f"Φ-function {name!r} is already registered"
-                             + ("" if old.builtin else
-                                " (pass overwrite=True to replace it)"))
-        f = PhiFunction(name, int(arity), func, steady, doc)
-        self._f[name] = f
-        return f
-
-    def unregister(self, name: str) -> None:
-        f = self._f.get(name)
-        if f is None:
-            raise KeyError(f"unknown Φ-function {name!r}")
-        if f.builtin:
-            raise ValueError(f"cannot unregister built-in {name!r}")
-        del self._f[name]
-
-    def get(self, name: str) -> PhiFunction:
-        try:
-            return self._f[name]
-        except KeyError:
-            raise KeyError(f"unknown Φ-function {name!r} (registered: "
-                           f"{', '.join(sorted(self._f))})") from None
-
-    def __contains__(self, name) -> bool:
-        return name in self._f
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(sorted(self._f))
-
-    def names(self):
-        return sorted(self._f)
+        return self._add(PhiFunction(name, int(arity), func, steady, doc), overwrite)
 
     def user_functions(self):
-        return [f for f in self._f.values() if not f.builtin]
-
-    def snapshot(self) -> "PhiRegistry":
-        """An independent copy (shipped to worker processes)."""
-        return PhiRegistry(self.user_functions())
+        return self.user_entries()
 
 
 _DEFAULT = PhiRegistry()

@@ -26,8 +26,9 @@ import numpy as np
 from numba import njit
 
 from .data import Data
+from .memory import default_operators
 from .phi import PhiRegistry, default_registry, phi_value
-from .terms import Lag, PhiCall, Term
+from .terms import Lag, OpCall, PhiCall, Term
 
 __all__ = ["shift", "signal_array", "factor_column", "input_part", "input_part_into",
            "term_column", "regressor_matrix", "max_lag"]
@@ -79,6 +80,8 @@ def factor_column(f, data: Data, y=None, noise=None,
     """Column of one factor over the whole record (NaN before its lag)."""
     if isinstance(f, Lag):
         return shift(signal_array(f, data, y, noise), f.lag)
+    if isinstance(f, OpCall):
+        return shift(operator_sequence(f, signal_array(f.arg, data, y, noise)), f.arg.lag)
     fn = (registry or default_registry()).get(f.name)
     if fn.builtin and len(f.args) == 2:
         (p, q) = f.args
@@ -90,6 +93,12 @@ def factor_column(f, data: Data, y=None, noise=None,
     args = [shift(signal_array(a, data, y, noise), a.lag) for a in f.args]
     with np.errstate(invalid="ignore"):
         return np.asarray(fn.func(*args), dtype=np.float64)
+
+
+def operator_sequence(f: OpCall, x) -> np.ndarray:
+    """The operator of ``f`` over the whole (unshifted) signal ``x``, from
+    the operator's default initial state (:mod:`narx.memory`)."""
+    return default_operators().get(f.name).sequence(x, f.params)
 
 
 def _product(cols, n):
@@ -106,6 +115,8 @@ def _key(f, reg: PhiRegistry) -> str:
     (a re-registered or other registry's Φ-function gets new columns)."""
     if isinstance(f, PhiCall):
         return f"{f}@{id(reg.get(f.name).func):x}"
+    if isinstance(f, OpCall):
+        return f"{f}@{id(default_operators().get(f.name).step):x}"
     return str(f)
 
 

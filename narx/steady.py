@@ -23,6 +23,21 @@ cluster sum is 0. Noise terms are zero at steady state.
 at which a given model rests with its other signal held (the rest point a
 compensator aims at).
 
+Memory operators (:mod:`narx.memory`). With its argument held, an operator
+holds a value fixed by the history, not by the held signal alone: a play of
+radius r rests anywhere in :math:`[\\bar x - r, \\bar x + r]`. The cluster
+analysis therefore treats an operator factor as a *held state symbol* of its
+own, keyed by operator, signal and parameters (``Play(u,0.3)``), like a
+further held signal: ``u[k-1]*Play(u[k-2],0.3)`` belongs to the cluster
+``u*Play(u,0.3)``. An operator whose rest set is the single point
+:math:`\\bar x` (a play of radius 0) is its argument. The derived
+constraints keep their meaning: with Σ_y = 1 and every other cluster sum
+0 — operator clusters included — the recursion holds any output for every
+input and every operator state. A model whose memory is in its operators
+(e.g. :math:`y_k = a y_{k-1} + b\\,P_r(u)_{k-1}`, :math:`a \\ne 1`) has a
+continuum of steady states without those constraints, through the
+operator's rest set: :func:`held_outputs` gives its ends.
+
 References
 ----------
 .. [1] Aguirre, L. A., Billings, S. A., "Dynamical effects of
@@ -38,10 +53,11 @@ import numpy as np
 
 from .exceptions import EstimationError
 from .phi import PhiRegistry, default_registry
-from .terms import Lag, PhiCall, Term, parse_term
+from .memory import default_operators
+from .terms import Lag, OpCall, PhiCall, Term, parse_term
 
 __all__ = ["Cluster", "SteadyStateConstraints", "clusters", "cluster_sums",
-           "steady_state_constraints", "rest_actuator"]
+           "steady_state_constraints", "rest_actuator", "held_outputs"]
 
 
 @dataclass(frozen=True)
@@ -79,6 +95,13 @@ def _monomial(term: Term, reg: PhiRegistry):
             k = (0 if f.role == "y" else 1, f.signal)
             powers[k] = powers.get(k, 0) + 1
             continue
+        if isinstance(f, OpCall):
+            if _is_identity_at_rest(f):
+                k = (0 if f.arg.role == "y" else 1, f.arg.signal)
+                powers[k] = powers.get(k, 0) + 1
+            else:
+                symbols.append(_op_symbol(f))
+            continue
         fn = reg.get(f.name)
         if any(a.role == "e" for a in f.args):
             return None, 0.0
@@ -97,6 +120,18 @@ def _monomial(term: Term, reg: PhiRegistry):
         parts.append(name if p == 1 else f"{name}^{p}")
     parts.extend(sorted(symbols))
     return ("*".join(parts) if parts else "1"), mult
+
+
+def _op_symbol(f: OpCall) -> str:
+    """Cluster symbol of an operator at rest, e.g. ``Play(u,0.3)``."""
+    return str(f).replace(str(f.arg), f.arg.signal, 1)
+
+
+def _is_identity_at_rest(f: OpCall) -> bool:
+    """True when the operator's rest set is the single point x̄ (probed at
+    x̄ = 0 and 1), e.g. a play of radius 0."""
+    op = default_operators().get(f.name)
+    return all(op.steady_set(x, f.params) == (x, x) for x in (0.0, 1.0))
 
 
 def _as_terms(terms, registry) -> Tuple[Term, ...]:
@@ -167,7 +202,7 @@ def steady_state_constraints(terms: Sequence[Term],
     out_names = {f.signal for t in terms for f in t.factors
                  if isinstance(f, Lag) and f.role == "y"}
     out_names |= {a.signal for t in terms for f in t.factors
-                  if isinstance(f, PhiCall) for a in f.args if a.role == "y"}
+                  if isinstance(f, (PhiCall, OpCall)) for a in f.args if a.role == "y"}
     ykey = next((c.key for c in cls if c.key in out_names), None)
     if ykey is None:
         raise EstimationError("no continuum of steady states is possible: the model "
@@ -216,3 +251,67 @@ def rest_actuator(model, level: float, actuator: str, low: float, high: float,
         return None
     mid = 0.5 * (low + high)
     return float(min(roots, key=lambda x: abs(x - mid)))
+
+
+def held_outputs(terms: Sequence[Term], theta, u_bar: float,
+                 registry: Optional[PhiRegistry] = None) -> Tuple[float, float]:
+    r"""Rest outputs of a model whose memory is in plays of its input.
+
+    With the input held at ``u_bar`` after a monotone approach from below
+    every play of the input rests at :math:`\bar u - r` (the loading end),
+    from above at :math:`\bar u + r` (the unloading end). For a model whose
+    only output cluster is ``y`` with Σ_y ≠ 1, the rest output is
+
+    .. math::  \bar y = \frac{\sum_{c \ne y} \Sigma_c\,
+               m_c(\bar u, w)}{1 - \Sigma_y},
+
+    evaluated at those two operator states; every history gives a rest
+    state w of the plays, so the output can rest at a continuum of values.
+
+    Returns
+    -------
+    (y_below, y_above) : tuple of float
+
+    Raises
+    ------
+    ValueError
+        When the model has output clusters other than ``y``, Σ_y = 1, more
+        than one input, or operators other than plays of the input.
+    """
+    reg = registry or default_registry()
+    terms = _as_terms(terms, registry)
+    theta = np.asarray(theta, dtype=float)
+    ins = {f.signal for t in terms for f in t.factors if isinstance(f, Lag) and f.role == "u"}
+    ops = {f for t in terms for f in t.operator_factors}
+    if len(ins | {f.arg.signal for f in ops if f.arg.role == "u"}) > 1 or any(
+            f.name != "Play" or f.arg.role != "u" for f in ops):
+        raise ValueError("held_outputs needs a single-input model whose operators are "
+                         "plays of the input")
+    sums = cluster_sums(terms, theta, reg)
+    outs = {f.signal for t in terms for f in t.factors if isinstance(f, Lag) and f.role == "y"}
+    ys = [k for k in sums if any(p.partition("^")[0] in outs for p in k.split("*"))]
+    if len(ys) > 1 or (ys and ys[0] not in outs):
+        raise ValueError(f"held_outputs needs the output alone as the only output "
+                         f"cluster, got {ys}")
+    sy = sums[ys[0]] if ys else 0.0
+    if sy == 1.0:
+        raise ValueError("held_outputs needs Σ_y != 1 (with Σ_y = 1 the rest output "
+                         "is not fixed by the operator states)")
+    out = []
+    for side in (-1.0, 1.0):
+        values = {}
+        for f in ops:
+            values[_op_symbol(f)] = u_bar + side * f.params[0]
+        for name in ins:
+            values[name] = u_bar
+        acc = 0.0
+        for key, total in sums.items():
+            if key in ys:
+                continue
+            m = 1.0
+            for part in ([] if key == "1" else key.split("*")):
+                base, _, p = part.partition("^")
+                m *= values[base] ** (int(p) if p else 1)
+            acc += total * m
+        out.append(acc / (1.0 - sy))
+    return tuple(out)

@@ -30,7 +30,9 @@ from scipy import signal
 
 
 __all__ = ["piezo_bouc_wen", "training_input", "sine_input", "HeldSine", "held_sine",
-           "prandtl_ishlinskii", "bouc_wen_discrete", "bouc_wen_discrete_narx"]
+           "prandtl_ishlinskii", "bouc_wen_discrete", "bouc_wen_discrete_narx",
+           "pi_first_order", "backlash_second_order", "OperatorRecord",
+           "OPERATOR_SYSTEMS", "operator_record"]
 
 
 # ---------------------------------------------------------------- validation
@@ -479,3 +481,167 @@ def bouc_wen_discrete_narx(A=0.9, beta=0.008, gamma=0.008, abs_name="Abs"):
     phis = sorted([p1, f"{abs_name}(y[k-1])"])      # Phi-calls are ordered by name
     terms = ("y[k-1]", p1, f"y[k-1]*{p1}*{p2}", "*".join(phis))
     return terms, (1.0, A, -beta, -gamma)
+
+
+# ------------------------------------------ play-operator benchmark systems
+def pi_first_order(u, radii=(0.0, 0.2, 0.4, 0.6, 0.8),
+                   weights=(0.4, 0.25, 0.15, 0.1, 0.1), a=0.9):
+    r"""Prandtl-Ishlinskii operator before first-order dynamics.
+
+    .. math::
+
+        z_k = \sum_j w_j\, P_{r_j}(u)_k, \qquad
+        y_k = a\, y_{k-1} + (1 - a)\, z_{k-1}, \quad y_0 = z_0,
+
+    with the plays :math:`P_r` of :func:`narx.memory.play` at rest on
+    :math:`u_0`. It is exactly the NARX model with terms ``y[k-1]`` and
+    ``Play(u[k-1],r_j)`` (``r = 0`` is ``u[k-1]``), θ = (a, (1-a) w_j).
+
+    Parameters
+    ----------
+    u : array_like, shape (N,)
+    radii : sequence of float
+        Play radii, each >= 0.
+    weights : sequence of float
+        One weight per radius.
+    a : float
+        Pole of the first-order dynamics, in [0, 1).
+
+    Returns
+    -------
+    y : ndarray, shape (N,)
+    """
+    from .memory import play
+    u = _signal("u", u)
+    r = _signal("radii", np.atleast_1d(radii))
+    w = _signal("weights", np.atleast_1d(weights))
+    if w.shape != r.shape:
+        raise ValueError(f"weights must have the length of radii ({r.size}), got {w.size}")
+    a = _num("a", a, "nonneg")
+    if a >= 1.0:
+        raise ValueError(f"a must be in [0, 1), got {a!r}")
+    z = sum(wj * play(u, rj) for rj, wj in zip(r, w))
+    return _first_order(z, a)
+
+
+def _first_order(x, a):
+    """:math:`y_k = a y_{k-1} + (1-a) x_{k-1}`, :math:`y_0 = x_0`."""
+    return signal.lfilter([0.0, 1.0 - a], [1.0, -a], x - x[0]) + x[0]
+
+
+def backlash_second_order(u, r=0.25, motor=0.7, load=0.85):
+    r"""Backlash inside second-order dynamics: motor, gear play, load.
+
+    .. math::
+
+        v_k &= c\, v_{k-1} + (1 - c)\, u_{k-1}, \quad v_0 = u_0
+        \quad\text{(motor)}\\
+        w_k &= P_r(v)_k \quad\text{(backlash, at rest on } v_0)\\
+        y_k &= d\, y_{k-1} + (1 - d)\, w_{k-1}, \quad y_0 = w_0
+        \quad\text{(load)}
+
+    The play acts on the motor's filtered position, not on the input, so
+    no finite set of ``Play(u[k-j],r)`` terms reproduces it exactly.
+
+    Parameters
+    ----------
+    u : array_like, shape (N,)
+    r : float
+        Backlash half-width (play radius), >= 0.
+    motor, load : float
+        Poles ``c`` and ``d`` of the two first-order stages, in [0, 1).
+
+    Returns
+    -------
+    y : ndarray, shape (N,)
+    """
+    from .memory import play
+    u = _signal("u", u)
+    r = _num("r", r, "nonneg")
+    poles = [_num(n, v, "nonneg") for n, v in (("motor", motor), ("load", load))]
+    for n, p in zip(("motor", "load"), poles):
+        if p >= 1.0:
+            raise ValueError(f"{n} must be in [0, 1), got {p!r}")
+    return _first_order(play(_first_order(u, poles[0]), r), poles[1])
+
+
+@dataclass(frozen=True)
+class OperatorRecord:
+    """Training and validation records of :func:`operator_record`.
+
+    Attributes
+    ----------
+    name : str
+        ``"pi"`` or ``"backlash"``.
+    u, y, y_clean : ndarray
+        Training input, output with noise, output without noise.
+    u_val, y_val, y_val_clean : ndarray
+        Validation (held sine) input and outputs.
+    hold_rising, hold_falling : slice
+        The validation holds (see :class:`HeldSine`).
+    dt : float
+        Sampling period (s).
+    """
+
+    name: str
+    u: np.ndarray
+    y: np.ndarray
+    y_clean: np.ndarray
+    u_val: np.ndarray
+    y_val: np.ndarray
+    y_val_clean: np.ndarray
+    hold_rising: slice
+    hold_falling: slice
+    dt: float
+
+
+#: systems of :func:`operator_record`
+OPERATOR_SYSTEMS = {"pi": pi_first_order, "backlash": backlash_second_order}
+
+
+def operator_record(name, n=4000, seed=0, snr_db=None, dt=0.01, bandwidth=2.0):
+    r"""Record of a play-operator benchmark system, with held-sine validation.
+
+    Training input: :func:`training_input` of ``n`` samples, amplitude 1,
+    ``bandwidth`` Hz at ``dt``; validation: :func:`held_sine` of amplitude
+    0.8 at 0.5 Hz, two periods, holds of 1 s on the rising and the falling
+    branch. With ``snr_db`` each output gets white Gaussian noise of
+    standard deviation :math:`\sigma_y 10^{-\mathrm{snr}/20}`
+    (:math:`\sigma_y` the standard deviation of that noise-free output).
+    The input, then the training noise, then the validation noise are drawn
+    from ``numpy.random.default_rng(seed)``.
+
+    Parameters
+    ----------
+    name : {"pi", "backlash"}
+        :func:`pi_first_order` or :func:`backlash_second_order` with its
+        defaults.
+    n : int
+        Training samples, >= 100.
+    seed : int or numpy.random.Generator
+    snr_db : float, optional
+        Output signal-to-noise ratio in dB (e.g. 40); None: no noise.
+    dt, bandwidth : float
+        Sampling period (s) and training-input bandwidth (Hz).
+
+    Returns
+    -------
+    OperatorRecord
+    """
+    if name not in OPERATOR_SYSTEMS:
+        raise ValueError(f"name must be one of {sorted(OPERATOR_SYSTEMS)}, got {name!r}")
+    n = _count("n", n, 100)
+    snr = None if snr_db is None else _num("snr_db", snr_db)
+    rng = _rng(seed)
+    system = OPERATOR_SYSTEMS[name]
+    u = training_input(n=n, dt=dt, amplitude=1.0, bandwidth=bandwidth, seed=rng)
+    hs = held_sine(amplitude=0.8, freq=0.5, dt=dt, cycles=2, hold=1.0)
+    y, yv = system(u), system(hs.u)
+
+    def noisy(x):
+        if snr is None:
+            return x.copy()
+        return x + np.std(x) * 10.0 ** (-snr / 20.0) * rng.standard_normal(x.size)
+
+    return OperatorRecord(name, u, noisy(y), y, hs.u, noisy(yv), yv,
+                          hs.hold_rising, hs.hold_falling, float(dt))

@@ -2,8 +2,9 @@
 
 A *term* is a product of factors; a factor is a lagged signal (``y[k-2]``,
 ``u[k-1]``, ``u2[k]``, a noise lag ``e[k-1]``) or a Φ-function of lagged
-signals (``Phi1(u[k-1],u[k-3])``). The empty product is the constant term
-``1``. A model output is
+signals (``Phi1(u[k-1],u[k-3])``) or a memory operator of one lagged signal
+with numeric parameters (``Play(u[k-1],0.3)``, ``DengTan(y[k-1])``; see
+:mod:`narx.memory`). The empty product is the constant term ``1``. A model output is
 
 .. math::  \\hat y_k = \\sum_i \\theta_i \\prod_{f \\in t_i} f_k .
 
@@ -19,8 +20,11 @@ A Φ-call may take lags of different signals (``Phi1(u1[k-1],u2[k-1])``,
 search of :mod:`mggp` only builds Φ-calls of lags of one and the same input.
 
 Every term has one canonical text: factors sorted as output lags, input lags
-(by input name), noise lags, then Φ-calls (by name and arguments); powers are
-written as repeated factors. Parsing is a small hand-written tokenizer and
+(by input name), noise lags, Φ-calls (by name and arguments), then operator
+calls (by name, argument and parameters); powers are written as repeated
+factors, operator parameters as the shortest text that reads back to the
+same float (``0.30`` prints ``0.3``, ``2.0`` prints ``2``). An operator
+cannot take an operator or a Φ-call as its argument. Parsing is a small hand-written tokenizer and
 recursive-descent parser; no text is ever evaluated.
 """
 from __future__ import annotations
@@ -30,9 +34,10 @@ from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple, Union
 
 from .exceptions import TermError
+from .memory import OperatorRegistry, default_operators
 from .phi import PhiRegistry, default_registry
 
-__all__ = ["Lag", "PhiCall", "Term", "TermError", "parse_term", "parse_terms",
+__all__ = ["Lag", "PhiCall", "OpCall", "Term", "TermError", "parse_term", "parse_terms",
            "Signals", "MAX_LAG"]
 
 #: largest lag accepted in term text
@@ -147,7 +152,52 @@ class PhiCall:
                 "args": [{"signal": a.signal, "lag": a.lag} for a in self.args]}
 
 
-Factor = Union[Lag, PhiCall]
+def format_param(x: float) -> str:
+    """Canonical text of an operator parameter: the shortest text that
+    reads back to the same float, without a trailing ``.0``."""
+    t = repr(float(x) + 0.0)                 # + 0.0: -0.0 prints as 0
+    return t[:-2] if t.endswith(".0") else t
+
+
+@dataclass(frozen=True)
+class OpCall:
+    """A memory operator applied to one lagged signal, with parameters,
+    e.g. ``Play(u[k-1],0.3)`` (see :mod:`narx.memory`)."""
+
+    name: str
+    arg: Lag
+    params: Tuple[float, ...] = ()
+
+    def __str__(self):
+        ps = "".join("," + format_param(p) for p in self.params)
+        return f"{self.name}({self.arg}{ps})"
+
+    def sort_key(self):
+        return (4, self.name, self.arg.sort_key(), self.params)
+
+    @property
+    def args(self) -> Tuple[Lag, ...]:
+        return (self.arg,)
+
+    @property
+    def input_only(self) -> bool:
+        return self.arg.role == "u"
+
+    @property
+    def role(self) -> str:
+        return "op"
+
+    @property
+    def max_lag(self) -> int:
+        return self.arg.lag
+
+    def to_struct(self):
+        return {"kind": "op", "name": self.name,
+                "args": [{"signal": self.arg.signal, "lag": self.arg.lag}],
+                "params": list(self.params)}
+
+
+Factor = Union[Lag, PhiCall, OpCall]
 
 
 class Term:
@@ -214,6 +264,11 @@ class Term:
     def phi_names(self) -> Tuple[str, ...]:
         return tuple(f.name for f in self.factors if isinstance(f, PhiCall))
 
+    @property
+    def operator_factors(self) -> Tuple[OpCall, ...]:
+        """The memory-operator factors (see :mod:`narx.memory`)."""
+        return tuple(f for f in self.factors if isinstance(f, OpCall))
+
     def to_struct(self):
         """Neutral JSON-able structure (a list of factor dicts)."""
         return [f.to_struct() for f in self.factors]
@@ -226,7 +281,9 @@ def _is_noise(f) -> bool:
 
 
 # ---------------------------------------------------------------- parsing
-_TOKEN = re.compile(r"\s*(?:(?P<num>[0-9]+)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)"
+_EXP = r"(?:[eE][+-]?[0-9]+)"
+_TOKEN = re.compile(r"\s*(?:(?P<real>[0-9]*\.[0-9]+" + _EXP + r"?|[0-9]+\.[0-9]*" + _EXP
+                    + r"?|[0-9]+" + _EXP + r")|(?P<num>[0-9]+)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)"
                     r"|(?P<op>\*\*|[\[\]\(\),*^+\-]))")
 
 
@@ -247,8 +304,9 @@ def _tokenize(text: str):
 
 
 class _Parser:
-    def __init__(self, text, signals: Signals, registry: PhiRegistry):
-        self.text, self.sig, self.reg = text, signals, registry
+    def __init__(self, text, signals: Signals, registry: PhiRegistry,
+                 operators: OperatorRegistry):
+        self.text, self.sig, self.reg, self.ops = text, signals, registry, operators
         self.toks = _tokenize(text)
         self.i = 0
 
@@ -291,14 +349,17 @@ class _Parser:
         tok = self.take("name", what="a signal such as y[k-1] or a Φ-call")
         name = tok[1]
         if self.peek()[1] == "(":
+            if name in self.ops:
+                return self.op_call(name)
             return self.phi_call(name)
         return self.lag(name, tok)
 
     def lag(self, name, tok) -> Lag:
         role = self.sig.role(name)
         if role is None:
-            if name in self.reg:
-                raise TermError(f"malformed term {self.text!r}: Φ-function "
+            if name in self.reg or name in self.ops:
+                what = "Φ-function" if name in self.reg else "operator"
+                raise TermError(f"malformed term {self.text!r}: {what} "
                                 f"{name!r} needs arguments in parentheses")
             raise TermError(f"unknown signal {name!r} in term {self.text!r} "
                             f"(output: {self.sig.output}, inputs: "
@@ -331,9 +392,10 @@ class _Parser:
     def phi_call(self, name) -> PhiCall:
         if name not in self.reg:
             raise TermError(f"unknown Φ-function {name!r} in term {self.text!r} "
-                            f"(registered: {', '.join(self.reg.names())}; register "
-                            f"yours with narx.register_phi, or give the mggp command "
-                            f"--phi-module MODULE)")
+                            f"(registered: {', '.join(self.reg.names())}; memory "
+                            f"operators: {', '.join(self.ops)}; register yours with "
+                            f"narx.register_phi or narx.memory.register_operator, or "
+                            f"give the mggp command --phi-module MODULE)")
         fn = self.reg.get(name)
         self.take("op", "(")
         args = []
@@ -341,7 +403,8 @@ class _Parser:
             t = self.take("name", what="a lagged signal argument")
             if self.peek()[1] == "(":
                 raise TermError(f"nested Φ-calls are not allowed in term "
-                                f"{self.text!r}")
+                                f"{self.text!r}: the argument of {name} must be a "
+                                f"lagged signal, got {t[1]}(...)")
             args.append(self.lag(t[1], t))
             if self.peek()[1] == ",":
                 self.i += 1
@@ -354,9 +417,49 @@ class _Parser:
                             f"in term {self.text!r}")
         return PhiCall(name, tuple(args))
 
+    def op_call(self, name) -> OpCall:
+        op = self.ops.get(name)
+        self.take("op", "(")
+        t = self.take("name", what="a lagged signal argument")
+        if self.peek()[1] == "(":
+            raise TermError(f"nested calls are not allowed in term {self.text!r}: "
+                            f"the argument of {name} must be a lagged signal, "
+                            f"got {t[1]}(...)")
+        arg = self.lag(t[1], t)
+        if arg.role == "e":
+            raise TermError(f"{name} of the noise signal in term {self.text!r}: "
+                            f"operators take an input or an output lag")
+        texts = []
+        while self.peek()[1] == ",":
+            self.i += 1
+            texts.append(self.param_text())
+        self.take("op", ")", what="',' or ')'")
+        try:
+            params = op.check_params(texts)
+        except ValueError as exc:
+            raise TermError(f"{exc} in term {self.text!r}") from None
+        return OpCall(name, arg, params)
+
+    def param_text(self) -> str:
+        """Raw text of one operator parameter (a signed number, else the
+        offending text for the error message)."""
+        start = self.peek()[2]
+        sign = ""
+        if self.peek()[1] in ("-", "+"):
+            sign = self.peek()[1]
+            self.i += 1
+        tok = self.peek()
+        if tok[0] in ("real", "num"):
+            self.i += 1
+            return sign + tok[1]
+        while self.peek()[0] != "end" and self.peek()[1] not in (",", ")"):
+            self.i += 1
+        return self.text[start:self.peek()[2]].strip() or "nothing"
+
 
 def parse_term(text, signals: Optional[Signals] = None, *,
-               registry: Optional[PhiRegistry] = None) -> Term:
+               registry: Optional[PhiRegistry] = None,
+               operators: Optional[OperatorRegistry] = None) -> Term:
     """Parse term text into a canonical :class:`Term`.
 
     Parameters
@@ -366,12 +469,15 @@ def parse_term(text, signals: Optional[Signals] = None, *,
         Signal names (default output ``y``, input ``u``, noise ``e``).
     registry : PhiRegistry, optional
         Φ-functions that may appear (default: process-wide registry).
+    operators : OperatorRegistry, optional
+        Memory operators that may appear (default: process-wide registry).
 
     Raises
     ------
     TermError
         Malformed text, unknown signal or Φ-function, wrong arity, an output
-        at lag 0, a future sample.
+        at lag 0, a future sample, an operator parameter that is missing,
+        not a number or outside its domain, a nested call.
     """
     if isinstance(text, Term):
         return text
@@ -379,16 +485,19 @@ def parse_term(text, signals: Optional[Signals] = None, *,
         raise TermError(f"a term must be text, got {type(text).__name__}: {text!r}")
     if not text.strip():
         raise TermError("empty term text")
-    return _Parser(text, signals or Signals(), registry or default_registry()).term()
+    return _Parser(text, signals or Signals(), registry or default_registry(),
+                   operators or default_operators()).term()
 
 
 def parse_terms(texts: Sequence, signals: Optional[Signals] = None, *,
                 registry: Optional[PhiRegistry] = None,
+                operators: Optional[OperatorRegistry] = None,
                 unique: bool = True) -> Tuple[Term, ...]:
     """Parse several terms; with ``unique`` a repeated term is an error."""
     if isinstance(texts, (str, Term)):
         texts = [texts]
-    terms = tuple(parse_term(t, signals, registry=registry) for t in texts)
+    terms = tuple(parse_term(t, signals, registry=registry, operators=operators)
+                  for t in texts)
     if unique:
         seen = {}
         for i, t in enumerate(terms):

@@ -298,3 +298,43 @@ def test_fit_help_groups_every_option_with_its_default(capsys):
         assert title in text
     assert "--window WINDOW multiple-shooting window in samples" in text
     assert text.count("(default: ") == sum(1 for p in FIT_OPTIONS if p.flag)
+
+
+def test_simulate_names_the_prediction_after_the_models_output(capsys, tmp_path):
+    """A model of output f writes f_hat; a data file that already has that
+    column is refused before anything is written (control: y_hat for y above)."""
+    t, u = sine_input()
+    f = piezo_bouc_wen(u)
+    data = write_csv(tmp_path / "f.csv", ["t", "v", "f"], zip(t, u, f))
+    m = tmp_path / "m.json"
+    code, out, err = run(capsys, "estimate", data, "--terms", "f[k-1]", "v[k-1]",
+                         "--input", "v", "--output", "f", "--out", m)
+    assert code == 0, err
+    pred = tmp_path / "pred.csv"
+    code, out, err = run(capsys, "simulate", m, data, "--out", pred)
+    assert code == 0, err
+    assert pred.read_text().splitlines()[0] == "t,v,f,f_hat"
+    clash = write_csv(tmp_path / "clash.csv", ["v", "f", "f_hat"],
+                      zip(u, f, f))
+    code, out, err = run(capsys, "simulate", m, clash, "--out", tmp_path / "p2.csv")
+    assert code == 2 and "f_hat" in err
+    one_error_line(err)
+    assert not (tmp_path / "p2.csv").exists()
+
+
+@pytest.mark.parametrize("command", ["simulate", "estimate", "compensate"])
+def test_every_option_has_help_with_its_default(command):
+    """Every option but --help (and the required --terms) says what it does
+    and its default."""
+    from mggp.cli import build_parser
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command").choices[command]
+    for action in sub._actions:
+        if action.dest == "help" or not action.option_strings:
+            continue
+        text = action.help or ""
+        assert len(text) > 15, (command, action.option_strings)
+        if not action.required:
+            assert "default" in text, (command, action.option_strings, text)
+    simulate = next(a for a in parser._actions if a.dest == "command").choices["simulate"]
+    assert "(default: u)" not in simulate.format_help()

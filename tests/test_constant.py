@@ -76,3 +76,17 @@ def test_cli_fit_constant(tmp_path):
     assert rc == 0
     doc = json.loads(out.read_text())
     assert "1" in doc["terms"] and doc["meta"]["constant"] is True
+
+
+def test_progress_counts_the_terms_of_the_scored_structure():
+    """The logbook's best_terms (the progress line's 'terms N') counts the
+    structure scored, the constant included: the final model's terms when
+    no pruning or selection changes it; control: the same search without
+    the constant counts one term fewer for the same kind of model."""
+    u, y = affine_record()
+    kw = dict(KW, prune=None, criterion="mse")
+    est = MGGPRegressor(constant=True, **kw).fit(u, y)
+    assert est.logbook_[-1]["best_terms"] == est.model_.n_terms
+    assert "1" in est.model_.term_texts
+    plain = MGGPRegressor(**kw).fit(u, y)
+    assert plain.logbook_[-1]["best_terms"] == plain.model_.n_terms

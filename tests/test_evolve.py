@@ -188,3 +188,37 @@ def test_toy_structure_recovery(pset, seed):
     assert res.best.fitness == 0.0
     assert set(res.best.terms) == target
     assert res.pareto[-1].terms == res.best.terms
+
+
+def test_checkpoint_writer_keeps_writes_within_their_share(tmp_path, monkeypatch):
+    """Writes are spaced so that they take at most `share` of the wall time
+    (a fake clock: each write costs 1 s, each generation 2 s); the first
+    and forced writes always happen. Control: share 1 writes every call."""
+    import mggp.checkpoint as ck
+    now = [0.0]
+    monkeypatch.setattr(ck, "save_checkpoint",
+                        lambda path, state, packer=None: now.__setitem__(0, now[0] + 1.0))
+    w = ck.CheckpointWriter(tmp_path / "c", share=0.1, clock=lambda: now[0])
+    wrote = []
+    for gen in range(40):
+        wrote.append(w(None, force=gen == 39))
+        now[0] += 2.0
+    assert wrote[0] and wrote[-1]
+    assert [i for i, v in enumerate(wrote) if v] == [0, 5, 10, 15, 20, 25, 30, 35, 39]
+    assert w.written / now[0] <= 0.1 + 1 / now[0]          # 9 s of 89 s, the last forced
+    every = ck.CheckpointWriter(tmp_path / "c", share=1.0, clock=lambda: now[0])
+    assert all(every(None) for _ in range(5))
+    with pytest.raises(ValueError, match="share must be in"):
+        ck.CheckpointWriter(tmp_path / "c", share=0.0)
+
+
+def test_incremental_cache_encoding_equals_a_fresh_one():
+    """The packer kept across saves writes the same cache as a new one."""
+    from mggp.checkpoint import CachePacker, _unpack_cache
+    import json as _json
+    cache, kept = {}, CachePacker()
+    for i in range(5):
+        cache[(f"y[k-{i + 1}]", "u[k-1]")] = float(i) if i != 3 else float("inf")
+        assert kept.text(cache) == CachePacker().text(cache)
+    assert _unpack_cache(_json.loads(kept.text(cache))) == cache
+    assert _unpack_cache(_json.loads(kept.text({("u[k-1]",): 2.0}))) == {("u[k-1]",): 2.0}

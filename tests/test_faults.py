@@ -182,6 +182,8 @@ def test_torn_checkpoint_write_keeps_previous_and_resume_matches(piezo, tmp_path
     u, y = piezo
     full = MGGPRegressor(**FIT).fit(u, y)
     ck = tmp_path / "run.ckpt"
+    import mggp.evolve
+    monkeypatch.setattr(mggp.evolve, "CHECKPOINT_SHARE", 1.0)    # a write every generation
     monkeypatch.setattr(ckmod, "os", _tearing_os(fail_on_call=4))   # gens 0,1,2 ok
     with pytest.raises(_Killed):
         MGGPRegressor(checkpoint=str(ck), **FIT).fit(u, y)

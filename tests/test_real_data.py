@@ -25,3 +25,24 @@ def test_markdown_rows_and_published_figures():
     md = markdown(res, [1, 2, 3])
     assert "| --no-phi | 0.5 | 0.4 | inf | 15 | 5.0 |" in md
     assert "| PNLSS, published | 0.45 |" in md
+
+
+def test_shared_data_are_looked_for_beside_the_project(monkeypatch):
+    """Without MGGP_SHARED_DATA the last folder searched is ../shared/data
+    from the project root (where a clone has the project's shared data)."""
+    import os
+    from benchmarks.mr_damper import data_dirs
+    monkeypatch.delenv("MGGP_SHARED_DATA", raising=False)
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    assert data_dirs()[-1] == os.path.normpath(os.path.join(root, "..", "shared", "data"))
+    monkeypatch.setenv("MGGP_SHARED_DATA", "/elsewhere")
+    assert data_dirs()[0] == "/elsewhere"
+
+
+def test_missing_data_exit_2_with_one_error_line(monkeypatch, capsys):
+    from benchmarks import real_data
+    monkeypatch.setattr(real_data, "data_path", lambda name: None)
+    assert real_data.main(["--seeds", "1"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and len(err.strip().splitlines()) == 1
+    assert err.startswith("error: shared data not found: cascaded_tanks.csv")

@@ -8,6 +8,19 @@ from benchmarks import pem_vs_ms, published_structures
 from benchmarks.casestudy import case_data, model19, score_model
 
 
+def uncaptioned_figures(markdown: str) -> list:
+    """Images of a Markdown report not followed by an italic 'Figure N.' caption."""
+    lines = [ln for ln in markdown.splitlines() if ln.strip()]
+    return [ln for i, ln in enumerate(lines) if ln.startswith("![")
+            and not (i + 1 < len(lines) and lines[i + 1].startswith("*Figure "))]
+
+
+def test_uncaptioned_figures_are_found():
+    assert uncaptioned_figures("![a](a.png)\n\n*Figure 1. A.*\n") == []
+    assert uncaptioned_figures("![a](a.png)\n\ntext\n![b](b.png)") == ["![a](a.png)",
+                                                                        "![b](b.png)"]
+
+
 def test_study_runs_end_to_end_and_writes_report(tmp_path):
     out = tmp_path / "rep"
     js = tmp_path / "s.json"
@@ -20,6 +33,9 @@ def test_study_runs_end_to_end_and_writes_report(tmp_path):
         assert name in text
     for fig in ("loops.png", "freerun.png", "held.png", "convergence.png"):
         assert os.path.getsize(out / fig) > 1000
+    assert text.split("\n")[2].startswith("**Conclusion.**")     # first, under the title
+    assert uncaptioned_figures(text) == []
+    assert text.count("![") == 4
     doc = json.loads(js.read_text())
     assert {r["name"] for r in doc["summary"]} >= {"PEM-LS", "MS-LS", "model (19) CLS"}
     assert doc["settings"]["filter_order"] == 4 and "low-pass of order 4 (data seed 0)" in text
@@ -79,3 +95,14 @@ def test_study_rejects_bad_settings_in_one_line(capsys):
         with pytest.raises(SystemExit) as e:
             pem_vs_ms.main(argv + ["--peers", "no", "--no-damper"])
         assert e.value.code == 2 and text in capsys.readouterr().err
+
+
+def test_error_groups_keep_small_errors_on_their_own_axis():
+    """Errors within ten times of a group's largest share its panel; the
+    0.2-sized errors do not share the 20-sized ones'."""
+    from mggp.report import error_groups
+    y = np.zeros(100)
+    sims = {n: np.full(100, v) for n, v in
+            (("MS-LS", 0.2), ("PEM", 22.0), ("toolbox", 4.5), ("m19", 1.2), ("MS-CLS", 0.19))}
+    assert error_groups(y, sims) == [["PEM", "toolbox"], ["m19", "MS-LS", "MS-CLS"]]
+    assert error_groups(y, {"a": np.ones(100)}) == [["a"]]

@@ -129,8 +129,13 @@ class CorrelationTest:
 
     @property
     def label(self) -> str:
+        """``φ_ue`` for the input ``u``; an input of a longer name is set off
+        by a comma so that it reads as written: ``φ_uEst,e``, ``φ_v²',e²``."""
         lab = TEST_LABELS[self.key]
-        return lab if not self.signal or self.signal == "u" else lab.replace("u", self.signal, 1)
+        if self.key == "ee" or not self.signal or self.signal == "u":
+            return lab
+        head, tail = lab[2:].split("e", 1)            # 'u', "u²'" -> signal part
+        return "φ_" + head.replace("u", self.signal, 1) + ",e" + tail
 
     @property
     def max_abs(self) -> float:

@@ -24,11 +24,12 @@ import numpy as np
 
 from narx.atomic import atomic_write_text
 
-from ..quasistatic_report import diagnosis_figure
 from ..plotting import figure, save as _save
+from ..quasistatic_report import diagnosis_figure
+from ..report import figure_lines
+from .correlation import propagation_factor
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
-from .correlation import propagation_factor
 from .simulation import direction_of_change, simulation_residual
 
 __all__ = ["terminal_summary", "write_report", "verdict"]
@@ -128,12 +129,14 @@ def verdict(dx) -> str:
             f"measuring samples {how})")
 
 
-def _plot_models(path, dx):
+def _plot_models(path, dx, inputs):
     d = dx.measure_data
     t = np.arange(d.n) + dx.split.measure[0]
-    u = d.U[0]
-    fig, axes = figure(1, 2, figsize=(11, 3.8), gridspec_kw={"width_ratios": [2, 1]})
-    for ax, x in ((axes[0], t), (axes[1], u)):
+    n = len(inputs)
+    fig, axes = figure(1, 1 + n, figsize=(7.5 + 3.5 * n, 3.8),
+                       gridspec_kw={"width_ratios": [2] + [1] * n}, squeeze=False)
+    axes = axes[0]
+    for ax, x in zip(axes, [t] + [d.input(name) for name in inputs]):
         ax.plot(x, d.y, "k", lw=1.2, label="data")
         ax.plot(x, dx.baseline.y_hat, lw=0.9, label=f"baseline (RMSE {_g(dx.baseline.rmse)})")
         ax.plot(x, dx.extended.y_hat, lw=0.9, ls="--",
@@ -142,8 +145,9 @@ def _plot_models(path, dx):
     axes[0].set_xlabel(f"sample of {dx.split.measure_record}")
     axes[0].set_ylabel(d.output)
     axes[0].set_title("Free run on the measuring samples")
-    axes[1].set_xlabel(d.inputs[0])
-    axes[1].set_title("Input-output loop")
+    for ax, name in zip(axes[1:], inputs):
+        ax.set_xlabel(name)
+        ax.set_title(f"Loop: {d.output} against {name}")
     axes[0].legend(loc="best", fontsize=7)
     for ax in axes:
         lo, hi = np.nanmin(d.y), np.nanmax(d.y)
@@ -152,51 +156,72 @@ def _plot_models(path, dx):
     return _save(fig, path)
 
 
-def _plot_direction(path, dx):
+def _plot_direction(path, dx, inputs):
     d = dx.fit_data
-    u = d.U[0]
-    s = direction_of_change(u)
-    fig, axes = figure(1, 2, figsize=(11, 4), sharey=True)
+    n = len(inputs)
+    fig, axes = figure(n, 2, figsize=(11, 4 * n), sharey=True, squeeze=False)
     test = dx.evidence.loop_gap[0] if dx.evidence.loop_gap else None
-    for ax, (name, m) in zip(axes, (("baseline", dx.baseline.model),
-                                    ("extended", dx.extended.model))):
-        e, source = simulation_residual(m, d)
-        for sign, col, lab in ((1, "tab:red", "rising"), (-1, "tab:blue", "falling")):
-            k = (s == sign) & np.isfinite(e)
-            ax.plot(u[k], e[k], ".", ms=1.5, color=col, alpha=0.35, label=f"{lab} {d.inputs[0]}")
-        ax.axhline(0, color="k", lw=0.5)
-        ax.set_title(f"{name}: {source.split(' (')[0]} residual", fontsize=9)
-        ax.set_xlabel(d.inputs[0])
-        ax.legend(loc="best", fontsize=7, markerscale=6)
+    residuals = [(name, *simulation_residual(m, d)) for name, m in
+                 (("baseline", dx.baseline.model), ("extended", dx.extended.model))]
+    for row, signal in zip(axes, inputs):
+        u = d.input(signal)
+        s = direction_of_change(u)
+        for ax, (name, e, source) in zip(row, residuals):
+            for sign, col, lab in ((1, "tab:red", "rising"), (-1, "tab:blue", "falling")):
+                k = (s == sign) & np.isfinite(e)
+                ax.plot(u[k], e[k], ".", ms=1.5, color=col, alpha=0.35, label=f"{lab} {signal}")
+            ax.axhline(0, color="k", lw=0.5)
+            ax.set_title(f"{name}: {source.split(' (')[0]} residual against {signal}",
+                         fontsize=9)
+            ax.set_xlabel(signal)
+            ax.legend(loc="best", fontsize=7, markerscale=6)
+        row[0].set_ylabel(f"e = {d.output} - ŷ  (fitting samples)")
     if test is not None:
-        axes[0].text(0.02, 0.02, f"loop gap {_g(test.statistic)} "
-                     f"(bound {_g(test.bound)}, p = {test.p_value:.3g})",
-                     transform=axes[0].transAxes, fontsize=8)
-    axes[0].set_ylabel(f"e = {d.output} - ŷ  (fitting samples)")
+        axes[0][0].text(0.02, 0.02, f"loop gap {_g(test.statistic)} "
+                        f"(bound {_g(test.bound)}, p = {test.p_value:.3g})",
+                        transform=axes[0][0].transAxes, fontsize=8)
     return _save(fig, path)
 
 
-def _plot_correlation(path, dx):
-    tests = list(dx.evidence.correlation)[:4]
-    if not tests:
+def _plot_correlation(path, dx, inputs):
+    """One row per input: φ_ee (first row only), then that input's three tests."""
+    tests = list(dx.evidence.correlation)
+    ee = [t for t in tests if t.key == "ee"]
+    rows = [[t for t in tests if t.key != "ee" and t.signal == name] for name in inputs]
+    rows = [r for r in rows if r]
+    if not rows and not ee:
         return None
-    fig, axes = figure(1, len(tests), figsize=(3.2 * len(tests), 3.2), sharey=True)
-    axes = np.atleast_1d(axes)
-    for ax, t in zip(axes, tests):
-        ax.bar(t.lags, t.r, width=0.6, color="tab:gray")
-        rms = dx.evidence.osa_rms if t.rms is None else t.rms     # of the residual tested
-        rms *= propagation_factor(dx.evidence.osa_rms, dx.evidence.context.freerun_rms)
-        floor = dx.evidence.floor / rms if rms > 0 else 2.0
-        for v, ls, lab in ((t.band95, "-", "±1.96/√N"), (t.band, "--", "Bonferroni"),
-                           (floor, ":", "resolution floor")):
-            if v <= 1.0:
-                ax.axhline(v, color="tab:blue", ls=ls, lw=0.8, label=lab)
-                ax.axhline(-v, color="tab:blue", ls=ls, lw=0.8)
-        ax.set_title(t.label + (" (no power)" if max(t.band, floor) >= 1.0 else ""))
-        ax.set_xlabel("τ")
-        ax.set_ylim(-1.05, 1.05)
-    axes[0].legend(loc="upper right", fontsize=7)
+    rows = rows or [[]]
+    ncol = 1 + max(len(r) for r in rows)
+    fig, axes = figure(len(rows), ncol, figsize=(3.2 * ncol, 3.2 * len(rows)), sharey=True,
+                       squeeze=False)
+    for i, (line, row) in enumerate(zip(axes, rows)):
+        cells = (ee[:1] if i == 0 else [None]) + row
+        first = True
+        for ax, t in zip(line, cells + [None] * (ncol - len(cells))):
+            if t is None:
+                ax.axis("off")
+                continue
+            _correlation_panel(ax, t, dx)
+            ax.tick_params(labelleft=first)          # each row's first panel has the scale
+            first = False
+    axes[0][0].legend(loc="upper right", fontsize=7)
     return _save(fig, path)
+
+
+def _correlation_panel(ax, t, dx):
+    ax.bar(t.lags, t.r, width=0.6, color="tab:gray")
+    rms = dx.evidence.osa_rms if t.rms is None else t.rms     # of the residual tested
+    rms *= propagation_factor(dx.evidence.osa_rms, dx.evidence.context.freerun_rms)
+    floor = dx.evidence.floor / rms if rms > 0 else 2.0
+    for v, ls, lab in ((t.band95, "-", "±1.96/√N"), (t.band, "--", "Bonferroni"),
+                       (floor, ":", "resolution floor")):
+        if v <= 1.0:
+            ax.axhline(v, color="tab:blue", ls=ls, lw=0.8, label=lab)
+            ax.axhline(-v, color="tab:blue", ls=ls, lw=0.8)
+    ax.set_title(t.label + (" (no power)" if max(t.band, floor) >= 1.0 else ""))
+    ax.set_xlabel("lag τ (samples)")
+    ax.set_ylim(-1.05, 1.05)
 
 
 def _plot_holds(path, dx) -> Optional[str]:
@@ -244,18 +269,54 @@ def _model_lines(scored, title) -> List[str]:
     return lines + [""]
 
 
-def write_report(folder, dx, command: Optional[str] = None, title: str = "data") -> str:
-    """Write ``summary.md`` and the figures into ``folder``; returns the path."""
+def _inputs(dx, inputs) -> list:
+    """The inputs to plot: all of the data's, or those named (checked)."""
+    have = list(dx.fit_data.inputs)
+    if inputs is None:
+        return have
+    inputs = [inputs] if isinstance(inputs, str) else list(inputs)
+    bad = [n for n in inputs if n not in have]
+    if bad or not inputs:
+        raise ValueError(f"inputs: the data's inputs are {have}, got {inputs}")
+    return inputs
+
+
+def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
+                 inputs=None) -> str:
+    """Write ``summary.md`` and the figures into ``folder``; returns the path.
+
+    ``inputs`` names the inputs whose loops, residual planes and correlation
+    tests are plotted (default: every input of the data).
+    """
+    inputs = _inputs(dx, inputs)
     os.makedirs(folder, exist_ok=True)
     j = os.path.join
-    figs = [("Data against both models", _plot_models(j(folder, "models.png"), dx)),
-            ("Residual in the u-e plane by direction of input change",
-             _plot_direction(j(folder, "residual_direction.png"), dx)),
-            ("Correlation tests with their bands", _plot_correlation(
-                j(folder, "correlation.png"), dx)),
-            ("Held-input responses", _plot_holds(j(folder, "holds.png"), dx)),
-            ("Quasi-static analysis of the recommended model (probe sine over the fitting "
-             "input's range)", diagnosis_figure(j(folder, "quasistatic.png"), dx))]
+    out, names = dx.measure_data.output, ", ".join(inputs)
+    figs = [(f"Data against both models. Left: the output {out} against the sample index "
+             f"of the measuring record, data and the free run of the baseline and of the "
+             f"extended model (the dotted line: scoring starts there). Right: the loop of "
+             f"{out} against each input ({names}).",
+             _plot_models(j(folder, "models.png"), dx, inputs)),
+            (f"The free-run residual e = {out} − ŷ on the fitting samples against each input "
+             f"({names}), red where that input rises, blue where it falls, for the baseline "
+             f"(left) and the extended model (right). Two separate bands at equal input "
+             f"mean the residual depends on the direction of input change: hysteresis the "
+             f"model misses.", _plot_direction(j(folder, "residual_direction.png"), dx,
+                                               inputs)),
+            ("The Billings–Voon correlation functions of the residual against lag τ "
+             "(samples): φ_ee, then for each input the φ_ue, φ_u²'e and φ_u²'e² tests "
+             "(one row per input). Bars beyond the dashed Bonferroni band make a finding; "
+             "the solid line is the usual ±1.96/√N band, the dotted one the resolution "
+             "floor below which a correlation is not measurable.",
+             _plot_correlation(j(folder, "correlation.png"), dx, inputs)),
+            (f"Held-input responses: each segment where the input stops (shaded), data, "
+             f"baseline and extended model started from the measured state; {out} against "
+             f"the sample index. A model with a continuum of steady states stays flat.",
+             _plot_holds(j(folder, "holds.png"), dx)),
+            ("Quasi-static analysis of the recommended model on a probe sine over the "
+             "fitting input's range: its free-run loop between the attracting and repelling "
+             "solutions of the frozen equation under loading and unloading.",
+             diagnosis_figure(j(folder, "quasistatic.png"), dx))]
     L = [f"# mggp diagnose: {title}", ""]
     if command:
         L += ["Command:", "", f"    {command}", ""]
@@ -303,10 +364,11 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data")
           f"extended {_g(g.extended)}, ratio baseline/extended {_g(g.ratio)}.", "",
           f"Recommended: {verdict(dx)}.", ""]
     L += ["## Figures", ""]
-    for cap, path in figs:
-        L += [f"**{cap}**", "", f"![{cap}]({os.path.basename(path)})" if path else
-              "(no data for this figure: " + ("no held-input segment in the data)"
-                                               if "Held" in cap else "not computed)"), ""]
+    L += figure_lines([(p, cap) for cap, p in figs if p])
+    if not figs[3][1]:
+        L += ["(No held-input figure: no held-input segment in the data.)", ""]
+    if not figs[2][1]:
+        L += ["(No correlation figure: the tests were not computed.)", ""]
     L += ["## Vocabulary", ""]
     L += _table([[f"`{k}`", v, EXTENSIONS[k]] for k, v in VOCABULARY.items()],
                 ["effect", "meaning", "extension"])

@@ -1,0 +1,51 @@
+"""The diagnosis report of a record with two inputs: correlation tests,
+loops and residual planes for every input (or the ones picked), labels
+that read as written, a caption under every figure."""
+import numpy as np
+import pytest
+
+from narx import Model
+from narx.data import Data
+from mggp.diagnose import Budget, diagnose
+from mggp.diagnose.correlation import CorrelationTest
+from mggp.diagnose.report import write_report
+
+from test_study import uncaptioned_figures
+
+
+def _two_input_record(n=1500, seed=0):
+    r = np.random.default_rng(seed)
+    a, v = r.uniform(-1, 1, n), r.uniform(-1, 1, n)
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.5 * y[k - 1] + 0.4 * a[k - 1] + 0.3 * v[k - 1] ** 2 + 0.01 * r.standard_normal()
+    return Data(np.c_[a, v], y, inputs=("uEst", "v"), output="f")
+
+
+@pytest.fixture(scope="module")
+def dx():
+    d = _two_input_record()
+    model = Model(["f[k-1]", "uEst[k-1]"], inputs=("uEst", "v"), output="f").fit(d)
+    return diagnose(d, model=model, budget=Budget(population=30, generations=4,
+                                                  max_height=3), seed=1)
+
+
+def test_labels_read_as_written():
+    t = lambda key, sig: CorrelationTest(key, sig, np.arange(2), np.zeros(2), 9, .1, .2)  # noqa: E731
+    assert t("ue", "u").label == "φ_ue" and t("ee", "").label == "φ_ee"
+    assert t("ue", "uEst").label == "φ_uEst,e"
+    assert t("u2e2", "v").label == "φ_v²',e²"
+
+
+def test_every_input_is_tested_plotted_and_captioned(dx, tmp_path):
+    text = open(write_report(tmp_path / "all", dx)).read()
+    assert "φ_uEst,e" in text and "φ_v,e" in text          # both inputs tested
+    assert "uEste" not in text
+    assert uncaptioned_figures(text) == []
+    assert text.count("![") == 3 + ("holds.png" in text) + ("quasistatic.png" in text)
+    assert "each input (uEst, v)" in text
+    picked = open(write_report(tmp_path / "v", dx, inputs=["v"])).read()
+    assert "each input (v)" in picked and "(uEst, v)" not in picked
+    with pytest.raises(ValueError, match=r"inputs: the data's inputs are \['uEst', 'v'\], "
+                                         r"got \['w'\]"):
+        write_report(tmp_path / "w", dx, inputs=["w"])
