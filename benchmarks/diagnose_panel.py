@@ -65,7 +65,7 @@ def play(u, r: float = 0.2) -> np.ndarray:
 
 
 KINDS = {"play": (play, 1.0),
-         "PI": (lambda u: prandtl_ishlinskii(u), 1.0),
+         "PI": (lambda u: prandtl_ishlinskii(u), 80.0),
          "Bouc-Wen": (piezo_bouc_wen, 80.0)}
 
 
@@ -146,7 +146,9 @@ def main(argv=None):
     p.add_argument("--only", default="", help="records whose name contains this text")
     p.add_argument("--jobs", type=int, default=2)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", default="", help="write every record's checks and gain here")
     a = p.parse_args(argv)
+    doc = []
     print("| record | truth | named | hysteresis named | gain (RMSE ratio) | "
           "recommended | s |")
     print("|---|---|---|---|---|---|---|", flush=True)
@@ -160,6 +162,12 @@ def main(argv=None):
         secs = time.perf_counter() - t0
         hyst = "hysteresis" in dx.effects
         rows.append((rec, hyst, dx.gain.ratio, secs))
+        if a.json:
+            import json
+            doc.append({"record": rec.name, "truth": rec.truth, "effects": dx.effects,
+                        "seconds": secs, **dx.to_dict()})
+            with open(a.json, "w") as fh:
+                json.dump(doc, fh, indent=1, default=str)
         print(f"| {rec.name} | {rec.truth} | {', '.join(dx.effects) or 'none'} | "
               f"{'yes' if hyst else 'no'} | {dx.gain.ratio:.3g} | {dx.gain.recommended} | "
               f"{secs:.0f} |", flush=True)
