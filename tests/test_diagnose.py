@@ -488,3 +488,21 @@ def test_cli_validation_with_other_inputs_is_one_error(capsys, drift_files, tmp_
     assert "--validation-input" in line and "1 input(s) ['u']" in line and "u2" in line
     code, out, err = run(capsys, "diagnose", t, "--validation-input", "u", "--quiet")
     assert code == 2 and "--validation VAL.csv, which was not given" in one_error_line(err)
+
+
+# ------------------------------------------------------------ memory operators
+def test_operator_augmentation_sees_a_play_behind_dynamics_not_a_linear_control():
+    from benchmarks.diagnose_panel import behind_dynamics, play
+    from mggp.diagnose.augmentation import operator_augmentation_test
+    from mggp.diagnose.controls import control_record
+    rng = np.random.default_rng(0)
+    u = training_input(3000, amplitude=1.0, bandwidth=4.0, seed=0)
+    y = behind_dynamics(play(u), 2)
+    hyst = Data(u, y + 0.01 * np.std(y) * rng.standard_normal(y.size))
+    lin = ["y[k-1]", "y[k-2]", "u[k-1]", "u[k-2]"]
+    a = operator_augmentation_test(narx.Model(lin).fit(hyst), hyst, shifts=19, seed=0)
+    assert a.statistic > 3 * a.null_quantile, (a.statistic, a.null_quantile)
+    ctl = control_record("linear", seed=0, n=3000, snr_db=40.0).data
+    c = operator_augmentation_test(narx.Model(lin).fit(ctl), ctl, shifts=19, seed=0)
+    assert c.statistic < a.statistic / 10
+    assert c.statistic <= 0.005 * np.ptp(ctl.y)          # below the resolution floor

@@ -58,7 +58,7 @@ from narx.model import ignore_rank_warnings
 from narx.terms import Signals, parse_term
 
 from ..selection import CLSRejectedWarning
-from .augmentation import direction_terms
+from .augmentation import direction_terms, operator_terms
 from .holds import probe_holds
 from .simulation import freerun_rmse
 
@@ -69,18 +69,6 @@ __all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search",
 _SPECIFIC = ("hysteresis", "prediction-bias", "steady-state-drift")
 #: memory operators of the hysteresis search (:mod:`narx.memory`)
 OPERATORS = ("play", "dengtan")
-
-
-def operator_terms(data: Data, lags=(1,)) -> List[str]:
-    """Memory-operator terms of each input: plays of the search's radii
-    (:func:`mggp.primitives.play_radii`) and Deng–Tan, at each lag."""
-    from ..primitives import play_radii
-    out = []
-    for n in data.inputs:
-        for j in lags:
-            out += [f"Play({n}[k-{j}],{r:g})" for r in play_radii(data.input(n))]
-            out.append(f"DengTan({n}[k-{j}])")
-    return out
 
 
 def operator_dynamics_terms(data: Data) -> List[str]:
