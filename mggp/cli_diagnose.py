@@ -5,14 +5,22 @@ Typical use::
     mggp diagnose train.csv --validation val.csv --json dx.json --report dx/ --seed 0 --jobs 2
     mggp diagnose train.csv --model pem.json --validation held.csv      # diagnose your model
     mggp diagnose train.csv --population 1000 --generations 200 --jobs 4  # spend more
+    mggp diagnose train.csv --out best.json            # save the recommended model
+    mggp diagnose train.csv --validation v.csv --validation-input volts --validation-output um
 
 Without ``--model`` the baseline is an MGGP model with multiple-shooting
 fitness and no Φ-functions. Without ``--validation`` the last
 ``--holdout`` fraction of TRAIN.csv measures the gain and the rest fits.
 The terminal shows a short summary; ``--json`` writes the findings,
 both models and the gain (schema in :mod:`mggp.diagnose`); ``--report``
-writes ``summary.md`` and figures. Files are written atomically after the
-diagnosis succeeded; the data files are only read.
+writes ``summary.md`` and figures; ``--out`` writes the recommended model
+(the extension if it lowered the free-run RMSE on the measuring samples,
+else the baseline; ``meta['diagnose']`` says which, why, and the gain).
+The validation record's columns default to the training record's names;
+``--validation-input``/``--validation-output`` name them otherwise. Each
+MGGP search shows the generation line of ``mggp fit`` (``--quiet``: no
+progress at all). Files are written after the diagnosis succeeded; the
+data files are only read.
 """
 from __future__ import annotations
 
