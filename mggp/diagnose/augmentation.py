@@ -141,16 +141,17 @@ def _placebo(terms, name, v):
     return [re.sub(rf"\b{re.escape(name)}\[", f"{v}[", t) for t in terms]
 
 
-def operator_terms(data: Data, lags=(1,)) -> List[str]:
+def operator_terms(data: Data, lags=(1,), dengtan: bool = True) -> List[str]:
     """Memory-operator terms of each input (:mod:`narx.memory`): plays of
-    the search's radii (:func:`mggp.primitives.play_radii`) and Deng–Tan,
-    at each lag."""
+    the search's radii (:func:`mggp.primitives.play_radii`, fractions of
+    the input's range) and, with ``dengtan``, Deng–Tan, at each lag."""
     from ..primitives import play_radii
     out = []
     for n in data.inputs:
         for j in lags:
             out += [f"Play({n}[k-{j}],{r:g})" for r in play_radii(data.input(n))]
-            out.append(f"DengTan({n}[k-{j}])")
+            if dengtan:
+                out.append(f"DengTan({n}[k-{j}])")
     return out
 
 
@@ -159,7 +160,10 @@ def operator_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
     """The augmentation test with memory-operator terms (:func:`operator_terms`)
     in place of the direction terms: the baseline's terms + the operator
     terms, and y[k-1] + u[k-1] + the operator terms; placebo operators of
-    the shifted input give the null, as in :func:`phi_augmentation_test`."""
+    the shifted input give the null, as in :func:`phi_augmentation_test`.
+    Only plays are used: their radii are fractions of the input's range, so
+    the test does not depend on the input's units (Deng–Tan's
+    :math:`|\\arctan z|\\, z` does)."""
     return phi_augmentation_test(model, data, shifts=shifts, alpha=alpha, seed=seed,
                                  operators=True)
 
@@ -179,7 +183,7 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
         pairs.append((name, fresh_name(taken, "v")))
         taken.add(pairs[-1][1])
     if operators:
-        D = Model(operator_terms(data), **sig).term_texts
+        D = Model(operator_terms(data, dengtan=False), **sig).term_texts
         inc = Model([f"{data.output}[k-1]"] + [f"{n}[k-1]" for n, _ in pairs], **sig).term_texts
     else:
         D = [t for n, _ in pairs
@@ -307,7 +311,7 @@ def _run_operators(ctx) -> Outcome:
     detail = c.detail.replace(
         f"the Bouc–Wen direction terms |Δu|, {ctx.output}[k-1]·|Δu|, u[k-1]·|Δu| "
         f"(|Δu| = Phi1·Phi2 of u[k-1], u[k-2])",
-        "the memory-operator terms " + ", ".join(operator_terms(ctx.fit)))
+        "the memory-operator terms " + ", ".join(operator_terms(ctx.fit, dengtan=False)))
     return Outcome([replace(c, test="operator augmentation", detail=detail)], a)
 
 
