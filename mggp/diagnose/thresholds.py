@@ -46,7 +46,7 @@ CALIBRATION_REALISATIONS = 60
 CALIBRATION: Dict[str, float] = {
     "loop gap": 1.467, "Φ-augmentation": 1.461, "free-run excess": 1.212, "hold": 0.7747,
     "rest error": 5.717, "φ_ee": 2.826, "φ_ue": 0.7638, "φ_u²'e": 0.4293, "φ_u²'e²": 2.437,
-    "operator augmentation": 0.6458}
+    "operator augmentation": 0.5929}
 
 
 def check_family(name: str) -> str:
