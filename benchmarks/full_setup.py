@@ -10,7 +10,7 @@ Typical call::
 Setup (the published one, Abreu et al. 2020): the 50,000-sample piezo training record, population 500,
 200 generations, crossover 0.8, mutation 0.2, max tree height 5, at most 15
 terms, elite 10 %, primitives {×, Φ1, Φ2, q⁻¹..q⁻³}, terminals {y[k-1],
-u[k-1]}, MS fitness (Δm = 100), ``MGGPRegressor(n_jobs=2)``. Recorded: wall
+u[k-1]}, MS fitness (Δm = 100), no screen, best-fitness selection, ``n_jobs=2``. Recorded: wall
 time of ``fit`` (pool start-up included) and per generation, evaluations
 (distinct structures scored; repeats come from the search's cache), the
 best fitness, the model, and its free-run MAPE on the training record and
@@ -42,7 +42,8 @@ def run(n=50_000, population=500, generations=200, jobs=2, seed=0, window=100,
     est = MGGPRegressor(fitness="ms", window=window, population=population,
                         generations=generations, max_terms=max_terms, max_height=max_height,
                         constraints="steady-state", random_state=seed, n_jobs=jobs,
-                        backend=backend, callbacks=[on_generation])
+                        backend=backend, callbacks=[on_generation], use_phi=True,
+                        screen=None, select="fitness", size="search")
     load0 = load_note()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -7,7 +7,8 @@ Typical use::
         --out model.json --report report/ --checkpoint run.ckpt
 
 A progress line shows the generation and the best fitness; ``--checkpoint``
-writes the state atomically every generation and ``--resume`` continues
+writes the state atomically after a generation, as often as keeps the writes
+within about 5 % of the run's time, and ``--resume`` continues
 from it (the result equals an uninterrupted run with the same seed).
 """
 from __future__ import annotations
@@ -26,6 +27,9 @@ __all__ = ["register", "FIT_OPTIONS"]
 
 #: options of ``mggp fit``: every parameter with a flag, and the outputs
 FIT_OPTIONS = tuple(PARAMS.values()) + (
+    Param("phi", None, Bool(), "Φ-functions allowed: one search, no comparison with a "
+          "search without them", "model class", "--phi", const=True,
+          default_text="chosen by held-out free-run error", estimator=False),
     Param("out", None, PATH, "write the model: with --constraints the CLS fit, unless its "
           "free run diverges on the training record or (unless --screen hold, or --select "
           "hold found a structure that holds) its RMSE there is over twice the LS fit's: "
@@ -41,7 +45,11 @@ FIT_OPTIONS = tuple(PARAMS.values()) + (
 def register(sub):
     p = sub.add_parser("fit", help="search a model structure by MGGP",
                        description="Search the structure of a polynomial NARX model by "
-                                   "multi-gene GP; defaults are the published setup.")
+                                   "multi-gene GP. Without options the search chooses for "
+                                   "itself whether to use Φ-terms (held-out free-run error) "
+                                   "and, with --constraints, a structure whose constrained "
+                                   "refit holds its output; each choice is printed and "
+                                   "recorded in the model. An explicit option overrides it.")
     p.add_argument("data", metavar="DATA.csv", help="training record (columns u and y "
                    "unless --input/--output say otherwise)")
     add_options(p, FIT_OPTIONS)
@@ -81,6 +89,10 @@ def _cmd_fit(args) -> int:
     # the rules of the options, alone and combined, come from the table
     # (mggp.params); what follows combines options with modes and files
     est = MGGPRegressor(**options_given(args, [p for p in FIT_OPTIONS if p.estimator]))
+    if args.phi:
+        if est.use_phi is False:
+            raise CLIError("--phi and --no-phi exclude each other: give one")
+        est.set_params(use_phi=True)
     check_params(est, cli=True)
     mode_option(est.fitness, {"ksa": "k", "ms": "window"}, args, "--fitness")
     check_refine_args(args)
@@ -88,7 +100,7 @@ def _cmd_fit(args) -> int:
         raise CLIError("--resume needs --checkpoint FILE")
     if args.resume and not os.path.exists(args.checkpoint):
         print(f"note: no checkpoint at {args.checkpoint} yet: a new run starts (it is "
-              f"written there every generation)", file=sys.stderr)
+              f"written there as the search goes)", file=sys.stderr)
     if est.backend == "dask" and not args.scheduler:
         raise CLIError("--backend dask needs --scheduler ADDRESS")
     if args.scheduler and est.backend != "dask":
@@ -110,6 +122,7 @@ def _cmd_fit(args) -> int:
     try:
         with warnings.catch_warnings():       # said below, for the model written
             warnings.simplefilter("ignore", CLSRejectedWarning)
+            warnings.filterwarnings("ignore", "select='hold': none of")   # a note below
             est.fit(data)
     except DataError as exc:                  # e.g. too few samples for the lags
         raise CLIError(f"{args.data}: {exc}") from None
@@ -117,6 +130,8 @@ def _cmd_fit(args) -> int:
         raise CLIError(str(exc)) from None
     m = est.model_
     final = m
+    for c in est.choices_.values():
+        print(f"auto: {c['why']}", file=sys.stderr)
     fr_ls = m.simulate(data, mode="freerun")
     lines = [f"seed {est.seed_}; {est.n_evaluations_} structures evaluated in "
              f"{est.fit_time_:.1f} s; best {est.fitness} fitness {fmt(est.fitness_)}"
@@ -138,6 +153,12 @@ def _cmd_fit(args) -> int:
             fr = c.simulate(data, mode="freerun")
             lines += ["CLS: " + c.equation(), _freerun_line(fr)]
             why = est.cls_rejected_                 # the estimator's verdict
+            hold = est.choices_.get("select", {}).get("figures", {})
+            if hold.get("candidates") and hold.get("holding") is None:
+                print(f"note: none of the {hold['candidates']} candidate structures holds "
+                      f"its output on a held input under the steady-state constraints; "
+                      f"the {'LS' if why else 'CLS'} fit of the best-fitness structure is "
+                      f"written", file=sys.stderr)
             if why:
                 print(f"warning: the CLS refit {why}; the LS model is written instead "
                       f"(`mggp estimate DATA --terms ... --constraints steady-state` "

@@ -40,23 +40,27 @@ MAX_SAMPLES = 2_000_000
 def register(sub):
     p = sub.add_parser("quasistatic", help="attracting and repelling sets, bounding "
                        "structure and free-run loop of a model")
-    p.add_argument("model", metavar="MODEL.json")
+    p.add_argument("model", metavar="MODEL.json", help="the model file to analyse")
     p.add_argument("data", metavar="DATA.csv", nargs="?", default=None,
                    help="the input record (or give --sine)")
     p.add_argument("--sine", nargs=2, type=float, metavar=("AMPLITUDE", "FREQUENCY"),
-                   default=None, help="analyse AMPLITUDE sin(2π FREQUENCY t) instead of DATA.csv")
+                   default=None, help="analyse AMPLITUDE sin(2π FREQUENCY t) (input units, Hz) instead "
+                        "of DATA.csv (default: read DATA.csv)")
     p.add_argument("--rate", type=float, default=None, metavar="HZ",
-                   help="sampling rate of --sine in samples per second")
+                   help="sampling rate of --sine in samples per second (required with --sine)")
     p.add_argument("--periods", type=float, default=None,
-                   help="duration of --sine in periods (default 2)")
+                   help="duration of --sine in periods (default: 2)")
     p.add_argument("--bounding-step", type=float, default=0.0, metavar="DU",
                    help="input change per sample on the bounding structure's branches "
                         "(default 0: the rate at its limit, Phi1 = 0)")
     p.add_argument("--units", nargs=2, default=None, metavar=("INPUT_UNIT", "OUTPUT_UNIT"),
-                   help="units for the figure's axes, e.g. V µm")
-    p.add_argument("--json", metavar="QS.json", default=None)
-    p.add_argument("--report", metavar="DIR", default=None)
-    add_signal_args(p)
+                   help="units for the figure's axes, e.g. V µm (default: none shown)")
+    p.add_argument("--json", metavar="QS.json", default=None,
+                   help="write every sample's roots, classes and the bounding structure "
+                        "as JSON (default: not written)")
+    p.add_argument("--report", metavar="DIR", default=None,
+                   help="write summary.md and the figure to this folder (default: none)")
+    add_signal_args(p, inputs="the model's input names", output="the model's output name")
     p.set_defaults(func=_cmd_quasistatic)
 
 

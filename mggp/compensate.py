@@ -195,6 +195,7 @@ def identify_inverse(u, y, *, lead=1, reference="r", constrained=True, estimator
     if estimator is None:
         params.setdefault("constraints", "steady-state" if constrained else None)
         params.setdefault("select", "freerun")
+        params.setdefault("screen", "freerun")      # leaders that run away in free run
         estimator = MGGPRegressor(**params)
     with warnings.catch_warnings():           # the model is chosen here, explicitly
         warnings.simplefilter("ignore", CLSRejectedWarning)

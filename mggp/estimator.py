@@ -42,6 +42,8 @@ from narx.phi import default_registry
 from narx.terms import Term
 
 from .checkpoint import checkpoint_seed, data_digest
+from .choices import Choice, heldout_rmse, phi_choice, resolve_screen, resolve_select
+from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import evolve
 from .params import PARAMS, check_params, context_of, params_doc
@@ -49,7 +51,7 @@ from .pareto import ParetoFront
 from .precision import data_warnings
 from .primitives import identically_zero, make_pset, max_lag_for_height, search_operators
 from .screen import StabilityScreen
-from .stages import FitContext, run_stages
+from .stages import FitContext, run_stages, screened
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
 
@@ -60,12 +62,24 @@ CONSTANT = Term(())
 class MGGPRegressor:
     """Multi-gene GP structure search for polynomial NARX models.
 
-    Every parameter is keyword-only; the defaults are the published setup.
-    The list below (*Parameters*) is generated from
+    Every parameter is keyword-only; the defaults are the published setup
+    except where they are 'auto', which the fit chooses for itself
+    (:mod:`mggp.choices`). The list below (*Parameters*) is generated from
     :data:`mggp.params.PARAMS`, which also holds each rule.
 
     Notes
     -----
+    Automatic choices (``choices_``, and ``meta['choices']`` of every model,
+    each with the figures it was taken on): ``screen`` and ``select`` are
+    'hold' with ``constraints='steady-state'``, else 'freerun' and
+    'fitness'; ``use_phi`` runs a search with Φ and one without at half the
+    population each and keeps Φ when its structure's held-out free-run RMSE
+    (θ by LS on the first 70 % of the record, error on the last 30 %) is
+    over 5 % lower — or, with the hold selection, when only the Φ search has
+    a structure that holds; ``size`` takes the fewest terms of the run's
+    Pareto front within 5 % of the least held-out free-run RMSE. An
+    explicit value of a parameter disables its choice.
+
     ``select``: ``'freerun'`` takes, among the ``select_candidates`` best
     distinct structures of the run (archive and final population), the one
     with the lowest free-run MSE over the whole training record — multiple
@@ -129,10 +143,10 @@ class MGGPRegressor:
                  constraints=None, search_constraints=None, population=500,
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
-                 max_terms=15, max_height=5, use_phi=True, phi_names=None,
+                 max_terms=15, max_height=5, use_phi="auto", phi_names=None,
                  phi_outputs=False, operators=None, constant=False, max_lag=None,
-                 max_degree=None, select="fitness", select_candidates=20,
-                 screen=None, screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
+                 max_degree=None, select="auto", size="auto", select_candidates=50,
+                 screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
                  scheduler=None, inputs=None, output="y", checkpoint=None,
@@ -161,6 +175,7 @@ class MGGPRegressor:
         self.max_lag = max_lag
         self.max_degree = max_degree
         self.select = select
+        self.size = size
         self.select_candidates = select_candidates
         self.screen = screen
         self.screen_top = screen_top
@@ -249,24 +264,76 @@ class MGGPRegressor:
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
                                  registry=registry)
-        ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
-                         screen=self._make_screen(data, start, registry))
-        ctx.seed, ctx.result = self._search(ctx)
+        half = self.population // 2 if (self.use_phi == "auto"
+                                        and not self.phi_outputs) else None
+        ctx = FitContext(self, data, registry, start, scorer, shape=self._structure)
+        if self.screen == "auto":
+            ctx.choices["screen"] = resolve_screen(self)
+        ctx.screen = self._make_screen(data, start, registry, half, ctx)
+        evaluations = self._searches(ctx)
         run_stages(ctx.shape(ctx.result.best.terms), data, ctx)
         res = ctx.result
+        self.choices_ = {name: c.to_dict() for name, c in ctx.choices.items()}
         self.logbook_ = res.logbook
         self.screen_rejected_ = None if ctx.screen is None else ctx.screen.rejected
         self.screen_rejected_hold_ = None if ctx.screen is None else ctx.screen.rejected_hold
-        self.n_evaluations_ = res.evaluations
+        self.n_evaluations_ = evaluations
         self.seed_ = ctx.seed
         self.result_ = res
         self.fit_time_ = time.perf_counter() - t0
         return self
 
-    def _search(self, ctx: FitContext):
-        """The evolution: ``(seed, EvolutionResult)``."""
-        data, screen, shape = ctx.data, ctx.screen, ctx.shape
-        pset = make_pset(data.signals, ctx.registry, use_phi=self.use_phi,
+    def _searches(self, ctx: FitContext) -> int:
+        """The search, or with ``use_phi='auto'`` (and no checkpoint) one
+        search with Φ and one without at half the population each, the one
+        kept whose best structure has the lower held-out free-run error
+        (:mod:`mggp.choices`). Sets ``ctx.seed``, ``ctx.result``,
+        ``ctx.screen`` and the choice; returns the structures evaluated."""
+        if self.use_phi != "auto" or self.phi_outputs:      # Φ of outputs: Φ asked for
+            ctx.seed, ctx.result = self._search(ctx, self.use_phi is not False,
+                                                self.population,
+                                                ctx.screen)
+            return ctx.result.evaluations
+        if self.checkpoint is not None:
+            ctx.choices["use_phi"] = Choice(
+                "use_phi", True, "Φ: a checkpointed run is one search (with Φ), not "
+                "compared with one without", {})
+            ctx.seed, ctx.result = self._search(ctx, True, self.population, ctx.screen)
+            return ctx.result.evaluations
+        half = max(2, self.population // 2)
+        screens = (ctx.screen, self._make_screen(ctx.data, ctx.start, ctx.registry, half,
+                                                 ctx))
+        runs = []
+        seed = None
+        holding = []
+        for use, scr in zip((True, False), screens):
+            seed, res = self._search(ctx, use, half, scr, seed)
+            terms, holds = self._held_candidate(ctx, res)
+            holding.append(holds)
+            runs.append((res, scr, heldout_rmse(terms, ctx.data, ctx.registry)))
+        choice = phi_choice(runs[1][2], runs[0][2], holding[1], holding[0])
+        ctx.choices["use_phi"] = choice
+        ctx.seed = seed
+        ctx.result, ctx.screen, _ = runs[0] if choice.value else runs[1]
+        return sum(r.evaluations for r, _, _ in runs)
+
+    def _held_candidate(self, ctx: FitContext, res):
+        """The structure of ``res`` the hold selection would take (when
+        ``select`` is or resolves to 'hold') and whether its CLS refit
+        holds (None: no hold selection); else the best-fitness one."""
+        best = ctx.shape(res.best.terms)
+        if self.select not in ("hold", "auto") or (
+                self.select == "auto" and resolve_select(self).value != "hold"):
+            return best, None
+        cands = run_candidates(res, ctx.data.signals, ctx.shape, self.select_candidates)
+        chosen, _ = select_hold(cands, ctx.data, ctx.start, ctx.registry, self.screen_band)
+        return (chosen or best), chosen is not None
+
+    def _search(self, ctx: FitContext, use_phi: bool, population: int, screen,
+                seed: Optional[int] = None):
+        """One evolution: ``(seed, EvolutionResult)``."""
+        data, shape = ctx.data, ctx.shape
+        pset = make_pset(data.signals, ctx.registry, use_phi=use_phi,
                          phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs),
                          operators=search_operators(self.operators, data.U))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
@@ -284,12 +351,12 @@ class MGGPRegressor:
         def on_generation(state):
             for cb in callbacks:
                 cb(state)
-        seed = self._seed()
+        seed = self._seed() if seed is None else seed
         if self.resume and self.checkpoint is not None and self.random_state is None:
             seed = checkpoint_seed(self.checkpoint) or seed   # continue its run
         context = {"data": data_digest(data), **context_of(self)}
         try:
-            res = evolve(pset, evaluate_batch, seed=seed, population_size=self.population,
+            res = evolve(pset, evaluate_batch, seed=seed, population_size=population,
                          generations=self.generations, cxpb=self.cxpb, mutpb=self.mutpb,
                          high_level_cx_rate=self.high_level_cx_rate,
                          high_level_mut_rate=self.high_level_mut_rate,
@@ -306,15 +373,16 @@ class MGGPRegressor:
                              "candidate diverged; try fitness='pem' or a shorter window")
         return seed, res
 
-    def _make_screen(self, data, start, registry):
-        if self.screen is None:
+    def _make_screen(self, data, start, registry, population=None, ctx=None):
+        how = self.screen if ctx is None else screened(ctx)
+        if how in (None, "none"):
             return None
         top = self.screen_top
         if top is None:
-            top = max(1, int(round(self.elite_fraction * self.population)))
+            top = max(1, int(round(self.elite_fraction * (population or self.population))))
         return StabilityScreen(data, start, top, band=self.screen_band,
                                constraints=self.search_constraints, registry=registry,
-                               hold=self.screen == "hold")
+                               hold=how == "hold")
 
     def _structure(self, terms) -> tuple:
         """The scored structure of decoded terms: the allowed ones, after

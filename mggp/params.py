@@ -263,7 +263,8 @@ _ROWS = (
     Param("constraints", None, OneOf((None, "steady-state")),
           "also refit the chosen structure by constrained least squares so that every "
           "constant output is an equilibrium when the input is held (continuum of steady "
-          "states)", "model class", "--constraints", default_text="least squares only"),
+          "states)", "model class", "--constraints", context="if set",
+          default_text="least squares only"),
     Param("search_constraints", None, OneOf((None, "steady-state")),
           "score every structure of the search by its constrained fit (continuum of "
           "steady states) instead of least squares", "selection", "--search-constraints",
@@ -285,10 +286,15 @@ _ROWS = (
           "--max-terms", meta=True),
     Param("max_height", 5, Int(1), "height of the GP trees; a tree of height h reaches "
           "lags up to 1 + 3h", "model class", "--max-height", meta=True),
-    Param("use_phi", True, Bool(), "terms may hold Φ-functions of lagged inputs (input "
-          "increments and their signs, which model hysteresis)", "model class", "--no-phi",
+    Param("use_phi", "auto", OneOf((True, False, "auto")), "terms may hold Φ-functions "
+          "of lagged inputs (input increments and their signs, which model hysteresis); "
+          "'auto': a search with Φ and one without, each with half the population; Φ is "
+          "kept when its structure's held-out free-run error (θ on the first 70 % of the "
+          "record, error on the last 30 %) is over 5 % lower", "model class", "--no-phi",
           context=True, meta=True, const=False,
-          flag_help="plain polynomial terms only: no Φ-functions", default_text="with Φ"),
+          flag_help="plain polynomial terms only: no Φ-functions (--phi: Φ-functions "
+          "allowed; neither: both searched at half population, the one with the lower "
+          "held-out free-run error kept)", default_text="chosen by held-out free-run error"),
     Param("phi_names", None, NAMES, "Φ-functions the search uses (default: all "
           "registered)", "model class", context=True, meta=True),
     Param("phi_outputs", False, Bool(), "Φ-terms of output lags too, e.g. "
@@ -308,18 +314,26 @@ _ROWS = (
           default_text="what --max-height reaches"),
     Param("max_degree", None, Int(1, none=True), "largest polynomial degree of a term",
           "model class", "--max-degree", context=True, meta=True, default_text="none"),
-    Param("select", "fitness", OneOf(("fitness", "freerun", "hold")),
+    Param("select", "auto", OneOf(("auto", "fitness", "freerun", "hold")),
           "the result among the best distinct structures of the run: the best fitness, "
           "the least free-run error over the training record, or (hold) the best whose "
-          "constrained refit holds its output on a held input", "selection", "--select",
+          "constrained refit holds its output on a held input; auto: hold with "
+          "--constraints steady-state, else fitness", "selection", "--select",
           meta=True),
-    Param("select_candidates", 20, Int(1), "structures compared by --select freerun and "
+    Param("size", "auto", OneOf(("auto", "search")),
+          "number of terms: search (the chosen structure as it is), or auto: the "
+          "smallest structure of the run's Pareto front (complexity against fitness) whose "
+          "held-out free-run error (θ on the first 70 % of the record, error on the last "
+          "30 %) is within 5 % of the least; the hold selection keeps its structure",
+          "selection", "--size", meta=True),
+    Param("select_candidates", 50, Int(1), "structures compared by --select freerun and "
           "hold", "selection"),
-    Param("screen", None, OneOf((None, "freerun", "hold")),
+    Param("screen", "auto", OneOf(("auto", "freerun", "hold", "none", None)),
           "stability screen in every generation: the leaders whose free run over the "
           "training record leaves the output band get no fitness (hold: also those whose "
-          "constrained refit does not hold its output on a held input)", "selection",
-          "--screen", context=True, meta=True, default_text="no screen"),
+          "constrained refit does not hold its output on a held input; none: no screen; "
+          "auto: hold with --constraints steady-state, else freerun)",
+          "selection", "--screen", context=True, meta=True),
     Param("screen_top", None, Int(1, none=True), "leaders screened per generation "
           "(default: the elite size)", "selection", context=True),
     Param("screen_band", 1.0, Real(0), "widening of the screen's band beyond [min y, max "
@@ -352,7 +366,9 @@ _ROWS = (
           metavar="NAME", default_text="u"),
     Param("output", "y", Kind("a name", lambda v: isinstance(v, str)), "output column "
           "name", "data", "--output", metavar="NAME"),
-    Param("checkpoint", None, PATH, "save the search state to this file every generation",
+    Param("checkpoint", None, PATH, "save the search state to this file after a generation, as often as "
+          "keeps the writes within about 5 % of the run's time "
+          "(one search: with Φ unless --no-phi, no automatic Φ choice)",
           "output", "--checkpoint", metavar="FILE", default_text="none"),
     Param("resume", False, Bool(), "continue the run saved in --checkpoint", "output",
           "--resume", const=True, default_text="start anew"),

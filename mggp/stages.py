@@ -13,8 +13,12 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
 (:data:`STAGES`):
 
 ``select``
-    The structure among the best of the run (``select``), or the best
-    fitness; sets ``selection_`` and ``search_terms_``.
+    The structure among the best of the run (``select``; 'auto': the one
+    whose CLS refit holds with ``constraints``, else the best fitness);
+    sets ``selection_`` and ``search_terms_``.
+``size``
+    'auto': the smallest structure of the run's Pareto front whose
+    held-out free-run error is within 5 % of the least (``size``).
 ``prune``
     Backward elimination by BIC of the fitness or by t-statistics
     (``prune``; :mod:`mggp.pruning`).
@@ -48,7 +52,7 @@ which builds at most one scorer per setting.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Dict, Optional, Tuple
 
 from narx import Model
@@ -56,6 +60,7 @@ from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
 
+from .choices import Choice, heldout_rmse, resolve_select, size_choice
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -99,6 +104,9 @@ class FitContext:
         The search's seed.
     meta : dict
         What every model of the fit records (set by the ``record`` stage).
+    choices : dict
+        The automatic choices made (:class:`mggp.choices.Choice` by
+        parameter name), recorded in ``meta['choices']``.
     """
 
     est: object
@@ -111,6 +119,7 @@ class FitContext:
     screen: object = None
     seed: Optional[int] = None
     meta: dict = field(default_factory=dict)
+    choices: dict = field(default_factory=dict)
     _scorers: Dict[Tuple, StructureScorer] = field(default_factory=dict)
 
     def scorer_for(self, fitness: str, constraints: Optional[str] = None) -> StructureScorer:
@@ -129,21 +138,42 @@ class FitContext:
 
 
 # ---------------------------------------------------------------- stages
+def screened(ctx) -> str:
+    """The stability screen of the search: ``screen``, or what 'auto' chose."""
+    c = ctx.choices.get("screen")
+    return ctx.est.screen if c is None else c.value
+
+
+def selected(ctx) -> str:
+    """How the structure is chosen: ``select``, or what 'auto' chose."""
+    c = ctx.choices.get("select")
+    return ctx.est.select if c is None else c.value
+
+
 def select(terms, data, ctx):
     """The structure among the best distinct ones of the run (``select``)."""
     est = ctx.est
-    if est.select == "freerun":
+    if est.select == "auto":
+        ctx.choices["select"] = resolve_select(est)
+    how = selected(ctx)
+    if how == "freerun":
         cands = run_candidates(ctx.result, data.signals, ctx.shape, est.select_candidates)
         chosen, est.selection_ = select_freerun(cands, data, ctx.start, ctx.registry,
                                                 scorer=ctx.scorer_for("freerun"))
         terms = chosen or terms
-    elif est.select == "hold":
+    elif how == "hold":
         cands = run_candidates(ctx.result, data.signals, ctx.shape, est.select_candidates)
         scr = ctx.screen
         shared = scr if (scr is not None and scr.hold is not None
                          and est.search_constraints is None) else None
         chosen, est.selection_ = select_hold(cands, data, ctx.start, ctx.registry,
                                              est.screen_band, screen=shared)
+        if "select" in ctx.choices:
+            c, at = ctx.choices["select"], len(est.selection_)
+            ctx.choices["select"] = replace(c, why=c.why + (
+                f"; candidate {at} of {len(cands)} (best fitness first) holds" if chosen
+                else f"; none of the {len(cands)} candidates holds"),
+                figures={"candidates": len(cands), "holding": at if chosen else None})
         if not chosen:
             warnings.warn(f"select='hold': none of the {len(est.selection_)} candidates "
                           f"holds its output on a held input; model_ is the best-fitness "
@@ -151,6 +181,26 @@ def select(terms, data, ctx):
         terms = chosen or terms
     est.search_terms_ = terms
     return terms
+
+
+def size(terms, data, ctx):
+    """``size='auto'``: the smallest structure of the run's Pareto front
+    whose held-out free-run error is within 5 % of the least, the chosen
+    structure included (:func:`mggp.choices.size_choice`). A structure
+    chosen for its holding (``select`` 'hold') is kept."""
+    est = ctx.est
+    if est.size != "auto" or selected(ctx) == "hold":
+        return terms
+    rows = [(len(terms), heldout_rmse(terms, data, ctx.registry), terms)]
+    seen = {frozenset(terms)}
+    for r in ctx.result.pareto:
+        ts = ctx.shape(r.terms)
+        if ts and len(ts) < len(terms) and frozenset(ts) not in seen:
+            seen.add(frozenset(ts))
+            rows.append((len(ts), heldout_rmse(ts, data, ctx.registry), ts))
+    c = size_choice(rows)
+    ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
+    return c.value
 
 
 def prune(terms, data, ctx):
@@ -191,9 +241,12 @@ def record(terms, data, ctx):
     est.fitness_ = ctx.result.best.fitness if terms == est.search_terms_ else \
         criterion_value(ctx.scorer.score(terms), len(terms), data.n - ctx.start,
                         est.criterion)
-    ctx.meta = dict(meta_of(est), seed=ctx.seed,
+    resolved = {name: c.value for name, c in ctx.choices.items()}
+    ctx.meta = dict(meta_of(est), **resolved, seed=ctx.seed,
                     cls_refit=est.constraints == "steady-state",
                     search_fitness_value=est.fitness_, versions=versions())
+    if ctx.choices:
+        ctx.meta["choices"] = {name: c.to_dict() for name, c in ctx.choices.items()}
     if est.operators:
         ctx.meta["operators"] = list(operator_names(est.operators))
     return terms
@@ -287,7 +340,7 @@ def cls_verdict(terms, data, ctx):
     (``screen='hold'``, or ``select='hold'`` with a candidate that holds)
     is not rejected for its error alone."""
     est = ctx.est
-    held = est.screen == "hold" or (est.select == "hold" and any(
+    held = screened(ctx) == "hold" or (selected(ctx) == "hold" and any(
         ok for ok, _ in getattr(est, "selection_", ())))
     est.cls_rejected_ = None if est.model_cls_ is None else cls_rejection(
         est.model_, est.model_cls_, data, held)
@@ -308,7 +361,7 @@ def pareto(terms, data, ctx):
 
 
 #: the stages of ``fit`` after the search, in order
-STAGES = (("select", select), ("prune", prune), ("noise", noise), ("record", record),
+STAGES = (("select", select), ("size", size), ("prune", prune), ("noise", noise), ("record", record),
           ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
           ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))
 

@@ -45,7 +45,8 @@ def recovery():
     out = {}
     for name in SYSTEMS:
         d = system_by_name(name, n=500, seed=0)
-        kw = dict(SETTINGS, population=40, generations=6)
+        kw = dict(SETTINGS, population=40, generations=6, screen=None, select="fitness",
+                  size="search")
         est = MGGPRegressor(random_state=1, **kw).fit(d.u, d.y)
         out[name] = _estimator(est)
     return out
@@ -57,10 +58,12 @@ def case_study():
     cs = case_data(n=3000)
     out = {}
     pem = MGGPRegressor(fitness="pem", population=24, generations=4, random_state=1,
-                        screen="freerun").fit(cs.u, cs.y)
+                        screen="freerun", use_phi=True, select="fitness",
+                        size="search").fit(cs.u, cs.y)
     out["pem"] = _estimator(pem)
     ms = MGGPRegressor(fitness="ms", window=200, population=24, generations=4,
                        random_state=1, screen="freerun", constraints="steady-state",
+                       use_phi=True,
                        select="hold", select_candidates=50).fit(cs.u, cs.y)
     out["ms"] = dict(_estimator(ms), rejected=ms.cls_rejected_)
     return out

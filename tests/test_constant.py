@@ -84,7 +84,7 @@ def test_progress_counts_the_terms_of_the_scored_structure():
     no pruning or selection changes it; control: the same search without
     the constant counts one term fewer for the same kind of model."""
     u, y = affine_record()
-    kw = dict(KW, prune=None, criterion="mse")
+    kw = dict(KW, prune=None, criterion="mse", size="search")
     est = MGGPRegressor(constant=True, **kw).fit(u, y)
     assert est.logbook_[-1]["best_terms"] == est.model_.n_terms
     assert "1" in est.model_.term_texts

@@ -123,7 +123,7 @@ def test_dask_worker_loss_is_retried(piezo, monkeypatch):
     assert distributed
 
 
-FIT = dict(fitness="ms", window=50, population=24, generations=4, max_terms=6,
+FIT = dict(use_phi=True, size="search", fitness="ms", window=50, population=24, generations=4, max_terms=6,
            max_height=3, random_state=2)
 
 
@@ -222,7 +222,7 @@ def fit_args(folder, u, y, population, generations, seed, max_terms):
     np.savetxt(csv, np.c_[u, y], delimiter=",", header="u,y", comments="")
     return ["fit", str(csv), "--fitness", "ms", "--window", "50", "--population",
             str(population), "--generations", str(generations), "--seed", str(seed),
-            "--max-terms", str(max_terms), "--max-height", "3", "--quiet"]
+            "--max-terms", str(max_terms), "--max-height", "3", "--quiet", "--phi"]
 
 
 def test_sigkill_during_checkpoint_write_then_resume(piezo, tmp_path, capsys):

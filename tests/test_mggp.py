@@ -147,7 +147,7 @@ def test_select_freerun_picks_the_best_whole_record_simulation():
     fb = b.model_.simulate(u, y, mode="freerun")
     assert fr.mse <= fb.mse * (1 + 1e-9) or fb.diverged
     with pytest.raises(ValueError,
-                       match="select must be one of 'fitness', 'freerun', 'hold', got 'best'"):
+                       match="select must be one of 'auto', 'fitness', 'freerun', 'hold', got 'best'"):
         MGGPRegressor(select="best", **kw).fit(u, y)
 
 

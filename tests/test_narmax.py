@@ -7,7 +7,7 @@ from narx.testsystems import system_by_name
 
 SETTINGS = dict(fitness="pem", criterion="bic", population=200, generations=40,
                 max_terms=8, max_height=3, use_phi=False, prune="t", max_lag=4,
-                max_degree=3, random_state=0)
+                max_degree=3, random_state=0, screen=None, select="fitness", size="search")
 
 
 def split(terms):

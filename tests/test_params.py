@@ -14,7 +14,7 @@ def record():
 
 
 @pytest.mark.parametrize("param, value, text", [
-    ("select", "foo", "select must be one of 'fitness', 'freerun', 'hold', got 'foo'"),
+    ("select", "foo", "select must be one of 'auto', 'fitness', 'freerun', 'hold', got 'foo'"),
     ("prune", "foo", "prune must be one of False, None, 'bic', 't', got 'foo'"),
     ("noise_lags", "x", "noise_lags must be an integer >= 0, got 'x'"),
     ("noise_lags", -1, "noise_lags must be an integer >= 0, got -1"),
@@ -26,7 +26,7 @@ def record():
     ("search_constraints", "foo", "search_constraints must be one of None, 'steady-state'"),
     ("generations", -1, "generations must be an integer >= 0, got -1"),
     ("population", 1, "population must be an integer >= 2, got 1"),
-    ("screen", "fast", "screen must be one of None, 'freerun', 'hold', got 'fast'"),
+    ("screen", "fast", "screen must be one of 'auto', 'freerun', 'hold', 'none', None, got 'fast'"),
     ("phi_outputs", "yes", "phi_outputs must be one of False, True, got 'yes'"),
     ("phi_outputs", True, "phi_outputs=True needs Φ-functions in the search, got use_phi=False"),
 ])
@@ -135,7 +135,7 @@ def test_checkpoint_context_and_meta_keep_their_names():
     assert set(context_of(MGGPRegressor(constant=True, phi_outputs=True))) == \
         old | {"phi_outputs", "constant"}
     meta = meta_of(MGGPRegressor(phi_outputs=1 == 1))
-    assert meta["phi_outputs"] is True and meta["select"] == "fitness"
+    assert meta["phi_outputs"] is True and meta["select"] == "auto"
     assert {"population", "generations", "prune", "noise_lags", "refine"} <= set(meta)
 
 
@@ -145,7 +145,7 @@ def test_checkpoint_context_and_meta_keep_their_names():
     ("n_jobs", 0, "n_jobs must be an integer >= 1 or -1, got 0"),
     ("random_state", -3, "random_state must be None, an integer >= 0 or a numpy "
                          "Generator, got -3"),
-    ("use_phi", "no", "use_phi must be one of False, True, got 'no'"),
+    ("use_phi", "no", "use_phi must be one of True, False, 'auto', got 'no'"),
     ("inputs", "u", "inputs must be None or a list of names, got 'u'"),
 ])
 def test_every_parameter_is_checked_by_its_row(record, param, value, text):

@@ -69,7 +69,9 @@ def test_readme_block_runs_alone(lang, code, tmp_path):
     else:
         bindir = tmp_path / "bin"                  # `python` is this interpreter
         bindir.mkdir()
-        (bindir / "python").symlink_to(sys.executable)
+        shim = bindir / "python"                   # a symlink would lose the venv
+        shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" "$@"\n')
+        shim.chmod(0o755)
         env["PATH"] = str(bindir) + os.pathsep + env["PATH"]
         cmd = ["bash", "-euo", "pipefail", "-c", code]
     r = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True,

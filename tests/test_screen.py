@@ -75,18 +75,19 @@ def test_screen_bad_parameters(kw, text):
 
 def test_estimator_rejects_unknown_screen():
     u, y = _piezo()
-    with pytest.raises(ValueError, match="screen must be one of None, 'freerun', 'hold', got 'x'"):
+    with pytest.raises(ValueError, match="screen must be one of 'auto', 'freerun', 'hold', 'none', None, got 'x'"):
         MGGPRegressor(screen="x", population=4, generations=0).fit(u, y)
 
 
-_KW = dict(fitness="ms", window=50, population=60, generations=10, max_terms=8, n_jobs=1)
+_KW = dict(fitness="ms", window=50, population=60, generations=10, max_terms=8, n_jobs=1,
+           use_phi=True, size="search")
 
 
 def test_screened_search_result_stays_in_band_where_the_plain_one_diverges():
     # seed 6: the plain MS search ends on a structure whose free run over the
     # training record diverges (windows of 50 samples never see it)
     u, y = _piezo()
-    plain = MGGPRegressor(random_state=6, **_KW).fit(u, y)
+    plain = MGGPRegressor(random_state=6, screen=None, **_KW).fit(u, y)
     r = plain.model_.simulate(u, y, "freerun")
     assert r.diverged or np.max(np.abs(r.y_hat[16:])) > _band(y, 16)
     screened = MGGPRegressor(random_state=6, screen="freerun", **_KW).fit(u, y)
@@ -104,7 +105,7 @@ def test_screen_control_nothing_to_reject_leaves_the_search_alone():
     d = system_by_name("S2", n=500, seed=0)
     kw = dict(fitness="ms", window=20, population=60, generations=10, max_terms=6,
               max_height=3, use_phi=False, n_jobs=1, random_state=1)
-    plain = MGGPRegressor(**kw).fit(d.u, d.y)
+    plain = MGGPRegressor(screen=None, **kw).fit(d.u, d.y)
     screened = MGGPRegressor(screen="freerun", **kw).fit(d.u, d.y)
     assert screened.screen_rejected_ == 0
     assert screened.model_.term_texts == plain.model_.term_texts
@@ -179,7 +180,8 @@ def test_select_hold_warns_when_no_candidate_holds():
     u = training_input(20000)
     y = piezo_bouc_wen(u)
     kw = dict(fitness="ms", window=500, population=60, generations=10,
-              constraints="steady-state", select="hold")
+              constraints="steady-state", select="hold", screen=None, use_phi=True,
+              select_candidates=20)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         est = MGGPRegressor(random_state=1, **kw).fit(u, y)

@@ -1,0 +1,213 @@
+"""The default search against a grid of expert options, record by record.
+
+Typical use::
+
+    python -m benchmarks.panel --seeds 1 --population 60 --generations 10 --jobs 2
+    python -m benchmarks.panel --seeds 1 2 3 --jobs 2 --json panel.json   # default budget
+
+For every record, :class:`mggp.MGGPRegressor` with its defaults (what
+``mggp fit DATA.csv --seed S --jobs J`` runs; the budget of ``--population``
+and ``--generations`` applies to every setting alike) and with each setting
+of :data:`GRID`, the expert flag combinations the studies set by hand. Each
+model runs free on the record's validation part from its first measured
+samples; the figure is the RMSE there (``inf``: diverged). Goals: the
+default's median over the seeds within 10 % of the best grid setting's
+median, and no default model diverging.
+
+Records (:data:`RECORDS`): the shared measured records (cascaded tanks, buck
+converter, MR damper; :mod:`benchmarks.real_data`,
+:mod:`benchmarks.mr_damper`), and simulated ones: the piezo actuator of the
+case study (5,000 training samples; validation u = 40 sin(2πt)), a
+Prandtl–Ishlinskii operator, a Bouc–Wen oscillator (:func:`bouc_wen_oscillator`,
+validation by a sine sweep) and Piroddi's S1–S6 (validation: a record of
+another noise seed).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+import warnings
+
+import numpy as np
+
+from narx import Data
+
+__all__ = ["GRID", "RECORDS", "bouc_wen_oscillator", "run", "markdown"]
+
+#: label (the flags of ``mggp fit``) -> MGGPRegressor keywords
+GRID = {
+    "--phi --screen none --select fitness --size search": dict(
+        use_phi=True, screen=None, select="fitness", size="search"),
+    "--no-phi --screen none --select fitness --size search": dict(
+        use_phi=False, screen=None, select="fitness", size="search"),
+    "--phi --select freerun": dict(use_phi=True, select="freerun"),
+    "--no-phi --select freerun": dict(use_phi=False, select="freerun"),
+    "--no-phi --constant": dict(use_phi=False, constant=True),
+}
+
+
+def bouc_wen_oscillator(u, fs=750.0, substeps=20):
+    """Displacement (mm) of the Bouc–Wen oscillator of Noël and Schoukens
+    (Workshop on Nonlinear System Identification Benchmarks, 2016),
+
+    .. math:: m\\ddot y + c\\dot y + k y + z = u, \\qquad
+              \\dot z = \\alpha \\dot y - \\beta(\\gamma |\\dot y| z
+              + \\delta \\dot y |z|)
+
+    m = 2 kg, c = 10 Ns/m, k = 5e4 N/m, α = 5e4 N/m, β = 1e3 m⁻¹, γ = 0.8,
+    δ = −1.1, force ``u`` (N) held over each sample of 1/``fs`` s, RK4 with
+    ``substeps`` steps per sample."""
+    m, c, k, a, b, g, d = 2.0, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1
+    h = 1.0 / fs / substeps
+
+    def f(s, uk):
+        y, v, z = s
+        return np.array([v, (uk - c * v - k * y - z) / m,
+                         a * v - b * (g * abs(v) * z + d * v * abs(z))])
+    s = np.zeros(3)
+    out = np.empty(len(u))
+    for i, uk in enumerate(np.asarray(u, dtype=float)):
+        out[i] = s[0]
+        for _ in range(substeps):
+            k1 = f(s, uk)
+            k2 = f(s + 0.5 * h * k1, uk)
+            k3 = f(s + 0.5 * h * k2, uk)
+            k4 = f(s + h * k3, uk)
+            s = s + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return 1e3 * out
+
+
+def _oscillator():
+    rng = np.random.default_rng(0)
+    fs, n = 750.0, 3000
+    t = np.arange(n) / fs
+    freqs = np.arange(5.0, 150.0, 1.0)
+    u = sum(np.cos(2 * np.pi * fq * t + rng.uniform(0, 2 * np.pi)) for fq in freqs)
+    u *= 50.0 / np.std(u)                          # multisine, 50 N rms, 5-150 Hz
+    tv = np.arange(2000) / fs                      # sweep 5 -> 100 Hz, 40 N
+    uv = 40.0 * np.sin(2 * np.pi * (5.0 * tv + 0.5 * (95.0 / tv[-1]) * tv ** 2))
+    return Data(u, bouc_wen_oscillator(u)), Data(uv, bouc_wen_oscillator(uv))
+
+
+def _piezo():
+    from .casestudy import case_data
+    cs = case_data(n=5000)
+    return Data(cs.u, cs.y), Data(cs.uv, cs.yv)
+
+
+def _pi():
+    from narx.systems import prandtl_ishlinskii, sine_input, training_input
+    u = training_input(3000, dt=1e-2, seed=0)
+    _, uv = sine_input(duration=10.0, dt=1e-2)
+    return Data(u, prandtl_ishlinskii(u)), Data(uv, prandtl_ishlinskii(uv))
+
+
+def _shared(name):
+    from .real_data import load_record
+    return load_record(name)
+
+
+def _damper():
+    from .mr_damper import damper_path, load_damper
+    path = damper_path()
+    if path is None:
+        return None
+    tr, te = load_damper(path)
+    names = dict(inputs=["E", "v"], output="f")
+    return Data(tr[:, :2], tr[:, 2], **names), Data(te[:, :2], te[:, 2], **names)
+
+
+def _piroddi(name):
+    from narx.testsystems import system_by_name
+    d, v = system_by_name(name, n=500, seed=0), system_by_name(name, n=500, seed=100)
+    return Data(d.u, d.y), Data(v.u, v.y)
+
+
+#: record name -> () -> (training Data, validation Data) or None (files missing)
+RECORDS = {
+    "cascaded tanks": lambda: _shared("cascaded tanks"),
+    "buck converter": lambda: _shared("buck converter"),
+    "MR damper": _damper,
+    "piezo (simulated)": _piezo,
+    "Prandtl-Ishlinskii": _pi,
+    "Bouc-Wen oscillator": _oscillator,
+    **{f"Piroddi {s}": (lambda s=s: _piroddi(s)) for s in
+       ("S1", "S2", "S3", "S4", "S5", "S6")},
+}
+
+
+def _fit(tr, va, seed, kw, budget, jobs):
+    from mggp import MGGPRegressor
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        est = MGGPRegressor(random_state=seed, n_jobs=jobs, **budget, **kw).fit(tr)
+    sim = est.get_best().simulate(va, mode="freerun")
+    rmse = float("inf") if sim.diverged or not np.isfinite(sim.rmse) else float(sim.rmse)
+    return {"rmse": rmse, "terms": est.get_best().n_terms,
+            "seconds": time.perf_counter() - t0,
+            "choices": {k: v["why"] for k, v in getattr(est, "choices_", {}).items()}}
+
+
+def run(records, seeds, budget, jobs, log=print) -> dict:
+    """``{record: {setting: [row per seed]}}``."""
+    out = {}
+    for name in records:
+        pair = RECORDS[name]()
+        if pair is None:
+            log(f"{name}: data files not found (set MGGP_SHARED_DATA)")
+            continue
+        tr, va = pair
+        out[name] = {}
+        for label, kw in (("default", {}),) + tuple(GRID.items()):
+            rows = out[name][label] = []
+            for seed in seeds:
+                rows.append(_fit(tr, va, seed, kw, budget, jobs))
+                r = rows[-1]
+                log(f"{name} [{label}] seed {seed}: RMSE {r['rmse']:.4g}, {r['terms']} terms, "
+                    f"{r['seconds']:.1f} s" + "".join(f"; {w}" for w in r["choices"].values()))
+    return out
+
+
+def markdown(res: dict) -> str:
+    """One table: the default's median RMSE, the best grid setting's, their ratio."""
+    md = ["| record | default (median) | diverged | best grid setting | its median | "
+          "default / best | within 10 % |", "|---|---:|---:|---|---:|---:|---|"]
+    for name, rows in res.items():
+        med = {k: float(np.median([r["rmse"] for r in v])) for k, v in rows.items()}
+        grid = {k: v for k, v in med.items() if k != "default"}
+        best = min(grid, key=grid.get)
+        div = sum(not np.isfinite(r["rmse"]) for r in rows["default"])
+        ratio = med["default"] / grid[best] if grid[best] > 0 else float("nan")
+        md.append(f"| {name} | {med['default']:.4g} | {div}/{len(rows['default'])} | "
+                  f"`{best}` | {grid[best]:.4g} | {ratio:.3f} | "
+                  f"{'yes' if ratio <= 1.1 and div == 0 else 'NO'} |")
+    return "\n".join(md)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.panel")
+    p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    p.add_argument("--population", type=int, help="every setting's (default: mggp fit's)")
+    p.add_argument("--generations", type=int, help="every setting's (default: mggp fit's)")
+    p.add_argument("--records", nargs="+", choices=list(RECORDS), default=list(RECORDS),
+                   metavar="NAME")
+    p.add_argument("--jobs", type=int, default=2)
+    p.add_argument("--json", help="also write the figures here")
+    a = p.parse_args(argv)
+    budget = {k: v for k, v in (("population", a.population),
+                                ("generations", a.generations)) if v is not None}
+    t0 = time.perf_counter()
+    res = run(a.records, a.seeds, budget, a.jobs)
+    print()
+    print(markdown(res))
+    print(f"({time.perf_counter() - t0:.0f} s)")
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(res, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
