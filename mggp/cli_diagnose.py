@@ -5,14 +5,22 @@ Typical use::
     mggp diagnose train.csv --validation val.csv --json dx.json --report dx/ --seed 0 --jobs 2
     mggp diagnose train.csv --model pem.json --validation held.csv      # diagnose your model
     mggp diagnose train.csv --population 1000 --generations 200 --jobs 4  # spend more
+    mggp diagnose train.csv --out best.json            # save the recommended model
+    mggp diagnose train.csv --validation v.csv --validation-input volts --validation-output um
 
 Without ``--model`` the baseline is an MGGP model with multiple-shooting
 fitness and no Φ-functions. Without ``--validation`` the last
 ``--holdout`` fraction of TRAIN.csv measures the gain and the rest fits.
 The terminal shows a short summary; ``--json`` writes the findings,
 both models and the gain (schema in :mod:`mggp.diagnose`); ``--report``
-writes ``summary.md`` and figures. Files are written atomically after the
-diagnosis succeeded; the data files are only read.
+writes ``summary.md`` and figures; ``--out`` writes the recommended model
+(the extension if it lowered the free-run RMSE on the measuring samples,
+else the baseline; ``meta['diagnose']`` says which, why, and the gain).
+The validation record's columns default to the training record's names;
+``--validation-input``/``--validation-output`` name them otherwise. Each
+MGGP search shows the generation line of ``mggp fit`` (``--quiet``: no
+progress at all). Files are written after the diagnosis succeeded; the
+data files are only read.
 """
 from __future__ import annotations
 
@@ -22,7 +30,8 @@ import shlex
 import sys
 
 from .cli import CLIError, add_signal_args
-from .params import DIAGNOSE_PARAMS, PATH, Bool, Param, add_options, check_options
+from .params import (DIAGNOSE_PARAMS, NAMES, PATH, Bool, Kind, Param, add_options,
+                     check_options)
 
 __all__ = ["register", "DIAGNOSE_OPTIONS"]
 
@@ -40,8 +49,18 @@ DIAGNOSE_OPTIONS = (
           estimator=False),
     Param("report", None, PATH, "write summary.md and figures to this folder", "output",
           "--report", metavar="DIR", default_text="none", estimator=False),
+    Param("validation_input", None, NAMES, "input column name(s) of the validation record, "
+          "in the order of the training record's inputs", "data", "--validation-input",
+          nargs="+", metavar="NAME", default_text="the training record's", estimator=False),
+    Param("validation_output", None, Kind("a name", lambda v: v is None or isinstance(v, str)),
+          "output column name of the validation record", "data", "--validation-output",
+          metavar="NAME", default_text="the training record's", estimator=False),
+    Param("out", None, PATH, "write the recommended model (the extension if it won, else "
+          "the baseline; its meta says which and why)", "output", "--out",
+          metavar="MODEL.json", default_text="not written", estimator=False),
     Param("quiet", False, Bool(), "no progress lines", "output", "--quiet", const=True,
-          default_text="progress on stderr", estimator=False),
+          default_text="progress on stderr, and each search's generation line",
+          estimator=False),
 ) + tuple(DIAGNOSE_PARAMS.values())
 
 
@@ -65,6 +84,12 @@ def _check_args(args):
             raise CLIError(f"--json {args.json}: folder {folder} does not exist")
     if args.report and os.path.exists(args.report) and not os.path.isdir(args.report):
         raise CLIError(f"--report {args.report} is a file, not a folder")
+    if args.out:
+        from narx.atomic import check_writable
+        check_writable(args.out, "--out")
+    if (args.validation_input or args.validation_output) and not args.validation:
+        raise CLIError("--validation-input/--validation-output name the columns of "
+                       "--validation VAL.csv, which was not given")
 
 
 def _command(args) -> str:
@@ -84,6 +109,24 @@ _SIGNALS = (Param("input", None, PATH, "", "data", "--input"),
             Param("output", None, PATH, "", "data", "--output"))
 
 
+def _read_validation(args, inputs, output):
+    """The validation record with the training record's signal names: its
+    columns are ``--validation-input``/``--validation-output`` (default: the
+    training record's names); a different number of inputs is an error."""
+    from narx.csvdata import read_csv
+    from narx.data import Data
+    if not args.validation:
+        return None
+    v_inputs = args.validation_input or inputs
+    if len(v_inputs) != len(inputs):
+        raise CLIError(f"--validation-input: the training record has {len(inputs)} input(s) "
+                       f"{list(inputs)}, got {len(v_inputs)} validation column name(s) "
+                       f"{list(v_inputs)}")
+    v_output = args.validation_output or output
+    val = read_csv(args.validation, inputs=v_inputs, output=v_output)
+    return Data(val.U.T, val.y, inputs=list(inputs), output=output)
+
+
 def _cmd_diagnose(args) -> int:
     from narx import load_model
     from narx.csvdata import read_csv
@@ -97,7 +140,7 @@ def _cmd_diagnose(args) -> int:
         raise CLIError(f"--input: the model has {len(model.inputs)} input(s) "
                        f"{list(model.inputs)}, got {len(inputs)} column name(s)")
     train = read_csv(args.train, inputs=inputs, output=output)
-    val = read_csv(args.validation, inputs=inputs, output=output) if args.validation else None
+    val = _read_validation(args, inputs, output)
     if model is not None and (list(model.inputs) != inputs or model.output != output):
         from narx.data import Data
         train = Data(train.U.T, train.y, inputs=model.inputs, output=model.output)
@@ -114,13 +157,21 @@ def _cmd_diagnose(args) -> int:
                     max_degree=args.max_degree, window=args.window, shifts=args.shifts,
                     bootstrap=args.bootstrap)
     say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    from .cli_fit import _Progress
+    search_progress = None if args.quiet else (
+        lambda generations: [_Progress(generations, sys.stderr, False)])
     names = (os.path.basename(args.train),
              os.path.basename(args.validation) if args.validation else "")
     dx = diagnose(train, val, model, budget=budget, seed=args.random_state, jobs=args.n_jobs,
                   holdout=args.holdout, alpha=args.alpha, resolution=args.resolution,
-                  names=names, model_name=os.path.basename(args.model or ""), progress=say)
+                  names=names, model_name=os.path.basename(args.model or ""), progress=say,
+                  search_callbacks=search_progress)
     print(dx.summary())
     command = _command(args)
+    if args.out:                              # saved first: a closed pipe loses nothing
+        rec = dx.recommended_model(command)
+        rec.save(args.out)
+        print(f"{dx.gain.recommended} model written to {args.out}")
     if args.json:
         from narx.atomic import atomic_write_text
         doc = dx.to_dict()

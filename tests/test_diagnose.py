@@ -426,3 +426,83 @@ def test_summary_says_which_evidence_could_not_be_measured():
     text = terminal_summary(diagnose(long, val, narx.Model(["y[k-1]", "u[k-1]"]).fit(long),
                                      budget=SMALL, seed=0, jobs=1))
     assert "correlation tests (fewer" not in text
+
+
+# ------------------------------------------------------------ hand back the model
+def test_cli_out_writes_the_recommended_model(capsys, drift_files):
+    tmp, t, v, m = drift_files
+    js, out_model = tmp / "dx_out.json", tmp / "recommended.json"
+    code, out, err = run(capsys, "diagnose", t, "--validation", v, "--model", m, "--json", js,
+                         "--out", out_model, "--population", 30, "--generations", 3,
+                         "--quiet")
+    assert code == 0, err
+    assert err == ""                                   # --quiet: no progress at all
+    doc = json.loads(js.read_text())
+    which = doc["gain"]["recommended"]
+    loaded = narx.load_model(out_model)
+    assert loaded.term_texts == doc[which]["terms"]
+    np.testing.assert_allclose(loaded.theta, doc[which]["theta"], rtol=0, atol=0)
+    meta = loaded.meta["diagnose"]
+    assert meta["recommended"] == which and meta["why"] and meta["gain"] == doc["gain"]
+    _, val, _, _ = drifting_case()
+    y_doc = narx.Model(doc[which]["terms"], theta=doc[which]["theta"]).simulate(val).y_hat
+    np.testing.assert_array_equal(loaded.simulate(val).y_hat, y_doc)
+
+
+def test_cli_progress_line_of_each_search(capsys, tmp_path):
+    s = polynomial_narx(n=800, seed=1, noise_std=0.02)
+    t = write_csv(tmp_path / "p.csv", {"u": s.u, "y": s.y})
+    code, out, err = run(capsys, "diagnose", t, "--population", 20, "--generations", 4,
+                         "--max-height", 2)
+    assert code == 0, err
+    assert "baseline: MGGP search" in err and "gen    4/4" in err
+
+
+def test_cli_validation_columns_are_named(capsys, drift_files, tmp_path):
+    tmp, t, v, m = drift_files
+    train = np.genfromtxt(v, delimiter=",", names=True)
+    renamed = write_csv(tmp_path / "renamed.csv", {"volts": train["u"], "um": train["y"]})
+    js_a, js_b = tmp_path / "a.json", tmp_path / "b.json"
+    common = ["--model", m, "--population", 20, "--generations", 2, "--quiet"]
+    code, _, err = run(capsys, "diagnose", t, "--validation", v, "--json", js_a, *common)
+    assert code == 0, err
+    code, _, err = run(capsys, "diagnose", t, "--validation", renamed, "--validation-input",
+                       "volts", "--validation-output", "um", "--json", js_b, *common)
+    assert code == 0, err
+    a, b = json.loads(js_a.read_text()), json.loads(js_b.read_text())
+    assert a["gain"] == b["gain"]
+    assert [(f["effect"], f["statistic"]) for f in a["findings"]] == \
+        [(f["effect"], f["statistic"]) for f in b["findings"]]
+    code, _, err = run(capsys, "diagnose", t, "--validation", renamed, *common)
+    assert code == 2 and "no column 'u'" in one_error_line(err)
+
+
+def test_cli_validation_with_other_inputs_is_one_error(capsys, drift_files, tmp_path):
+    tmp, t, v, m = drift_files
+    two = write_csv(tmp_path / "two.csv", {"u": np.arange(400.0), "u2": np.arange(400.0),
+                                           "y": np.arange(400.0)})
+    code, out, err = run(capsys, "diagnose", t, "--validation", two, "--validation-input",
+                         "u", "u2", "--quiet")
+    assert code == 2
+    line = one_error_line(err)
+    assert "--validation-input" in line and "1 input(s) ['u']" in line and "u2" in line
+    code, out, err = run(capsys, "diagnose", t, "--validation-input", "u", "--quiet")
+    assert code == 2 and "--validation VAL.csv, which was not given" in one_error_line(err)
+
+
+# ------------------------------------------------------------ memory operators
+def test_operator_augmentation_sees_a_play_behind_dynamics_not_a_linear_control():
+    from benchmarks.diagnose_panel import behind_dynamics, play
+    from mggp.diagnose.augmentation import operator_augmentation_test
+    from mggp.diagnose.controls import control_record
+    rng = np.random.default_rng(0)
+    u = training_input(3000, amplitude=1.0, bandwidth=4.0, seed=0)
+    y = behind_dynamics(play(u), 2)
+    hyst = Data(u, y + 0.01 * np.std(y) * rng.standard_normal(y.size))
+    lin = ["y[k-1]", "y[k-2]", "u[k-1]", "u[k-2]"]
+    a = operator_augmentation_test(narx.Model(lin).fit(hyst), hyst, shifts=19, seed=0)
+    assert a.statistic > 3 * a.null_quantile, (a.statistic, a.null_quantile)
+    ctl = control_record("linear", seed=0, n=3000, snr_db=40.0).data
+    c = operator_augmentation_test(narx.Model(lin).fit(ctl), ctl, shifts=19, seed=0)
+    assert c.statistic < a.statistic / 10
+    assert c.statistic <= 0.005 * np.ptp(ctl.y)          # below the resolution floor

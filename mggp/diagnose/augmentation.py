@@ -49,7 +49,7 @@ References
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import List, Optional, Tuple
 
 import numpy as np
@@ -65,7 +65,8 @@ from .registry import DiagnosticTest, Outcome
 from .simulation import bounded_mode, freerun_rmse, fresh_name
 
 __all__ = ["AugmentationTest", "phi_augmentation_test", "direction_terms", "control_terms",
-           "augmentation_check", "AUGMENTATION"]
+           "augmentation_check", "AUGMENTATION", "operator_terms",
+           "operator_augmentation_test", "OPERATOR_AUGMENTATION"]
 
 
 def direction_terms(inp: str, out: str, lag: int = 1) -> List[str]:
@@ -140,11 +141,40 @@ def _placebo(terms, name, v):
     return [re.sub(rf"\b{re.escape(name)}\[", f"{v}[", t) for t in terms]
 
 
+def operator_terms(data: Data, lags=(1,), dengtan: bool = True) -> List[str]:
+    """Memory-operator terms of each input (:mod:`narx.memory`): plays of
+    the search's radii (:func:`mggp.primitives.play_radii`, fractions of
+    the input's range) and, with ``dengtan``, Deng–Tan, at each lag."""
+    from ..primitives import play_radii
+    out = []
+    for n in data.inputs:
+        for j in lags:
+            out += [f"Play({n}[k-{j}],{r:g})" for r in play_radii(data.input(n))]
+            if dengtan:
+                out.append(f"DengTan({n}[k-{j}])")
+    return out
+
+
+def operator_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
+                               alpha: float = 0.01, seed=0) -> Optional[AugmentationTest]:
+    """The augmentation test with memory-operator terms (:func:`operator_terms`)
+    in place of the direction terms: the baseline's terms + the operator
+    terms, and y[k-1] + u[k-1] + the operator terms; placebo operators of
+    the shifted input give the null, as in :func:`phi_augmentation_test`.
+    Only plays are used: their radii are fractions of the input's range, so
+    the test does not depend on the input's units (Deng–Tan's
+    :math:`|\\arctan z|\\, z` does)."""
+    return phi_augmentation_test(model, data, shifts=shifts, alpha=alpha, seed=seed,
+                                 operators=True)
+
+
 def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
-                          alpha: float = 0.01, seed=0) -> Optional[AugmentationTest]:
+                          alpha: float = 0.01, seed=0,
+                          operators: bool = False) -> Optional[AugmentationTest]:
     """Φ-augmentation test (two forms: the baseline's terms + the direction
     terms it lacks, and the Bouc–Wen increment y[k-1] + Phi1 + direction
-    terms); the statistic and each placebo draw take the better form."""
+    terms); the statistic and each placebo draw take the better form.
+    ``operators``: memory-operator terms instead (:func:`operator_augmentation_test`)."""
     reg = model.registry
     sig = dict(inputs=data.inputs, output=data.output, registry=reg)
     taken = {data.output, *data.inputs, model.signals.noise}
@@ -152,9 +182,14 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
     for name in data.inputs:
         pairs.append((name, fresh_name(taken, "v")))
         taken.add(pairs[-1][1])
-    D = [t for n, _ in pairs for t in Model(direction_terms(n, data.output), **sig).term_texts]
-    inc = Model([f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n, _ in pairs],
-                **sig).term_texts
+    if operators:
+        D = Model(operator_terms(data, dengtan=False), **sig).term_texts
+        inc = Model([f"{data.output}[k-1]"] + [f"{n}[k-1]" for n, _ in pairs], **sig).term_texts
+    else:
+        D = [t for n, _ in pairs
+             for t in Model(direction_terms(n, data.output), **sig).term_texts]
+        inc = Model([f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n, _ in pairs],
+                    **sig).term_texts
     ctrl = [t for n, _ in pairs for t in Model(control_terms(n, data.output), **sig).term_texts]
     for control in (ctrl, []):       # without the control only if it cannot be simulated
         res = _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed)
@@ -261,3 +296,25 @@ def _run(ctx) -> Outcome:
 
 #: The Φ-augmentation test (placebo seed: the diagnosis's seed + 11).
 AUGMENTATION = DiagnosticTest("Φ-augmentation", ("hysteresis",), _run)
+
+
+def _run_operators(ctx) -> Outcome:
+    a = operator_augmentation_test(ctx.model, ctx.fit, shifts=ctx.budget.shifts,
+                                   alpha=ctx.alpha, seed=ctx.seed + 13)
+    if a is None:
+        return Outcome(missing="operator augmentation (its fits could not be made or "
+                               "simulated)")
+    a = replace(a, form={"baseline + direction terms": "baseline + operator terms",
+                         "Bouc–Wen increment": "y[k-1] + u[k-1] + operator terms"
+                         }.get(a.form, a.form))
+    c = augmentation_check(a, ctx.alpha, ctx.floor, ctx.output)
+    detail = c.detail.replace(
+        f"the Bouc–Wen direction terms |Δu|, {ctx.output}[k-1]·|Δu|, u[k-1]·|Δu| "
+        f"(|Δu| = Phi1·Phi2 of u[k-1], u[k-2])",
+        "the memory-operator terms " + ", ".join(operator_terms(ctx.fit, dengtan=False)))
+    return Outcome([replace(c, test="operator augmentation", detail=detail)], a)
+
+
+#: The operator-augmentation test (placebo seed: the diagnosis's seed + 13).
+OPERATOR_AUGMENTATION = DiagnosticTest("operator augmentation", ("hysteresis",),
+                                       _run_operators)

@@ -50,7 +50,7 @@ from .controls import CONTROL_KINDS, control_record
 from .extend import Budget
 from .registry import DiagnosticTest
 
-__all__ = ["FalseAlarmRate", "false_alarm_rate"]
+__all__ = ["FalseAlarmRate", "false_alarm_rate", "control_checks", "threshold_factors"]
 
 
 @dataclass(frozen=True)
@@ -139,13 +139,67 @@ def _ratio(checks) -> float:
     return float(max(r)) if r else float("nan")
 
 
+def control_checks(test: DiagnosticTest, *, kinds: Sequence[str] = CONTROL_KINDS,
+                   per_kind: int = 9, n: int = 2000, snr_db: float = 40.0, holds: int = 0,
+                   seed: int = 0, alpha: float = 0.01, resolution: float = 0.005,
+                   budget: Budget = Budget(), holdout: float = 0.3,
+                   model_of: Optional[Callable[[Data, Tuple[str, ...]], Model]] = None,
+                   calibrated: bool = True):
+    """The checks of ``test`` on each control realisation (arguments as in
+    :func:`false_alarm_rate`; ``calibrated``: thresholds scaled by
+    :func:`~mggp.diagnose.thresholds.calibrated` as in a diagnosis, else
+    the raw ones). Yields ``(kind, seed, checks)``."""
+    from .thresholds import calibrated as scale
+    if int(per_kind) < 1:
+        raise ValueError(f"per_kind must be at least 1, got {per_kind!r}")
+    if not 0.0 < holdout < 1.0:
+        raise ValueError(f"holdout must be a fraction in (0, 1), got {holdout!r}")
+    fit_model = model_of or (lambda d, terms: Model(list(terms)).fit(d))
+    for kind in kinds:
+        for i in range(int(per_kind)):
+            rec = control_record(kind, seed + i, n, snr_db, holds)
+            d = rec.data
+            n_fit = int(round(d.n * (1.0 - holdout)))
+            fit = Data(d.U[:, :n_fit].T, d.y[:n_fit], inputs=d.inputs, output=d.output)
+            measure = Data(d.U[:, n_fit:].T, d.y[n_fit:], inputs=d.inputs, output=d.output)
+            model = fit_model(fit, rec.terms)
+            ctx = Context(model, fit, measure, ("control", "control (tail)"), n_fit, budget,
+                          alpha, resolution, seed + i)
+            checks = list(test.run(ctx).checks)
+            yield kind, seed + i, [scale(c) for c in checks] if calibrated else checks
+
+
+def threshold_factors(checks_per_realisation, rate: float = 0.01) -> Dict[str, float]:
+    """Factor of each check family (:func:`~mggp.diagnose.thresholds.check_family`)
+    that gives a false-alarm rate of at most ``rate`` on the realisations:
+    the (1 − rate) quantile (``'higher'``) of statistic / raw threshold over
+    them (a realisation without that family, or without power, counts 0).
+
+    Parameters
+    ----------
+    checks_per_realisation : iterable of list of Check
+        The raw checks (``calibrated=False``) of every realisation.
+    rate : float
+        The stated false-alarm rate per family.
+    """
+    from .thresholds import check_family
+    rows = [list(cs) for cs in checks_per_realisation]
+    fams = sorted({check_family(c.test) for cs in rows for c in cs})
+    out = {}
+    for f in fams:
+        r = [np.nan_to_num(_ratio([c for c in cs if check_family(c.test) == f]), nan=0.0)
+             for cs in rows]
+        out[f] = float(np.quantile(r, 1.0 - rate, method="higher"))
+    return out
+
+
 def false_alarm_rate(test: DiagnosticTest, *, kinds: Sequence[str] = CONTROL_KINDS,
                      per_kind: int = 9, n: int = 2000, snr_db: float = 40.0, holds: int = 0,
                      seed: int = 0,
                      alpha: float = 0.01, resolution: float = 0.005,
                      budget: Budget = Budget(), holdout: float = 0.3,
-                     model_of: Optional[Callable[[Data, Tuple[str, ...]], Model]] = None
-                     ) -> FalseAlarmRate:
+                     model_of: Optional[Callable[[Data, Tuple[str, ...]], Model]] = None,
+                     calibrated: bool = True) -> FalseAlarmRate:
     """Run ``test`` on ``per_kind`` realisations of each control kind.
 
     Parameters
@@ -168,30 +222,22 @@ def false_alarm_rate(test: DiagnosticTest, *, kinds: Sequence[str] = CONTROL_KIN
     model_of : callable, optional
         ``model_of(fit_data, terms) -> Model`` (fitted); default: ``terms``
         fitted by LS.
+    calibrated : bool
+        Thresholds as a diagnosis uses them (scaled by the calibration
+        table of :mod:`~mggp.diagnose.thresholds`); False: the raw ones.
 
     Returns
     -------
     FalseAlarmRate
     """
-    if int(per_kind) < 1:
-        raise ValueError(f"per_kind must be at least 1, got {per_kind!r}")
-    if not 0.0 < holdout < 1.0:
-        raise ValueError(f"holdout must be a fraction in (0, 1), got {holdout!r}")
-    fit_model = model_of or (lambda d, terms: Model(list(terms)).fit(d))
     ks, ss, alarms, ratios = [], [], [], []
-    for kind in kinds:
-        for i in range(int(per_kind)):
-            rec = control_record(kind, seed + i, n, snr_db, holds)
-            d = rec.data
-            n_fit = int(round(d.n * (1.0 - holdout)))
-            fit = Data(d.U[:, :n_fit].T, d.y[:n_fit], inputs=d.inputs, output=d.output)
-            measure = Data(d.U[:, n_fit:].T, d.y[n_fit:], inputs=d.inputs, output=d.output)
-            model = fit_model(fit, rec.terms)
-            ctx = Context(model, fit, measure, ("control", "control (tail)"), n_fit, budget,
-                          alpha, resolution, seed + i)
-            checks = list(test.run(ctx).checks)
-            ks.append(kind)
-            ss.append(seed + i)
-            alarms.append(any(c.beats for c in checks))
-            ratios.append(_ratio(checks))
+    for kind, s, checks in control_checks(test, kinds=kinds, per_kind=per_kind, n=n,
+                                          snr_db=snr_db, holds=holds, seed=seed, alpha=alpha,
+                                          resolution=resolution, budget=budget,
+                                          holdout=holdout, model_of=model_of,
+                                          calibrated=calibrated):
+        ks.append(kind)
+        ss.append(s)
+        alarms.append(any(c.beats for c in checks))
+        ratios.append(_ratio(checks))
     return FalseAlarmRate(test.name, tuple(ks), tuple(ss), tuple(alarms), tuple(ratios))

@@ -8,6 +8,7 @@ from .registry import register
 
 register(loopgap.LOOP_GAP)
 register(augmentation.AUGMENTATION)
+register(augmentation.OPERATOR_AUGMENTATION)
 register(restlevels.REST_LEVELS)
 register(bias.PREDICTION_BIAS)
 register(drift.DRIFT)

@@ -107,6 +107,13 @@ class Context:
         return float(np.sqrt(np.mean(eps[ok] ** 2))) if ok.any() else 0.0
 
     @cached_property
+    def freerun_rms(self) -> float:
+        """RMS of the model's free-run error on the fitting samples (``inf``
+        if the free run diverges)."""
+        from .simulation import freerun_rmse
+        return freerun_rmse(self.model, self.fit)
+
+    @cached_property
     def fit_holds(self) -> List[Tuple[int, int]]:
         """Held-input segments of the fitting samples (:func:`find_holds`)."""
         return find_holds(self.fit, self.hold_min_len)

@@ -10,8 +10,22 @@ Typical use::
 As the diagnose test :data:`CORRELATION` (effects ``unmodelled-dynamics``
 for φ_ee, φ_ue and ``unmodelled-nonlinearity`` for φ_u²'e, φ_u²'e²), each
 test's threshold is the larger of its Bonferroni band and the resolution
-floor in correlation units, floor / RMS of the residual tested: a
-correlation must explain at least the floor of that residual.
+floor in correlation units. The floor is a free-run error (a fraction of
+the output's range) while the test sees a one-step residual, so the floor
+is carried to the one-step scale by the model's own propagation factor
+:math:`s = \\max(1, \\mathrm{RMS}_{fr} / \\mathrm{RMS}_{osa})` (free-run over
+one-step RMS error on the fitting samples): a correlation φ of a residual
+of RMS :math:`r` stands for a one-step error component φ r, which the
+free run turns into about φ r s, so it is worth naming only when
+
+.. math::
+
+    \\phi > \\frac{\\text{floor}}{r\\, s} .
+
+For the model's own residual (r = RMS_osa) this is floor / RMS_fr: a
+correlation must explain at least the floor of the free-run error. A
+test has no power only when the model's free run is already within the
+floor (nothing a correlation finds is then worth a change).
 
 For an adequate NARX model the one-step residuals :math:`\\varepsilon_k`
 are unpredictable from past inputs and residuals, so [1]_
@@ -73,6 +87,7 @@ from .thresholds import bonferroni_z
 
 __all__ = ["CorrelationTest", "correlation_tests", "cross_correlation", "TEST_LABELS",
            "model_tests", "completed_residual", "correlation_checks", "no_power_reason",
+           "propagation_factor",
            "CORRELATION"]
 
 #: test key -> label shown in reports
@@ -284,20 +299,26 @@ _EFFECT = {"ee": "unmodelled-dynamics", "ue": "unmodelled-dynamics",
 
 
 def correlation_checks(tests: List[CorrelationTest], floor: float, osa_rms: float,
-                       resolution: Optional[float] = None) -> List[Check]:
-    """A check per test: max |φ| against max(Bonferroni band, floor / RMS).
+                       resolution: Optional[float] = None,
+                       freerun_rms: Optional[float] = None) -> List[Check]:
+    """A check per test: max |φ| against max(Bonferroni band, floor / (r s)).
 
     Parameters
     ----------
     tests : list of CorrelationTest
     floor : float
-        Resolution floor in output units.
+        Resolution floor in output units (a free-run error).
     osa_rms : float
         RMS of the model's own one-step residual (for a test whose ``rms``
-        is None).
+        is None, and the denominator of the propagation factor s).
     resolution : float, optional
         The resolution that made ``floor`` (fraction of the output's range),
         to say which resolution would give a test without power its power.
+    freerun_rms : float, optional
+        RMS of the model's free-run error on the same samples; the
+        propagation factor is s = max(1, freerun_rms / osa_rms) (module
+        doc; ``inf`` for a diverged free run, whose floor is then 0).
+        None: s = 1 (the floor compared with the one-step residual as is).
 
     Returns
     -------
@@ -305,39 +326,55 @@ def correlation_checks(tests: List[CorrelationTest], floor: float, osa_rms: floa
         Ceiling 1; a check whose threshold is 1 or more has no power and
         says why in one line (:func:`no_power_reason`).
     """
+    s = propagation_factor(osa_rms, freerun_rms)
     out = []
     for t in tests:
         r_rms = osa_rms if t.rms is None else t.rms          # of the residual tested
-        floor_r = floor / r_rms if r_rms > 0 else float("inf")
+        scale = r_rms * s                                    # its free-run counterpart
+        floor_r = floor / scale if scale > 0 else float("inf")
         thr = max(t.band, floor_r)
         detail = (t.describe() + f"; resolution floor {_g(floor_r)} in correlation units "
-                  f"(floor {_g(floor)} / RMS {_g(r_rms)} of the residual tested)")
+                  f"(floor {_g(floor)} / (RMS {_g(r_rms)} of the residual tested × "
+                  f"free-run/one-step factor {_g(s)}))")
         why = ""
         if thr >= 1.0:
-            why = no_power_reason(t, r_rms, floor, resolution)
+            why = no_power_reason(t, scale, floor, resolution)
             detail += (f"; no power: the threshold {_g(thr)} is at least 1, the largest "
                        f"correlation there is, because {why}: this test could not fire")
         out.append(Check(t.label, _EFFECT[t.key], t.max_abs, thr, detail, 1.0, why))
     return out
 
 
-def no_power_reason(t: CorrelationTest, r_rms: float, floor: float,
+def propagation_factor(osa_rms: float, freerun_rms: Optional[float]) -> float:
+    """s = max(1, freerun_rms / osa_rms): how much larger the free-run error
+    is than the one-step residual (1 when ``freerun_rms`` is None; ``inf``
+    when the free run diverged or the one-step residual is zero)."""
+    if freerun_rms is None:
+        return 1.0
+    if not np.isfinite(freerun_rms):
+        return float("inf")
+    return max(1.0, freerun_rms / osa_rms) if osa_rms > 0 else float("inf")
+
+
+def no_power_reason(t: CorrelationTest, scale: float, floor: float,
                     resolution: Optional[float] = None) -> str:
     """Why test ``t`` cannot fire, with the numbers that would change it.
 
-    Either the residual tested is no larger than the resolution floor (then
-    floor / RMS >= 1 and no correlation can explain the floor; the
-    resolution below which it could is resolution × RMS / floor), or its
-    Bonferroni band z/√N is 1 or more (then more than z² samples are needed).
+    Either the free-run counterpart ``scale`` (r s) of the residual tested
+    is no larger than the resolution floor (then floor / scale >= 1 and no
+    correlation can explain the floor; the resolution below which it could
+    is resolution × scale / floor), or its Bonferroni band z/√N is 1 or
+    more (then more than z² samples are needed).
     """
-    if floor >= r_rms:
-        text = f"the residual tested, RMS {_g(r_rms)}, is no larger than the resolution floor "
-        if r_rms <= 0:
+    if floor >= scale:
+        text = (f"the residual tested, carried to the free-run scale (RMS {_g(scale)}), "
+                f"is no larger than the resolution floor ")
+        if scale <= 0:
             return text + f"{_g(floor)}: it is zero, there is nothing to correlate"
-        text += f"{_g(floor)}, {_g(floor / r_rms)} times that RMS"
+        text += f"{_g(floor)}, {_g(floor / scale)} times that RMS"
         if resolution:
             text += (f" (a correlation could reach the floor only with a resolution below "
-                     f"{_g(resolution * r_rms / floor)} instead of {resolution:g})")
+                     f"{_g(resolution * scale / floor)} instead of {resolution:g})")
         return text
     z = t.band * np.sqrt(t.n)
     return (f"the Bonferroni band z/√N = {_g(t.band)} of N = {t.n} samples is at least 1 "
@@ -348,7 +385,8 @@ def _run(ctx) -> Outcome:
     tests = model_tests(ctx.model, ctx.fit, ctx.budget.corr_lags, ctx.alpha)
     if not tests:
         return Outcome(missing="correlation tests (fewer than 21 one-step residuals)")
-    return Outcome(correlation_checks(tests, ctx.floor, ctx.osa_rms, ctx.resolution), tests)
+    return Outcome(correlation_checks(tests, ctx.floor, ctx.osa_rms, ctx.resolution,
+                                      ctx.freerun_rms), tests)
 
 
 #: Billings–Voon tests of the completed one-step residuals.

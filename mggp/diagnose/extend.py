@@ -13,11 +13,14 @@ model found by MGGP with multiple-shooting fitness and no Φ-functions.
 The extension changes the search the way each cause calls for
 (:data:`mggp.diagnose.findings.EXTENSIONS`):
 
-* ``hysteresis`` — Φ-functions in the primitive set (if the baseline
-  already had them: five more terms), and the three Bouc–Wen direction
-  terms (:func:`~mggp.diagnose.augmentation.direction_terms`) added to the
+* ``hysteresis`` — Φ-functions and the memory operators Play, DengTan
+  (:mod:`narx.memory`) in the primitive set (if the baseline already had
+  Φ-functions: five more terms), the three Bouc–Wen direction terms
+  (:func:`~mggp.diagnose.augmentation.direction_terms`) added to the
   baseline's terms, to the search's, and as a discrete Bouc–Wen
-  increment model of their own;
+  increment model of their own, and memory-operator terms
+  (:func:`operator_terms`) added to the baseline's terms and as linear
+  dynamics of order up to 3 driven by them (:func:`operator_dynamics_terms`);
 * ``prediction-bias`` — multiple-shooting fitness (if the baseline already
   used it: windows four times longer, closer to a free run);
 * ``steady-state-drift`` — CLS under the continuum-of-steady-states
@@ -55,14 +58,28 @@ from narx.model import ignore_rank_warnings
 from narx.terms import Signals, parse_term
 
 from ..selection import CLSRejectedWarning
-from .augmentation import direction_terms
+from .augmentation import direction_terms, operator_terms
 from .holds import probe_holds
 from .simulation import freerun_rmse
 
 __all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search",
-           "user_setting", "plan_extension", "fit_extension", "candidate_changes"]
+           "user_setting", "plan_extension", "fit_extension", "candidate_changes",
+           "operator_terms", "operator_dynamics_terms", "OPERATORS"]
 
 _SPECIFIC = ("hysteresis", "prediction-bias", "steady-state-drift")
+#: memory operators of the hysteresis search (:mod:`narx.memory`)
+OPERATORS = ("play", "dengtan")
+
+
+def operator_dynamics_terms(data: Data) -> List[str]:
+    """Linear dynamics of order up to 3 driven by the inputs and their
+    memory operators: y[k-1..3], u[k-1..2] and :func:`operator_terms` at
+    lags 1 and 2 (a play or Prandtl–Ishlinskii operator behind a linear
+    filter of order up to 3 is such a model)."""
+    y = data.output
+    lin = [f"{y}[k-{j}]" for j in (1, 2, 3)]
+    lin += [f"{n}[k-{j}]" for n in data.inputs for j in (1, 2)]
+    return lin + operator_terms(data, (1, 2))
 
 
 @dataclass(frozen=True)
@@ -96,13 +113,16 @@ class Setting:
     max_degree: int
     max_height: int
     max_terms: int
+    operators: Tuple[str, ...] = ()
 
     def describe(self) -> str:
         return (f"fitness {self.fitness or 'unknown'}"
                 + (f" (window {self.window})" if self.fitness == "ms" else "")
                 + f", {'with' if self.use_phi else 'no'} Φ-functions, "
                 f"{'CLS' if self.constraints else 'LS'}, at most {self.max_terms} terms, "
-                f"degree <= {self.max_degree}, tree height <= {self.max_height}")
+                f"degree <= {self.max_degree}, tree height <= {self.max_height}"
+                + (f", memory operators {', '.join(self.operators)}" if self.operators
+                   else ""))
 
 
 @dataclass(frozen=True)
@@ -133,7 +153,7 @@ class Extension:
     changes: Tuple[str, ...] = ()
 
 
-def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data):
+def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data, callbacks=None):
     from ..estimator import MGGPRegressor
     return MGGPRegressor(fitness=setting.fitness or "ms", window=setting.window,
                          use_phi=setting.use_phi, constraints=setting.constraints,
@@ -142,18 +162,24 @@ def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data):
                          max_terms=setting.max_terms, max_height=setting.max_height,
                          max_degree=setting.max_degree, random_state=int(seed),
                          screen=None, select="fitness", size="search",
-                         n_jobs=jobs, inputs=list(data.inputs), output=data.output)
+                         n_jobs=jobs, inputs=list(data.inputs), output=data.output,
+                         operators=list(setting.operators) or None,
+                         callbacks=callbacks(budget.generations) if callbacks else None)
 
 
 def _fit_window(window: int, data: Data) -> int:
     return int(max(1, min(window, data.n // 4)))
 
 
-def baseline_search(data: Data, budget: Budget, seed=0, jobs=1) -> Tuple[Model, Setting]:
-    """MGGP with MS fitness and no Φ on ``data``; returns the LS model."""
+def baseline_search(data: Data, budget: Budget, seed=0, jobs=1,
+                    callbacks=None) -> Tuple[Model, Setting]:
+    """MGGP with MS fitness and no Φ on ``data``; returns the LS model.
+
+    ``callbacks(generations)``, if given, returns the search's per-generation
+    callbacks (:class:`~mggp.estimator.MGGPRegressor` ``callbacks``)."""
     setting = Setting("ms", _fit_window(budget.window, data), False, None, budget.max_degree,
                       budget.max_height, budget.max_terms)
-    est = _regressor(setting, budget, seed, jobs, data).fit(data)
+    est = _regressor(setting, budget, seed, jobs, data, callbacks).fit(data)
     model = est.model_
     model.meta.update({"source": "mggp diagnose baseline", "fitness": "ms",
                        "use_phi": False})
@@ -182,10 +208,12 @@ def plan_extension(effects: Sequence[str], base: Setting, budget: Budget,
     if "hysteresis" in effects:
         search = True
         if not s.use_phi:
-            s = replace(s, use_phi=True)
-            changes.append("hysteresis: Φ-functions (Phi1, Phi2) added to the search "
-                           "(use_phi=True), and the Bouc–Wen direction terms "
-                           "|Δu|, y[k-1]|Δu|, u[k-1]|Δu| as candidates")
+            s = replace(s, use_phi=True, operators=OPERATORS)
+            changes.append("hysteresis: Φ-functions (Phi1, Phi2) and the memory operators "
+                           "Play, DengTan added to the search (use_phi=True, operators="
+                           "play, dengtan), and the Bouc–Wen direction terms "
+                           "|Δu|, y[k-1]|Δu|, u[k-1]|Δu| and memory-operator terms as "
+                           "candidates")
         else:
             s = replace(s, max_terms=s.max_terms + 5)
             changes.append(f"hysteresis: the baseline already had Φ-functions; new search "
@@ -229,6 +257,7 @@ def plan_extension(effects: Sequence[str], base: Setting, budget: Budget,
 
 
 _DRIFT = "steady-state-drift:"
+_OPERATOR_CANDIDATES = ("baseline + operator terms", "operator dynamics")
 _DIRECTION = "the Bouc–Wen direction terms |Δu|, y[k-1]|Δu|, u[k-1]|Δu|"
 
 
@@ -240,7 +269,8 @@ def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
     name : str
         The candidate's name (``'search'``, ``'search + baseline terms'``,
         ``'search + direction terms'``, ``'baseline + direction terms'``,
-        ``'Bouc–Wen increment'``, ``'baseline terms, CLS'``).
+        ``'Bouc–Wen increment'``, ``'baseline + operator terms'``,
+        ``'operator dynamics'``, ``'baseline terms, CLS'``).
     plan : ExtensionPlan
         The plan the candidates were built from.
 
@@ -268,9 +298,20 @@ def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
                                          f"terms (no search)",
            "Bouc–Wen increment": f"hysteresis: a discrete Bouc–Wen increment model in place "
                                  f"of the baseline: y[k-1], Phi1(u[k-1],u[k-2]) and "
-                                 f"{_DIRECTION} (no search)"}
+                                 f"{_DIRECTION} (no search)",
+           "baseline + operator terms": "hysteresis: memory-operator terms Play(u[k-1],r) "
+                                        "(the search's radii) and DengTan(u[k-1]) added to "
+                                        "the baseline's terms (no search)",
+           "operator dynamics": "hysteresis: linear dynamics of order up to 3 driven by the "
+                                "input and its memory operators (y[k-1..3], u[k-1..2], "
+                                "Play(u[k-1..2],r), DengTan(u[k-1..2])) in place of the "
+                                "baseline (no search)"}
     out = [own.get(name, name)]
-    if name != "baseline terms, CLS":
+    if name in _OPERATOR_CANDIDATES:
+        if drift or plan.setting.constraints:
+            out.append("estimated by LS: the memory operators hold at a held input by "
+                       "themselves (no continuum constraints)")
+    elif name != "baseline terms, CLS":
         out += drift or (["estimated by CLS under the continuum-of-steady-states constraints, "
                           "as the baseline was"] if plan.setting.constraints else [])
     out += remarks
@@ -296,13 +337,16 @@ def _candidate(terms, data: Data, constraints, registry) -> Optional[Model]:
 
 
 def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budget,
-                  seed=0, jobs=1, floor: float = 0.0) -> Extension:
+                  seed=0, jobs=1, floor: float = 0.0, callbacks=None) -> Extension:
     """Fit the planned extension on ``data`` (the fitting samples).
 
     With CLS (drift named: the system holds) a candidate must also keep
     still in holds inserted into the fitting input (:func:`probe_holds`,
     movement at most ``floor``); those that do not rank after those that
-    do, by how far they move.
+    do, by how far they move. The memory-operator candidates are fitted by
+    LS even then and not probed: their operators hold at a held input, and
+    the continuum constraints (Σ_y = 1) would force an integrator on them.
+    A candidate whose free run diverges on the fitting samples ranks last.
     """
     reg = baseline.registry
     cons = plan.setting.constraints
@@ -320,13 +364,15 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
         setting = replace(plan.setting, window=_fit_window(plan.setting.window, data))
         with warnings.catch_warnings():       # only its LS structure is used
             warnings.simplefilter("ignore", CLSRejectedWarning)
-            est = _regressor(setting, budget, int(seed) + 1, jobs, data).fit(data)
+            est = _regressor(setting, budget, int(seed) + 1, jobs, data, callbacks).fit(data)
         found = [str(t) for t in est.model_.terms]
         sets += [("search", found), ("search + baseline terms", base + found)]
     if plan.direction:
         d = [t for n in data.inputs for t in direction_terms(n, data.output)]
         inc = [f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n in data.inputs]
-        sets += [("baseline + direction terms", base + d), ("Bouc–Wen increment", inc + d)]
+        sets += [("baseline + direction terms", base + d), ("Bouc–Wen increment", inc + d),
+                 ("baseline + operator terms", base + operator_terms(data)),
+                 ("operator dynamics", operator_dynamics_terms(data))]
         if plan.search:
             sets.append(("search + direction terms", found + d))
     seen = set()
@@ -334,22 +380,28 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
         terms = _unique(terms, data, reg)
         if frozenset(terms) not in seen:
             seen.add(frozenset(terms))
-            cands.append((name, _candidate(terms, data, cons, reg)))
+            # memory operators hold their value at a held input by themselves: a
+            # stable model driven by them settles without the continuum constraints
+            own = None if name in _OPERATOR_CANDIDATES else cons
+            cands.append((name, _candidate(terms, data, own, reg)))
     if not cands:
         return Extension(baseline, "baseline (no change)", (), plan,
                          ("no candidate could be built: the baseline is kept",))
     scored = [(name, m, freerun_rmse(m, data),
-               probe_holds(m, data) if cons and m is not None else float("nan"))
+               probe_holds(m, data) if cons and m is not None
+               and name not in _OPERATOR_CANDIDATES else float("nan"))
               for name, m in cands]
     ok = [c for c in scored if c[1] is not None]
     if not ok:
         raise EstimationError("no extension could be fitted: every candidate structure "
                               "failed its estimation")
-    name, best, _, _ = min(ok, key=lambda c: (max(c[3] - floor, 0.0) if c[3] == c[3] else 0.0,
+    name, best, _, _ = min(ok, key=lambda c: (not np.isfinite(c[2]),
+                                              max(c[3] - floor, 0.0) if c[3] == c[3] else 0.0,
                                               c[2], c[1].n_terms))
     changes = candidate_changes(name, plan)
     best.meta.update({"source": "mggp diagnose extension", "fitness": plan.setting.fitness,
                       "window": plan.setting.window, "use_phi": plan.setting.use_phi,
-                      "estimation": "cls" if cons else "ls", "changes": list(changes)})
+                      "estimation": "cls" if cons and name not in _OPERATOR_CANDIDATES
+                      else "ls", "changes": list(changes)})
     table = tuple((n, (m.n_terms if m is not None else 0), s, h) for n, m, s, h in scored)
     return Extension(best, name, table, plan, changes)

@@ -48,8 +48,10 @@ t-bound, placebo or bootstrap quantile, noise bound of a hold) and a
 (default 0.5 %): effects smaller than the floor are not worth a model
 change, and on noise-free data — where every imperfect model is
 "significant" — the floor is what decides. For the correlation tests the
-floor is expressed in correlation units, floor / RMS(ε): a correlation
-must explain at least the floor of the one-step residual. The free-run
+floor is expressed in correlation units, floor / (RMS(ε) s), with s the
+model's free-run/one-step error ratio (:mod:`.correlation`): a correlation
+must explain a part of the residual that the free run makes as large as
+the floor. The free-run
 excess of ``prediction-bias`` must also reach the free-run RMSE that the
 noise alone causes (the free run at least √2 times worse than the noise
 explains), so that noisy data do not turn a small misfit into a finding.

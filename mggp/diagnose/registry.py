@@ -31,12 +31,13 @@ removes it) runs in every later diagnosis.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import import_module
 from typing import Any, Callable, Dict, Iterable, List, Optional, Sequence, Tuple
 
 from .context import Context
 from .findings import VOCABULARY, Check
+from .thresholds import calibrated
 
 __all__ = ["DiagnosticTest", "Outcome", "Evidence", "register", "unregister", "registered",
            "run_tests"]
@@ -175,7 +176,8 @@ class Evidence:
 
 
 def run_tests(ctx: Context, tests: Optional[Iterable[DiagnosticTest]] = None) -> Evidence:
-    """Run ``tests`` (default: :func:`registered`) on ``ctx``, in order.
+    """Run ``tests`` (default: :func:`registered`) on ``ctx``, in order;
+    every threshold is calibrated (:func:`~mggp.diagnose.thresholds.calibrated`).
 
     Raises
     ------
@@ -187,6 +189,7 @@ def run_tests(ctx: Context, tests: Optional[Iterable[DiagnosticTest]] = None) ->
     names = set()
     for t in registered() if tests is None else tests:
         o = t.run(ctx)
+        o = replace(o, checks=[calibrated(c) for c in o.checks])
         for c in o.checks:
             if c.effect not in t.effects:
                 raise ValueError(f"diagnose test {t.name!r} returned check {c.test!r} of "

@@ -27,6 +27,7 @@ from narx.atomic import atomic_write_text
 from ..plotting import figure, save as _save
 from ..quasistatic_report import diagnosis_figure
 from ..report import figure_lines
+from .correlation import propagation_factor
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
 from .simulation import direction_of_change, simulation_residual
@@ -211,6 +212,7 @@ def _plot_correlation(path, dx, inputs):
 def _correlation_panel(ax, t, dx):
     ax.bar(t.lags, t.r, width=0.6, color="tab:gray")
     rms = dx.evidence.osa_rms if t.rms is None else t.rms     # of the residual tested
+    rms *= propagation_factor(dx.evidence.osa_rms, dx.evidence.context.freerun_rms)
     floor = dx.evidence.floor / rms if rms > 0 else 2.0
     for v, ls, lab in ((t.band95, "-", "±1.96/√N"), (t.band, "--", "Bonferroni"),
                        (floor, ":", "resolution floor")):

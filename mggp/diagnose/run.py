@@ -33,7 +33,7 @@ from narx.metrics import mape
 from .context import Context
 from .extend import (Budget, Extension, baseline_search, fit_extension, plan_extension,
                      user_setting)
-from .findings import Check, Finding, json_number as _num, name_findings
+from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
 
 __all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data"]
@@ -155,6 +155,37 @@ class Diagnosis:
                 "tests": [c.to_dict() for c in self.checks],
                 "settings": self.settings}
 
+    def recommended_model(self, command: str = "") -> Model:
+        """The recommended model (:attr:`Gain.recommended`), a copy whose
+        ``meta['diagnose']`` says which one it is, why, and the gain.
+
+        Parameters
+        ----------
+        command : str
+            The command line that produced the diagnosis (stored in the meta).
+        """
+        which = self.gain.recommended
+        chosen = self.extended if which == "extended" else self.baseline
+        g = self.gain
+        if which == "extended":
+            why = (f"the extension's free-run RMSE {number_text(g.extended)} on the measuring "
+                   f"samples is below the baseline's {number_text(g.baseline)} (gain "
+                   f"{number_text(g.ratio)}x)")
+        elif not self.findings:
+            why = "nothing was named, so the baseline was not changed"
+        else:
+            why = (f"the extension's free-run RMSE {number_text(g.extended)} on the measuring "
+                   f"samples is not below the baseline's {number_text(g.baseline)}: the "
+                   f"baseline is kept")
+        m = Model(chosen.model.term_texts, theta=np.array(chosen.model.theta, dtype=float),
+                  inputs=chosen.model.inputs, output=chosen.model.output,
+                  registry=chosen.model.registry)
+        m.meta.update({k: v for k, v in chosen.model.meta.items()})
+        m.meta["diagnose"] = {"recommended": which, "why": why, "source": chosen.source,
+                              "effects": self.effects, "gain": g.to_dict(),
+                              "samples": self.split.to_dict(), "command": command}
+        return m
+
     def summary(self) -> str:
         from .report import terminal_summary
         return terminal_summary(self)
@@ -206,7 +237,8 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
              *, budget: Budget = Budget(), seed: int = 0, jobs: int = 1,
              holdout: float = 0.3, alpha: float = 0.01, resolution: float = 0.005,
              names: Tuple[str, str] = ("train", "validation"), model_name: str = "model",
-             progress: Optional[Callable[[str], None]] = None) -> Diagnosis:
+             progress: Optional[Callable[[str], None]] = None,
+             search_callbacks: Optional[Callable[[int], list]] = None) -> Diagnosis:
     """Diagnose a model (or an MGGP baseline) on ``train``; see the module doc.
 
     Parameters
@@ -225,6 +257,11 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
         False-alarm probability of each test.
     resolution : float
         Smallest effect worth naming, as a fraction of the output's range.
+    progress : callable, optional
+        ``progress(message)`` at the start of each step.
+    search_callbacks : callable, optional
+        ``search_callbacks(generations)`` returns the per-generation
+        callbacks of each MGGP search (e.g. the progress line of ``mggp fit``).
     """
     say = progress or (lambda msg: None)
     if not 0.0 < alpha < 0.5:
@@ -239,7 +276,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     if model is None:
         say(f"baseline: MGGP search, MS fitness, no Φ (population {budget.population}, "
             f"{budget.generations} generations)")
-        base, base_setting = baseline_search(fit, budget, seed, jobs)
+        base, base_setting = baseline_search(fit, budget, seed, jobs, search_callbacks)
         base_source = "MGGP baseline (" + base_setting.describe() + ")"
     else:
         base, base_setting = model, user_setting(model, budget)
@@ -259,7 +296,8 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     plan = plan_extension([f.effect for f in findings], base_setting, budget, fit.n)
     if findings:
         say("extension: " + "; ".join(plan.changes))
-        ext = fit_extension(plan, base, fit, budget, seed, jobs, ev.floor)
+        ext = fit_extension(plan, base, fit, budget, seed, jobs, ev.floor,
+                            search_callbacks)
     else:
         ext = Extension(base, "baseline (no finding)", (), plan)
     timings["extension"] = time.perf_counter() - t2
