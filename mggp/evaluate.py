@@ -119,7 +119,9 @@ def _checkout(key, data, settings, registry) -> StructureScorer:
         if idle:
             _IDLE.move_to_end(key)
             return idle.pop()
-    return StructureScorer(data, registry=registry, **settings)
+    # written up front: loky takes a worker's size after its first task and
+    # would read stores that fill later as a leak (and restart the worker)
+    return StructureScorer(data, registry=registry, prefault=True, **settings)
 
 
 def _checkin(key, scorer) -> None:

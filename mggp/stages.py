@@ -190,9 +190,16 @@ def size(terms, data, ctx):
     """``size='auto'``: the smallest structure of the run's Pareto front
     whose held-out free-run error is within 5 % of the least, the chosen
     structure included (:func:`mggp.choices.size_choice`). A structure
-    chosen for its holding (``select`` 'hold') is kept."""
+    chosen for its holding (``select`` 'hold') is kept, and so is the size an
+    information criterion (``criterion`` 'bic'/'aic') or pruning chose."""
     est = ctx.est
     if est.size != "auto" or selected(ctx) == "hold":
+        return terms
+    if est.criterion != "mse" or est.prune:
+        by = (f"the {est.criterion.upper()} criterion" if est.criterion != "mse"
+              else f"pruning ({est.prune})")
+        ctx.choices["size"] = Choice("size", len(terms), f"size {len(terms)} terms: "
+                                     f"chosen by {by}, not by held-out error", {})
         return terms
     rows = [(len(terms), heldout_rmse(terms, data, ctx.registry), terms)]
     seen = {frozenset(terms)}
