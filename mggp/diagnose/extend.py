@@ -33,10 +33,15 @@ The extension changes the search the way each cause calls for
   specific cause above was named (they are then its symptoms).
 
 When a search is run, its model and its union with the baseline's terms
-are candidates (with the direction-term candidates for hysteresis); each
-is fitted (LS or CLS) on the fitting samples and the one with the smallest
-free-run RMSE *on the fitting samples* is kept, so the samples that
-measure the gain play no part in building the extension. Under CLS
+are candidates (with the direction-term candidates for hysteresis). Each
+is ranked by hold-out validation inside the fitting samples: estimated
+(LS or CLS) on their first :data:`HOLDOUT_FIT` share and scored by its
+free-run RMSE on the rest, so a candidate is not favoured by fitting the
+samples that rank it; it is also estimated on all the fitting samples
+(the model that would be kept) and its score is the larger of that
+hold-out RMSE and this model's free-run RMSE on the fitting samples, so
+the kept model must simulate well too. The smallest score wins. The
+samples that measure the gain play no part in building the extension. Under CLS
 (drift named, so the system holds) candidates that do not keep still in
 holds inserted into the fitting input
 (:func:`~mggp.diagnose.holds.probe_holds`) rank after those that do,
@@ -140,8 +145,10 @@ class ExtensionPlan:
 @dataclass(frozen=True)
 class Extension:
     """The fitted extension: the chosen model, its name among the
-    candidates, every candidate as (name, terms, free-run RMSE on the
-    fitting samples, movement in probe holds — NaN when not checked), the
+    candidates, every candidate as (name, terms, score: the larger of its
+    hold-out free-run RMSE on the tail of the fitting samples and its
+    free-run RMSE on the fitting samples (:func:`fit_extension`), movement in
+    probe holds — NaN when not checked), the
     plan, and ``changes``: what the *chosen* candidate changed, in words
     (:func:`candidate_changes`; the plan's changes describe the search,
     which the chosen candidate may not come from)."""
@@ -317,7 +324,8 @@ def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
     out += remarks
     if plan.search and search:
         out.append("not chosen: the candidates of the new search ("
-                   + "; ".join(search) + ") ranked after it on the fitting samples")
+                   + "; ".join(search) + ") ranked after it by their hold-out scores on "
+                   "the fitting samples")
     return tuple(out)
 
 
@@ -336,9 +344,53 @@ def _candidate(terms, data: Data, constraints, registry) -> Optional[Model]:
         return None
 
 
+#: share of the fitting samples that builds a candidate when ranking them;
+#: the rest (the tail) ranks them by free-run RMSE
+HOLDOUT_FIT = 0.7
+
+
+def _holdout_scores(structures, data: Data, registry) -> dict:
+    """Free-run RMSE of each structure on the tail of the fitting samples.
+
+    Each structure ``(name, terms, constraints)`` is estimated on the first
+    :data:`HOLDOUT_FIT` of ``data`` and simulated in free run over the whole
+    record; its score is the RMSE on the remaining samples only,
+    RMSE_tail = sqrt(mean_{k >= cut} (y[k] - ŷ[k])²). A candidate scored on
+    the samples that estimated it is favoured by its own over-fitting;
+    scoring it on samples it was not fitted to is hold-out validation
+    (Stone 1974, J. R. Stat. Soc. B 36:111–147). A structure that cannot
+    be estimated on the first part, or whose free run diverges, scores
+    ``inf``. Returns ``{}`` when either part would be under 50 samples.
+    """
+    cut = int(HOLDOUT_FIT * data.n)
+    if cut < 50 or data.n - cut < 50:
+        return {}
+    head = data.slice(0, cut)
+    return {name: _tail_rmse(_candidate(terms, head, cons, registry), data, cut)
+            for name, terms, cons in structures}
+
+
+def _tail_rmse(model: Optional[Model], data: Data, cut: int) -> float:
+    """Free-run RMSE of ``model`` on ``data`` from sample ``cut`` on."""
+    if model is None:
+        return float("inf")
+    with np.errstate(all="ignore"):
+        r = model.simulate(data, mode="freerun")
+        e = data.y[cut:] - r.y_hat[cut:]
+    if r.diverged or not np.all(np.isfinite(e)):
+        return float("inf")
+    return float(np.sqrt(np.mean(e ** 2)))
+
+
 def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budget,
                   seed=0, jobs=1, floor: float = 0.0, callbacks=None) -> Extension:
     """Fit the planned extension on ``data`` (the fitting samples).
+
+    Each candidate is scored by the larger of its free-run RMSE on the last
+    ``1 - HOLDOUT_FIT`` of ``data`` after estimation on the first
+    :data:`HOLDOUT_FIT` (:func:`_holdout_scores`; left out on a record too
+    short to split) and the free-run RMSE on ``data`` of its estimate on
+    all of ``data``, the model that is kept.
 
     With CLS (drift named: the system holds) a candidate must also keep
     still in holds inserted into the fitting input (:func:`probe_holds`,
@@ -352,7 +404,9 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
     cons = plan.setting.constraints
     base = baseline.term_texts
     cands: List[Tuple[str, Optional[Model]]] = []
+    structures = []
     if plan.refit_cls:
+        structures.append(("baseline terms, CLS", baseline.terms, cons))
         cands.append(("baseline terms, CLS", _candidate(baseline.terms, data, cons, reg)))
         m0 = cands[0][1]
         if not np.isfinite(freerun_rmse(m0, data)) or probe_holds(m0, data) > floor:
@@ -383,11 +437,13 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
             # memory operators hold their value at a held input by themselves: a
             # stable model driven by them settles without the continuum constraints
             own = None if name in _OPERATOR_CANDIDATES else cons
+            structures.append((name, terms, own))
             cands.append((name, _candidate(terms, data, own, reg)))
     if not cands:
         return Extension(baseline, "baseline (no change)", (), plan,
                          ("no candidate could be built: the baseline is kept",))
-    scored = [(name, m, freerun_rmse(m, data),
+    scores = _holdout_scores(structures, data, reg)
+    scored = [(name, m, max(scores.get(name, 0.0), freerun_rmse(m, data)),
                probe_holds(m, data) if cons and m is not None
                and name not in _OPERATOR_CANDIDATES else float("nan"))
               for name, m in cands]

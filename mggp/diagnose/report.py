@@ -28,6 +28,7 @@ from ..plotting import figure, save as _save
 from ..quasistatic_report import diagnosis_figure
 from ..report import figure_lines
 from .correlation import propagation_factor
+from .extend import HOLDOUT_FIT
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
 from .simulation import direction_of_change, simulation_residual
@@ -351,12 +352,16 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
     L += _model_lines(dx.baseline, "Baseline")
     L += _model_lines(dx.extended, "Extended")
     if dx.extension.candidates:
-        L += ["Candidates (fitted on the fitting samples, chosen by their free-run RMSE "
-              "there; under CLS a candidate must also keep still, within the resolution "
-              "floor, in holds inserted into the fitting input):", ""]
+        cut = round(100 * HOLDOUT_FIT)
+        L += [f"Candidates (each estimated on the first {cut} % of the fitting samples "
+              f"and scored by its free-run RMSE on the remaining {100 - cut} %, then "
+              "estimated on all of them; ranked by the larger of that RMSE and this "
+              "model's free-run RMSE on the fitting samples; under CLS a candidate must "
+              "also keep still, within the resolution floor, in holds inserted into the "
+              "fitting input):", ""]
         L += _table([[n, str(k), _g(s), "-" if h != h else _g(h)]
                      for n, k, s, h in dx.extension.candidates],
-                    ["candidate", "terms", "free-run RMSE (fitting samples)",
+                    ["candidate", "terms", "free-run RMSE (max of hold-out, fitting)",
                      "movement in probe holds"])
         L.append("")
     g = dx.gain
