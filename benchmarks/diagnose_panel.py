@@ -28,7 +28,7 @@ samples, 4 Hz bandwidth at 1 ms), with or without three held segments of
 from __future__ import annotations
 
 import argparse
-import os
+import sys
 import time
 from dataclasses import dataclass
 from typing import Callable, Optional, Tuple
@@ -43,10 +43,13 @@ from narx.systems import held_sine, piezo_bouc_wen, prandtl_ishlinskii, training
 from mggp.diagnose import Budget, diagnose
 from mggp.diagnose.controls import CONTROL_KINDS, control_record
 
+from .mr_damper import data_dirs, data_path
+
 BUDGET = Budget(population=100, generations=15)
 POLES = (0.9, 0.85, 0.8)
 N = 4000
-SHARED = "/work/shared/data"
+#: shared data files the panel reads (found by :func:`benchmarks.mr_damper.data_path`)
+SHARED_FILES = ("mr_damper.csv", "cascaded_tanks.csv")
 
 
 def behind_dynamics(v, order: int) -> np.ndarray:
@@ -113,7 +116,7 @@ def control(kind, seed=0):
 
 def mr_damper():
     def make():
-        d = read_csv(os.path.join(SHARED, "mr_damper.csv"), inputs=["v", "E"], output="f")
+        d = read_csv(data_path("mr_damper.csv"), inputs=["v", "E"], output="f")
         cut = lambda a, b: Data(d.U[:, a:b].T, d.y[a:b], inputs=d.inputs, output=d.output)
         return cut(400, 2000), cut(2001, 3600)
     return Record("MR damper (v, E -> f)", "hysteresis?", make)
@@ -121,7 +124,7 @@ def mr_damper():
 
 def cascaded_tanks():
     def make():
-        p = os.path.join(SHARED, "cascaded_tanks.csv")
+        p = data_path("cascaded_tanks.csv")
         t = read_csv(p, inputs=["uEst"], output="yEst")
         v = read_csv(p, inputs=["uVal"], output="yVal")
         return t, Data(v.U.T, v.y, inputs=["uEst"], output="yEst")
@@ -148,6 +151,11 @@ def main(argv=None):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", default="", help="write every record's checks and gain here")
     a = p.parse_args(argv)
+    missing = [f for f in SHARED_FILES if data_path(f) is None]
+    if missing:
+        print(f"error: shared data not found: {', '.join(missing)} (looked in "
+              f"{', '.join(data_dirs())})", file=sys.stderr)
+        return 2
     doc = []
     print("| record | truth | named | hysteresis named | gain (RMSE ratio) | "
           "recommended | s |")
@@ -181,4 +189,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())
