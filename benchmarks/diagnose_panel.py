@@ -43,7 +43,7 @@ from narx.systems import held_sine, piezo_bouc_wen, prandtl_ishlinskii, training
 from mggp.diagnose import Budget, diagnose
 from mggp.diagnose.controls import CONTROL_KINDS, control_record
 
-from .mr_damper import data_dirs, data_path
+from .mr_damper import data_path, shared_data_error
 
 BUDGET = Budget(population=100, generations=15)
 POLES = (0.9, 0.85, 0.8)
@@ -151,10 +151,9 @@ def main(argv=None):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", default="", help="write every record's checks and gain here")
     a = p.parse_args(argv)
-    missing = [f for f in SHARED_FILES if data_path(f) is None]
-    if missing:
-        print(f"error: shared data not found: {', '.join(missing)} (looked in "
-              f"{', '.join(data_dirs())})", file=sys.stderr)
+    err = shared_data_error(SHARED_FILES)
+    if err:
+        print(err, file=sys.stderr)
         return 2
     doc = []
     print("| record | truth | named | hysteresis named | gain (RMSE ratio) | "

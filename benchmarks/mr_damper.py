@@ -57,6 +57,16 @@ def data_path(name):
     return None
 
 
+def shared_data_error(names):
+    """The one ``error:`` line of a study whose shared data files ``names``
+    are not all found by :func:`data_path` (None when every one is)."""
+    missing = [n for n in dict.fromkeys(names) if data_path(n) is None]
+    if not missing:
+        return None
+    return (f"error: shared data not found: {', '.join(missing)} (looked in "
+            f"{', '.join(data_dirs())}; set MGGP_SHARED_DATA to the folder that has them)")
+
+
 def damper_path():
     """``mr_damper.csv`` (see :func:`data_path`)."""
     return data_path("mr_damper.csv")

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 import warnings
 
@@ -196,6 +197,13 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=int, default=2)
     p.add_argument("--json", help="also write the figures here")
     a = p.parse_args(argv)
+    from .mr_damper import shared_data_error
+    from .real_data import data_files
+    err = shared_data_error(data_files(a.records)
+                            + (["mr_damper.csv"] if "MR damper" in a.records else []))
+    if err:
+        print(err, file=sys.stderr)
+        return 2
     budget = {k: v for k, v in (("population", a.population),
                                 ("generations", a.generations)) if v is not None}
     t0 = time.perf_counter()

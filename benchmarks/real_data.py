@@ -46,9 +46,9 @@ import numpy as np
 
 from narx import Data, Model
 
-from .mr_damper import data_dirs, data_path
+from .mr_damper import data_path, shared_data_error
 
-__all__ = ["RECORDS", "SETTINGS", "load_record", "missing_files", "run"]
+__all__ = ["RECORDS", "SETTINGS", "data_files", "load_record", "run"]
 
 #: name -> (training file, validation file, training columns, validation
 #: columns, published free-run RMSE on the validation record)
@@ -79,10 +79,10 @@ def load_record(name):
     return tuple(out)
 
 
-def missing_files() -> list:
-    """Data files of :data:`RECORDS` that :func:`data_path` does not find."""
-    names = dict.fromkeys(f for rec in RECORDS.values() for f in rec[:2])
-    return [f for f in names if data_path(f) is None]
+def data_files(names=None) -> list:
+    """The shared data files of the records ``names`` (default: all)."""
+    return [f for n in (RECORDS if names is None else names) if n in RECORDS
+            for f in RECORDS[n][:2]]
 
 
 def run(seeds=(1, 2, 3), population=300, generations=60, jobs=2, log=print) -> dict:
@@ -146,11 +146,9 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     p.add_argument("--json", help="also write the figures here (default: not written)")
     a = p.parse_args(argv)
-    missing = missing_files()
-    if missing:
-        print(f"error: shared data not found: {', '.join(missing)} (looked in "
-              f"{', '.join(data_dirs())}; set MGGP_SHARED_DATA to the folder that has them)",
-              file=sys.stderr)
+    err = shared_data_error(data_files())
+    if err:
+        print(err, file=sys.stderr)
         return 2
     t0 = time.perf_counter()
     res = run(a.seeds, a.population, a.generations, a.jobs)

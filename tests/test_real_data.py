@@ -40,9 +40,20 @@ def test_shared_data_are_looked_for_beside_the_project(monkeypatch):
 
 
 def test_missing_data_exit_2_with_one_error_line(monkeypatch, capsys):
-    from benchmarks import real_data
-    monkeypatch.setattr(real_data, "data_path", lambda name: None)
+    from benchmarks import mr_damper, real_data
+    monkeypatch.setattr(mr_damper, "data_path", lambda name: None)
     assert real_data.main(["--seeds", "1"]) == 2
     out, err = capsys.readouterr()
     assert out == "" and len(err.strip().splitlines()) == 1
     assert err.startswith("error: shared data not found: cascaded_tanks.csv")
+
+
+@pytest.mark.parametrize("module", ["panel", "diagnose_panel"])
+def test_panels_exit_2_with_one_error_line_when_data_are_missing(module, monkeypatch, capsys):
+    import importlib
+    from benchmarks import mr_damper
+    monkeypatch.setattr(mr_damper, "data_path", lambda name: None)
+    assert importlib.import_module(f"benchmarks.{module}").main([]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and len(err.strip().splitlines()) == 1
+    assert err.startswith("error: shared data not found: ")
