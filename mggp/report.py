@@ -16,19 +16,22 @@ from typing import Optional
 
 import numpy as np
 
+from narx.simulate import mode_name
+
 from .plotting import figure, save as _save
 
 __all__ = ["write_fit_report", "plot_freerun", "plot_loop", "plot_convergence", "figure",
            "error_groups", "plot_errors", "fitness_words", "figure_lines"]
 
-#: fitness name -> the simulation whose error it scores
-FITNESS_WORDS = {"pem": "one-step-ahead prediction", "freerun": "free-run simulation",
+#: canonical mode name (:data:`narx.simulate.MODE_TABLE`; aliases such as ``pem``
+#: resolved by :func:`narx.simulate.mode_name`) -> the simulation its fitness scores
+FITNESS_WORDS = {"osa": "one-step-ahead prediction", "freerun": "free-run simulation",
                  "ksa": "k-steps-ahead prediction", "ms": "multiple-shooting simulation"}
 
 
 def fitness_words(fitness: str, criterion: str = "mse", unit: str = "output units") -> str:
     """What a fitness value is, in words, with its unit."""
-    what = FITNESS_WORDS.get(fitness, fitness)
+    what = FITNESS_WORDS[mode_name(fitness, "fitness")]
     mse = f"the mean squared error J of the {what} over the training record ({unit}²)"
     if criterion == "bic":
         return f"BIC = N ln J + p ln N (dimensionless; J is {mse}, p the number of terms)"
