@@ -4,7 +4,11 @@
 :class:`narx.memory.OperatorRegistry` (memory operators) hold their entries
 by name; built-ins (entries whose ``builtin`` is true) are always there and
 can be neither replaced nor removed. This class holds the lookups and the
-rules they share; each registry adds its own ``register``.
+rules they share; each registry adds its own ``register``. Typical use::
+
+    reg = narx.PhiRegistry()              # a NamedRegistry of Φ-functions
+    reg.register("Abs", 1, np.abs, steady=np.abs)
+    "Abs" in reg, reg.get("Phi1").builtin   # (True, True)
 """
 from __future__ import annotations
 
