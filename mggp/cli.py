@@ -21,6 +21,8 @@ from typing import List, Optional
 
 import numpy as np
 
+from narx.linalg import DIVERGENCE_FACTOR
+
 from .exceptions import CLIError
 
 __all__ = ["main", "CLIError", "build_parser"]
@@ -61,6 +63,10 @@ class _Parser(argparse.ArgumentParser):
             self.error("the following arguments are required: "
                        + ", ".join(a.metavar or a.dest for a in missing))
         return ns, rest
+
+
+#: how far a diverged simulation went, in the words of the error messages
+BEYOND = f"beyond {DIVERGENCE_FACTOR:.0e}".replace("e+0", "e") + " times"
 
 
 def add_signal_args(p, inputs: str = "u", output: str = "y"):
@@ -160,7 +166,7 @@ def _cmd_simulate(args) -> int:
     res = model.simulate(d, mode=args.mode, **kw)
     if res.diverged:
         raise CLIError(f"the model is unstable on {args.data}: its {args.mode} simulation "
-                       f"diverged (output beyond 1e4 times the data's magnitude)")
+                       f"diverged (output {BEYOND} the data's magnitude)")
     if args.out:
         write_with_column(args.data, args.out, column, res.y_hat)
     scored = int(res.valid.sum())

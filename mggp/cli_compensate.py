@@ -27,7 +27,7 @@ import warnings
 
 import numpy as np
 
-from .cli import CLIError, fmt
+from .cli import BEYOND, CLIError, fmt
 
 __all__ = ["register"]
 
@@ -132,7 +132,7 @@ def _cmd_compensate(args) -> int:
         res = comp.run(r)
         if res.diverged:
             raise CLIError(f"the inverse of {args.model} diverges on {args.reference} at "
-                           f"sample {res.diverged_at} (input or model output beyond 1e4 times "
+                           f"sample {res.diverged_at} (input or model output {BEYOND} "
                            f"the signals' magnitude): the model cannot be inverted "
                            f"stably there; " + (nmp or
                            f"give --input-range LOW HIGH, --max-step, the "

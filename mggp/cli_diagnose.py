@@ -29,7 +29,7 @@ import os
 import shlex
 import sys
 
-from .cli import CLIError, add_signal_args
+from .cli import BEYOND, CLIError, add_signal_args
 from .params import (DIAGNOSE_PARAMS, NAMES, PATH, Bool, Kind, Param, add_options,
                      check_options)
 
@@ -150,7 +150,7 @@ def _cmd_diagnose(args) -> int:
         fr = model.simulate(train, mode="freerun")
         if fr.diverged:
             raise CLIError(f"the model {args.model} is unstable on {args.train}: its free "
-                           f"run diverged (output beyond 1e4 times the data's magnitude); "
+                           f"run diverged (output {BEYOND} the data's magnitude); "
                            f"a model whose simulation diverges has no simulation to diagnose")
     budget = Budget(population=args.population, generations=args.generations,
                     max_terms=args.max_terms, max_height=args.max_height,
