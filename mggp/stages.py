@@ -16,6 +16,10 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
     The structure among the best of the run (``select``; 'auto': the one
     whose CLS refit holds with ``constraints``, else the best fitness);
     sets ``selection_`` and ``search_terms_``.
+``local_search``
+    One-term moves from the chosen structure while they lower the search's
+    fitness (``local_search``; :mod:`mggp.local_search`); sets
+    ``local_search_``.
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
     held-out free-run error is within 5 % of the least (``size``).
@@ -183,6 +187,41 @@ def select(terms, data, ctx):
                           f"structure (see selection_)", UserWarning, stacklevel=_CALLER)
         terms = chosen or terms
     est.search_terms_ = terms
+    return terms
+
+
+def local_search(terms, data, ctx):
+    """``local_search``: best-improvement one-term moves from the chosen
+    structure while the measure that chose it falls: the search's fitness
+    (criterion included), or with ``select`` 'freerun' the free-run error
+    over the record; each accepted move passes the search's stability
+    screen (:func:`mggp.local_search.improve`). A structure chosen for its
+    holding (``select`` 'hold') is kept as chosen."""
+    est = ctx.est
+    est.local_search_ = []
+    how = selected(ctx)
+    if not est.local_search or how == "hold":
+        return terms
+    from .local_search import improve, term_moves
+    from .primitives import max_lag_for_height
+    reach = max_lag_for_height(est.max_height)
+    lags = range(1, min(est.max_lag or reach, reach) + 1)
+    degree = est.max_degree or max(3, max((t.degree for t in terms), default=1))
+    moves = term_moves(data.signals, lags, degree, est._allowed)
+    n = data.n - ctx.start
+
+    sc = ctx.scorer_for("freerun") if how == "freerun" else ctx.scorer
+
+    def score(ts):
+        return criterion_value(sc.score(ts), len(ts), n, est.criterion)
+
+    scr = ctx.screen
+    passes = None
+    if scr is not None:
+        def passes(ts):
+            return scr.inside_band(ts) and (scr.hold is None or scr.holds(ts))
+    terms, steps = improve(terms, score, moves, passes)
+    est.local_search_ = [s.to_dict() for s in steps]
     return terms
 
 
@@ -380,7 +419,8 @@ def pareto(terms, data, ctx):
 
 
 #: the stages of ``fit`` after the search, in order
-STAGES = (("select", select), ("size", size), ("prune", prune), ("noise", noise), ("record", record),
+STAGES = (("select", select), ("local_search", local_search), ("size", size),
+          ("prune", prune), ("noise", noise), ("record", record),
           ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
           ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))
 
