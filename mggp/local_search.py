@@ -20,6 +20,9 @@ search's own fitness :math:`J` (the simulation MSE, or the BIC/AIC
 the neighbourhood :math:`N` (:func:`term_moves`) being every structure
 that differs in one term: the term dropped, one of its lagged-signal
 factors replaced by another lagged signal, dropped or joined by one more.
+When dropping a term improves :math:`J`, the best such drop is taken
+before any replacement, so that a spurious term leaves the model instead
+of being traded for the one that fits the noise best.
 Φ-calls and memory operators stay as the search built them: their term may
 be dropped or joined by a lagged signal, the call itself is not changed. This is the hybrid of evolutionary and local
 search called memetic (Moscato, "On evolution, search, optimization, genetic
@@ -136,8 +139,12 @@ def improve(terms: Sequence[Term], score: Callable[[Tuple[Term, ...]], float],
     cur = score(terms)
     steps: List[LocalStep] = []
     while len(steps) < max_steps:
-        trials = sorted((score(ts), k, ts) for k, ts in enumerate(moves(terms)))
-        better = [(v, ts) for v, _, ts in trials if v < cur][:CHECKED]
+        trials = sorted((score(ts), len(ts) >= len(terms), k, ts)
+                        for k, ts in enumerate(moves(terms)))
+        better = [(v, ts) for v, _, _, ts in trials if v < cur]
+        # a removal that improves comes first: a spurious term is dropped,
+        # not traded for the spurious term that fits the noise best
+        better = ([b for b in better if len(b[1]) < len(terms)] or better)[:CHECKED]
         nxt = next(((v, ts) for v, ts in better if passes is None or passes(ts)), None)
         if nxt is None:
             break

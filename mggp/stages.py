@@ -16,16 +16,16 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
     The structure among the best of the run (``select``; 'auto': the one
     whose CLS refit holds with ``constraints``, else the best fitness);
     sets ``selection_`` and ``search_terms_``.
-``local_search``
-    One-term moves from the chosen structure while they lower the search's
-    fitness (``local_search``; :mod:`mggp.local_search`); sets
-    ``local_search_``.
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
     held-out free-run error is within 5 % of the least (``size``).
 ``prune``
     Backward elimination by BIC of the fitness or by t-statistics
     (``prune``; :mod:`mggp.pruning`).
+``local_search``
+    One-term moves from the chosen structure while they lower the search's
+    fitness (``local_search``; :mod:`mggp.local_search`), then the same
+    pruning again; sets ``local_search_``.
 ``noise``
     Moving-average noise terms by extended least squares (``noise_lags``;
     :mod:`mggp.noise`).
@@ -195,8 +195,9 @@ def local_search(terms, data, ctx):
     structure while the measure that chose it falls: the search's fitness
     (criterion included), or with ``select`` 'freerun' the free-run error
     over the record; each accepted move passes the search's stability
-    screen (:func:`mggp.local_search.improve`). A structure chosen for its
-    holding (``select`` 'hold') is kept as chosen."""
+    screen (:func:`mggp.local_search.improve`); a moved structure is pruned
+    again (``prune``). A structure chosen for its holding (``select``
+    'hold') is kept as chosen."""
     est = ctx.est
     est.local_search_ = []
     how = selected(ctx)
@@ -222,7 +223,7 @@ def local_search(terms, data, ctx):
             return scr.inside_band(ts) and (scr.hold is None or scr.holds(ts))
     terms, steps = improve(terms, score, moves, passes)
     est.local_search_ = [s.to_dict() for s in steps]
-    return terms
+    return prune(terms, data, ctx) if steps else terms
 
 
 def size(terms, data, ctx):
@@ -419,8 +420,8 @@ def pareto(terms, data, ctx):
 
 
 #: the stages of ``fit`` after the search, in order
-STAGES = (("select", select), ("local_search", local_search), ("size", size),
-          ("prune", prune), ("noise", noise), ("record", record),
+STAGES = (("select", select), ("size", size), ("prune", prune),
+          ("local_search", local_search), ("noise", noise), ("record", record),
           ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
           ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))
 
