@@ -19,7 +19,9 @@ search's own fitness :math:`J` (the simulation MSE, or the BIC/AIC
 
 the neighbourhood :math:`N` (:func:`term_moves`) being every structure
 that differs in one term: the term dropped, one of its lagged-signal
-factors replaced by another lagged signal, dropped or joined by one more.
+factors replaced by another lagged signal, dropped or joined by one more
+(new factors: any signal at a lag within :data:`LAG_STEP` samples of the
+term's own lags, which keeps a step's cost linear in the number of lags).
 When dropping a term improves :math:`J`, the best such drop is taken
 before any replacement, so that a spurious term leaves the model instead
 of being traded for the one that fits the noise best.
@@ -42,6 +44,10 @@ __all__ = ["improve", "term_moves", "LocalStep"]
 #: the search stops
 CHECKED = 5
 
+#: a replaced or added factor is a signal at a lag within this many samples
+#: of the term's own lags
+LAG_STEP = 2
+
 
 class LocalStep(tuple):
     """One accepted move: ``(removed, added, fitness)`` (a term text or
@@ -63,26 +69,32 @@ def term_moves(signals, lags: Iterable[int], max_degree: int,
     signals : Signals
         The record's output and inputs; factors are lags of these.
     lags : iterable of int
-        The lags a new factor may take.
+        The lags a new factor may take (those near the term's own are used).
     max_degree : int
         Largest number of factors of a changed term.
     allowed : callable
         Whether a changed term may enter a structure (the search's rule).
     """
     names = [(signals.output, "y")] + [(u, "u") for u in signals.inputs]
-    pool = [Lag(s, int(k), role) for s, role in names for k in lags]
+    lags = sorted(set(int(k) for k in lags))
+
+    def near(ks) -> List[Lag]:
+        """Every signal at the lags within :data:`LAG_STEP` of ``ks``."""
+        keep = {k for k in lags if any(abs(k - j) <= LAG_STEP for j in ks)}
+        return [Lag(s, k, role) for s, role in names for k in sorted(keep)]
 
     def variants(t: Term) -> List[Term]:
         out = set()
+        own = [f.lag for f in t.factors if isinstance(f, Lag)] or lags[:1]
         for j, f in enumerate(t.factors):
             if not isinstance(f, Lag) or f.role == "e":
                 continue
             others = t.factors[:j] + t.factors[j + 1:]
             if others:
                 out.add(Term(others))
-            out.update(Term(others + (g,)) for g in pool if g != f)
+            out.update(Term(others + (g,)) for g in near([f.lag]) if g != f)
         if t.degree < max_degree:
-            out.update(Term(t.factors + (g,)) for g in pool)
+            out.update(Term(t.factors + (g,)) for g in near(own))
         out.discard(t)
         return sorted(out, key=str)
 
@@ -110,7 +122,8 @@ def _change(old: Sequence[Term], new: Sequence[Term]) -> Tuple[Optional[str], Op
 
 def improve(terms: Sequence[Term], score: Callable[[Tuple[Term, ...]], float],
             moves: Callable, passes: Optional[Callable] = None,
-            max_steps: int = 50) -> Tuple[Tuple[Term, ...], List[LocalStep]]:
+            max_steps: int = 50, max_evals: Optional[int] = None
+            ) -> Tuple[Tuple[Term, ...], List[LocalStep]]:
     """Best-improvement hill climbing from ``terms`` (see the module).
 
     Parameters
@@ -127,6 +140,8 @@ def improve(terms: Sequence[Term], score: Callable[[Tuple[Term, ...]], float],
         neighbours are tried in order.
     max_steps : int
         Most moves accepted.
+    max_evals : int, optional
+        No step starts once this many structures have been scored.
 
     Returns
     -------
@@ -138,9 +153,11 @@ def improve(terms: Sequence[Term], score: Callable[[Tuple[Term, ...]], float],
     terms = tuple(terms)
     cur = score(terms)
     steps: List[LocalStep] = []
-    while len(steps) < max_steps:
+    evals = 1
+    while len(steps) < max_steps and (max_evals is None or evals < max_evals):
         trials = sorted((score(ts), len(ts) >= len(terms), k, ts)
                         for k, ts in enumerate(moves(terms)))
+        evals += len(trials)
         better = [(v, ts) for v, _, _, ts in trials if v < cur]
         # a removal that improves comes first: a spurious term is dropped,
         # not traded for the spurious term that fits the noise best

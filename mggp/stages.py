@@ -83,6 +83,11 @@ CLS_WORSE = 2.0
 #: warnings point at the caller of ``fit`` (fit -> run_stages -> stage)
 _CALLER = 4
 
+#: the local search starts no step once it has scored this share of the
+#: structures the search scored (and at least LOCAL_EVALS_MIN)
+LOCAL_EVALS_SHARE = 0.1
+LOCAL_EVALS_MIN = 1000
+
 
 @dataclass
 class FitContext:
@@ -195,7 +200,8 @@ def local_search(terms, data, ctx):
     structure while the measure that chose it falls: the search's fitness
     (criterion included), or with ``select`` 'freerun' the free-run error
     over the record; each accepted move passes the search's stability
-    screen (:func:`mggp.local_search.improve`); a moved structure is pruned
+    screen (:func:`mggp.local_search.improve`), within
+    :data:`LOCAL_EVALS_SHARE` of the search's evaluations; a moved structure is pruned
     again (``prune``). A structure chosen for its holding (``select``
     'hold') is kept as chosen."""
     est = ctx.est
@@ -221,7 +227,8 @@ def local_search(terms, data, ctx):
     if scr is not None:
         def passes(ts):
             return scr.inside_band(ts) and (scr.hold is None or scr.holds(ts))
-    terms, steps = improve(terms, score, moves, passes)
+    budget = max(LOCAL_EVALS_MIN, int(LOCAL_EVALS_SHARE * ctx.result.evaluations))
+    terms, steps = improve(terms, score, moves, passes, max_evals=budget)
     est.local_search_ = [s.to_dict() for s in steps]
     return prune(terms, data, ctx) if steps else terms
 
