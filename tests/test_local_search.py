@@ -90,3 +90,21 @@ def test_estimator_stage_records_its_moves(on):
         assert est.local_search_, "a 3-generation search leaves a one-term improvement"
         last = est.local_search_[-1]["fitness"]
         assert np.isclose(last, est.fitness_)
+
+
+def test_cli_says_the_moves_and_the_flag_turns_them_off(tmp_path, capsys):
+    from mggp.cli import main
+    from narx import Model
+    d = system_by_name("S3", n=500, seed=0)
+    csv = tmp_path / "s3.csv"
+    np.savetxt(csv, np.c_[d.u, d.y], delimiter=",", header="u,y", comments="")
+    args = ["fit", str(csv), "--fitness", "pem", "--criterion", "bic", "--population", "40",
+            "--generations", "3", "--max-height", "3", "--no-phi", "--max-lag", "4",
+            "--max-degree", "3", "--seed", "0", "--quiet"]
+    assert main(args + ["--out", str(tmp_path / "a.json")]) == 0
+    err = capsys.readouterr().err
+    assert "local search: " in err and " -> " in err
+    assert Model.load(tmp_path / "a.json").meta["local_search"] is True
+    assert main(args + ["--no-local-search", "--out", str(tmp_path / "b.json")]) == 0
+    assert "local search" not in capsys.readouterr().err
+    assert Model.load(tmp_path / "b.json").meta["local_search"] is False
