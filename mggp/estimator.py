@@ -145,7 +145,8 @@ class MGGPRegressor:
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi="auto", phi_names=None,
                  phi_outputs=False, operators=None, constant=False, max_lag=None,
-                 max_degree=None, select="auto", size="auto", select_candidates=50,
+                 max_degree=None, select="auto", size="auto", local_search=True,
+                 select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, estimator="ls", refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
@@ -176,6 +177,7 @@ class MGGPRegressor:
         self.max_degree = max_degree
         self.select = select
         self.size = size
+        self.local_search = local_search
         self.select_candidates = select_candidates
         self.screen = screen
         self.screen_top = screen_top

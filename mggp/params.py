@@ -327,6 +327,11 @@ _ROWS = (
           "held-out free-run error (θ on the first 70 % of the record, error on the last "
           "30 %) is within 5 % of the least; the hold selection keeps its structure",
           "selection", "--size", meta=True),
+    Param("local_search", True, Bool(), "after the search, improve the chosen structure "
+          "one term at a time (drop a term, or replace, drop or add one lagged-signal "
+          "factor of a term) while the fitness improves", "selection", "--no-local-search",
+          meta=True, const=False, flag_help="keep the structure the search chose, without "
+          "the one-term improvements", default_text="on"),
     Param("select_candidates", 50, Int(1), "structures compared by --select freerun and "
           "hold", "selection"),
     Param("screen", "auto", OneOf(("auto", "freerun", "hold", "none", None)),
