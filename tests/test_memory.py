@@ -375,34 +375,6 @@ def test_search_pset_with_operators_decodes_and_keeps_phi_only_set():
         search_operators(("hysteron",), np.zeros((1, 3)))
 
 
-def test_operators_enter_the_search_by_mutation_not_the_initial_population():
-    import random
-    from mggp.evolve import EvolutionSettings, make_toolbox
-    from mggp.operators import mut_high_level, random_individual
-    from mggp.primitives import Decoder, make_pset, search_operators, tree_to_tokens
-    ops = search_operators(("play", "dengtan"), np.linspace(-1, 1, 5)[None, :])
-    pset, base = make_pset(operators=ops), make_pset()
-    assert base.initial_pset is None and pset.initial_pset is not None
-    settings = EvolutionSettings(max_terms=5, max_height=4)
-    with_ops, without = make_toolbox(pset, settings), make_toolbox(base, settings)
-    r1, r2 = random.Random(3), random.Random(3)
-    first = [with_ops.individual(rng=r1) for _ in range(200)]
-    # the initial population is the one of the set without operators, draw for draw
-    assert [[tree_to_tokens(g) for g in ind] for ind in first] == \
-        [[tree_to_tokens(g) for g in without.individual(rng=r2)] for _ in range(200)]
-    dec = Decoder()
-
-    def with_op(inds):
-        return sum(any(t.operator_factors for t in dec.decode_individual(i)) for i in inds)
-    assert with_op(first) == 0
-    # control: individuals drawn from the whole set hold operators
-    rng = random.Random(3)
-    assert with_op([random_individual(pset, rng, 5, 4) for _ in range(200)]) > 50
-    # mutations draw from the whole set: operators enter that way
-    grown = [mut_high_level(i, pset, rng, 5, 4)[0] for i in first]
-    assert with_op(grown) > 10
-
-
 def test_fit_with_operators_finds_play_terms(capsys, tmp_path):
     rec = operator_record("pi", n=1500, seed=0, snr_db=40)
     data = tmp_path / "pi.csv"
