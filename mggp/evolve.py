@@ -191,16 +191,12 @@ def make_toolbox(pset, settings: EvolutionSettings) -> base.Toolbox:
     Aliases: ``individual(rng=)``, ``mate_high(a, b, rng=)``,
     ``mate_low(a, b, rng=)``, ``mutate_high(ind, rng=)``,
     ``mutate_low(ind, rng=)``, ``select(pop, k, rng=)``, ``clone(ind)``;
-    ``map`` is the builtin ``map`` (used for decoding). Initial
-    individuals come from ``pset.initial_pset`` when the set has one (a set
-    with memory operators: the same set without them, see
-    :mod:`mggp.primitives`), the variation operators use ``pset``.
+    ``map`` is the builtin ``map`` (used for decoding).
     """
     s = settings
     init_h = s.max_height if s.init_max_height is None else s.init_max_height
     tb = base.Toolbox()
-    tb.register("individual", random_individual,
-                getattr(pset, "initial_pset", None) or pset, max_terms=s.max_terms,
+    tb.register("individual", random_individual, pset, max_terms=s.max_terms,
                 max_height=init_h, min_terms=s.min_terms)
     tb.register("mate_high", cx_high_level, max_terms=s.max_terms)
     tb.register("mate_low", cx_low_level, max_height=s.max_height)

@@ -63,17 +63,6 @@ choice for the tree generator (:mod:`mggp.operators`), so adding radii does
 not make plays more frequent. Operators take lagged inputs only: their
 columns depend on the input alone and are computed once per record.
 
-Operators enter a search by mutation: the set keeps, as ``initial_pset``,
-the same set without operators, from which the initial population is drawn
-(:func:`mggp.evolve.make_toolbox`); mutations draw from the whole set. An
-operator column is an exact memory signal of the input, so random
-individuals that hold one score far better than those that do not, even
-where it is not the system's mechanism (a Bouc-Wen record: generation-0
-best 0.72 against 1.48). Drawn with the initial population, such
-individuals take it over before the terms in lags and Φ are assembled,
-and the search ends worse than one without operators; entering by
-mutation, an operator has to improve structures already under selection.
-
 Back-shifts, input terminals and Φ-functions exist once per type under the
 same name; the type of a node follows from its parent's argument type, and
 the type of a Φ-call from its first argument's input terminal, so a tree's
@@ -348,11 +337,7 @@ def make_pset(signals: Optional[Signals] = None,
         Root type :class:`Expr`; extra attributes ``signals`` and
         ``phi_names`` (tuple) record how it was built, ``lag_types`` maps
         each input name to its lagged-input type (:class:`InputLag` for a
-        single input, :func:`input_lag_type` for several; empty without Φ),
-        ``operator_nodes`` names the operator primitives, and
-        ``initial_pset`` is the set the initial population is drawn from:
-        this one without operators (None when it has none; see the module
-        notes).
+        single input, :func:`input_lag_type` for several; empty without Φ).
 
     Notes
     -----
@@ -417,8 +402,6 @@ def make_pset(signals: Optional[Signals] = None,
     pset.phi_names = tuple(f.name for f in phis)
     pset.phi_outputs = bool(phi_outputs and phis)
     pset.operator_nodes = tuple(operator_node_name(n, p) for n, p in ops)
-    pset.initial_pset = make_pset(signals, registry, use_phi, phi_names,
-                                  phi_outputs) if ops else None
     return pset
 
 

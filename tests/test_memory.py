@@ -381,7 +381,7 @@ def test_fit_with_operators_finds_play_terms(capsys, tmp_path):
     np.savetxt(data, np.c_[rec.u, rec.y], delimiter=",", header="u,y", comments="")
     model = tmp_path / "m.json"
     code, out, err = _cli(capsys, "fit", data, "--operators", "play", "--population", "30",
-                          "--generations", "10", "--seed", "1", "--quiet", "--out", model)
+                          "--generations", "3", "--seed", "1", "--quiet", "--out", model)
     assert code == 0, err
     import json
     spec = json.loads(model.read_text())
