@@ -66,9 +66,10 @@ def operator_candidates(data, names) -> List[Term]:
     for n in data.inputs:
         for name in operator_names(names):
             if name == "play":
-                out += [parse_term(f"Play({n}[k-1],{r:g})") for r in play_radii(data.input(n))]
+                out += [parse_term(f"Play({n}[k-1],{r:g})", data.signals)
+                        for r in play_radii(data.input(n))]
             else:
-                out.append(parse_term(f"{OPERATOR_CHOICES[name]}({n}[k-1])"))
+                out.append(parse_term(f"{OPERATOR_CHOICES[name]}({n}[k-1])", data.signals))
     return out
 
 

@@ -400,6 +400,18 @@ def test_operator_stage_adds_plays_to_a_pi_record_not_to_a_linear_one():
     assert none == [] and same == tuple(start)
 
 
+def test_operator_candidates_name_each_input_with_its_own_radii():
+    from narx import Data
+    from mggp.operator_stage import operator_candidates
+    t = np.linspace(0, 6, 60)
+    d = Data(np.c_[np.sin(t), 4 * np.cos(t)], np.sin(t), inputs=("E", "v"), output="f")
+    texts = [c.text for c in operator_candidates(d, "play,dengtan")]
+    assert texts[:5] == ["Play(E[k-1],0.1)", "Play(E[k-1],0.2)", "Play(E[k-1],0.4)",
+                         "Play(E[k-1],0.7)", "DengTan(E[k-1])"]
+    assert texts[5:] == ["Play(v[k-1],0.4)", "Play(v[k-1],0.8)", "Play(v[k-1],1.6)",
+                         "Play(v[k-1],2.8)", "DengTan(v[k-1])"]
+
+
 def test_operator_entry_search_or_stage():
     from mggp import MGGPRegressor
     rec = operator_record("pi", n=800, seed=0, snr_db=40)
