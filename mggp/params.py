@@ -302,10 +302,15 @@ _ROWS = (
           "Phi1(y[k-1],y[k-2]) (hysteresis driven by the output's rate)", "model class",
           "--phi-outputs", context="if set", meta=True, const=True,
           default_text="inputs only"),
-    Param("operators", None, OPERATORS, "memory operators of the inputs in the search, "
-          "comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range) "
+    Param("operators", None, OPERATORS, "memory operators of the inputs in the model "
+          "(how they enter: --operator-entry), comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range) "
           "and dengtan (Deng–Tan operator)", "model class", "--operators",
           context="if set", metavar="NAMES", default_text="none"),
+    Param("operator_entry", "stage", OneOf(("stage", "search")),
+          "how --operators enter the model: stage (after the search, each operator term "
+          "that lowers the fitness by 5 % is added, then terms it made redundant are "
+          "dropped) or search (operators join the search's primitive set)", "model class",
+          "--operator-entry", context="if set", meta=True),
     Param("constant", False, Bool(), "every structure also holds the constant term 1 (an "
           "intercept), for an output that rests at an offset the lag terms cannot express",
           "model class", "--constant", context="if set", meta=True, const=True,

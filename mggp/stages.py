@@ -19,6 +19,10 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
     held-out free-run error is within 5 % of the least (``size``).
+``operators``
+    With ``operators`` and ``operator_entry='stage'``: memory-operator
+    terms added stepwise to the structure (:mod:`mggp.operator_stage`);
+    sets ``operator_steps_``.
 ``prune``
     Backward elimination by BIC of the fitness or by t-statistics
     (``prune``; :mod:`mggp.pruning`).
@@ -260,6 +264,20 @@ def size(terms, data, ctx):
     return c.value
 
 
+def operators(terms, data, ctx):
+    """Memory-operator terms added stepwise (``operators`` given and
+    ``operator_entry='stage'``; :func:`mggp.operator_stage.add_operators`)."""
+    est = ctx.est
+    est.operator_steps_ = None
+    if not est.operators or est.operator_entry != "stage":
+        return terms
+    from .operator_stage import add_operators, operator_candidates
+    terms, est.operator_steps_ = add_operators(
+        ctx.scorer, terms, operator_candidates(data, est.operators), est.max_terms,
+        keep=ctx.shape(()))
+    return terms
+
+
 def prune(terms, data, ctx):
     """Backward elimination of terms (``prune``: 'bic' or 't')."""
     est = ctx.est
@@ -427,7 +445,7 @@ def pareto(terms, data, ctx):
 
 
 #: the stages of ``fit`` after the search, in order
-STAGES = (("select", select), ("size", size), ("prune", prune),
+STAGES = (("select", select), ("size", size), ("operators", operators), ("prune", prune),
           ("local_search", local_search), ("noise", noise), ("record", record),
           ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
           ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))

@@ -171,6 +171,7 @@ def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data, callbac
                          screen=None, select="fitness", size="search", local_search=False,
                          n_jobs=jobs, inputs=list(data.inputs), output=data.output,
                          operators=list(setting.operators) or None,
+                         operator_entry="search",
                          callbacks=callbacks(budget.generations) if callbacks else None)
 
 
