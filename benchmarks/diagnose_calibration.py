@@ -8,8 +8,8 @@ Run::
 Step 1 (skipped by ``--check``): the raw checks of every registered test on
 the calibration realisations (:mod:`mggp.diagnose.controls`: six kinds ×
 10 seeds, 2,000 samples, output SNR 30, 40 and 45 dB, two held-input
-segments) give each check family's factor for a false-alarm rate of
-:data:`~mggp.diagnose.thresholds.CALIBRATION_RATE`
+segments) give the factors of each test's check families for a false-alarm
+rate of :data:`~mggp.diagnose.thresholds.CALIBRATION_RATE` per test
 (:func:`mggp.diagnose.calibration.threshold_factors`); paste them into
 :data:`mggp.diagnose.thresholds.CALIBRATION`. Step 2: the false-alarm rate
 of each test at its calibrated threshold on *other* seeds (the
@@ -34,17 +34,16 @@ CHECK_SET = dict(snr_db=40.0, seed=1000, per_kind=10)
 
 
 def factors():
-    rows = []
+    """Each test's family factors for a false-alarm rate of
+    :data:`CALIBRATION_RATE` per test; returns (factors, realisations)."""
+    out, n = {}, 0
     for test in registered():
-        for snr, seed, per in CALIBRATION_SET:
-            for i, (_, _, checks) in enumerate(control_checks(
-                    test, per_kind=per, snr_db=snr, seed=seed, holds=2, calibrated=False)):
-                key = (snr, seed, i)
-                rows.append((key, checks))
-    by = {}
-    for key, checks in rows:
-        by.setdefault(key, []).extend(checks)
-    return threshold_factors(by.values(), CALIBRATION_RATE), len(by)
+        rows = [checks for snr, seed, per in CALIBRATION_SET
+                for _, _, checks in control_checks(test, per_kind=per, snr_db=snr, seed=seed,
+                                                   holds=2, calibrated=False)]
+        out.update(threshold_factors(rows, CALIBRATION_RATE))
+        n = len(rows)
+    return out, n
 
 
 def rates():

@@ -39,7 +39,8 @@ from .findings import Check, Finding, json_number as _num, name_findings, number
 from .registry import Evidence, registered, run_tests
 from .simulation import freerun_after
 
-__all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data"]
+__all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data",
+           "outside_fit_range"]
 
 
 def slice_data(data: Data, a: int, b: int) -> Data:
@@ -241,6 +242,18 @@ def _score(model: Model, record: Data, first: int,
     return float(np.sqrt(np.mean(err * err))), mape(y, yh), r.y_hat
 
 
+def outside_fit_range(fit: Data, measure: Data, start: int = 0) -> Dict[str, float]:
+    """Share of the measuring samples from ``start`` on whose input lies
+    outside the range the fitting samples span, per input: where it is not
+    0 the gain measures extrapolation too (a model is identified only on
+    the range it was fitted on)."""
+    out = {}
+    for name in fit.inputs:
+        u, v = fit.input(name), measure.input(name)[start:]
+        out[name] = float(np.mean((v < u.min()) | (v > u.max()))) if v.size else 0.0
+    return out
+
+
 def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Model] = None,
              *, budget: Budget = Budget(), seed: int = 0, jobs: int = 1,
              holdout: float = 0.3, alpha: float = 0.01, resolution: float = 0.005,
@@ -327,6 +340,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                 "resolution": resolution, "holdout": None if validation is not None
                 else holdout, "budget": dict(budget.__dict__),
                 "baseline": base_source, "extension_search": plan.setting.describe(),
+                "measure_outside_fit_range": outside_fit_range(fit, measure, start),
                 "candidates": [{"name": n, "terms": k, "fit_freerun_rmse": _num(s),
                                 "probe_hold_movement": _num(h)}
                                for n, k, s, h in ext.candidates]}
