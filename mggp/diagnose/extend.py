@@ -268,8 +268,7 @@ _OPERATOR_CANDIDATES = ("baseline + operator terms", "operator dynamics")
 _DIRECTION = "the Bouc–Wen direction terms |Δu|, y[k-1]|Δu|, u[k-1]|Δu|"
 
 
-def candidate_changes(name: str, plan: ExtensionPlan, by_ls: bool = False
-                      ) -> Tuple[str, ...]:
+def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
     """What the candidate ``name`` of :func:`fit_extension` changed, in words.
 
     Parameters
@@ -281,9 +280,6 @@ def candidate_changes(name: str, plan: ExtensionPlan, by_ls: bool = False
         ``'operator dynamics'``, ``'baseline terms, CLS'``).
     plan : ExtensionPlan
         The plan the candidates were built from.
-    by_ls : bool
-        The candidate has memory-operator terms and was estimated by LS
-        although the plan asks for CLS (its operators hold by themselves).
 
     Returns
     -------
@@ -301,9 +297,7 @@ def candidate_changes(name: str, plan: ExtensionPlan, by_ls: bool = False
         how = {"search": "the search's terms",
                "search + baseline terms": "the search's terms together with the baseline's",
                "search + direction terms": f"the search's terms and {_DIRECTION}"}
-        ls = (("estimated by LS: its memory operators hold at a held input by themselves "
-               "(no continuum constraints)",) if by_ls and plan.setting.constraints else ())
-        return tuple(plan.changes) + (f"chosen candidate: {how.get(name, name)}",) + ls
+        return tuple(plan.changes) + (f"chosen candidate: {how.get(name, name)}",)
     own = {"baseline terms, CLS": "steady-state-drift: the baseline's own terms refitted by "
                                   "CLS under the derived continuum-of-steady-states "
                                   "constraints (Σ_y = 1, other cluster sums 0); no new terms",
@@ -320,7 +314,7 @@ def candidate_changes(name: str, plan: ExtensionPlan, by_ls: bool = False
                                 "Play(u[k-1..2],r), DengTan(u[k-1..2])) in place of the "
                                 "baseline (no search)"}
     out = [own.get(name, name)]
-    if name in _OPERATOR_CANDIDATES or by_ls:
+    if name in _OPERATOR_CANDIDATES:
         if drift or plan.setting.constraints:
             out.append("estimated by LS: the memory operators hold at a held input by "
                        "themselves (no continuum constraints)")
@@ -339,12 +333,6 @@ def _unique(terms, data: Data, registry) -> List[str]:
     """Canonical texts of ``terms``, each once, in order."""
     sig = Signals(data.output, data.inputs)
     return list(dict.fromkeys(str(parse_term(t, sig, registry=registry)) for t in terms))
-
-
-def _has_operators(terms, data: Data, registry) -> bool:
-    """Whether any of ``terms`` has a memory-operator factor (:mod:`narx.memory`)."""
-    sig = Signals(data.output, data.inputs)
-    return any(parse_term(t, sig, registry=registry).operator_factors for t in terms)
 
 
 def _candidate(terms, data: Data, constraints, registry) -> Optional[Model]:
@@ -425,13 +413,9 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
             plan = replace(plan, search=True, changes=plan.changes + (
                 "the CLS refit of the baseline's terms is impossible, diverges or does not "
                 "keep still in probe holds: CLS structure search",))
-    sets, by_ls = [], set()
+    sets = []
     if plan.search:
         setting = replace(plan.setting, window=_fit_window(plan.setting.window, data))
-        if setting.operators:
-            # a model whose memory is in its operators holds without the continuum
-            # constraints, which would set every operator cluster to 0
-            setting = replace(setting, constraints=None)
         with warnings.catch_warnings():       # only its LS structure is used
             warnings.simplefilter("ignore", CLSRejectedWarning)
             est = _regressor(setting, budget, int(seed) + 1, jobs, data, callbacks).fit(data)
@@ -452,18 +436,16 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
             seen.add(frozenset(terms))
             # memory operators hold their value at a held input by themselves: a
             # stable model driven by them settles without the continuum constraints
-            own = None if _has_operators(terms, data, reg) else cons
+            own = None if name in _OPERATOR_CANDIDATES else cons
             structures.append((name, terms, own))
             cands.append((name, _candidate(terms, data, own, reg)))
-            if own is None:
-                by_ls.add(name)
     if not cands:
         return Extension(baseline, "baseline (no change)", (), plan,
                          ("no candidate could be built: the baseline is kept",))
     scores = _holdout_scores(structures, data, reg)
     scored = [(name, m, max(scores.get(name, 0.0), freerun_rmse(m, data)),
                probe_holds(m, data) if cons and m is not None
-               and name not in by_ls else float("nan"))
+               and name not in _OPERATOR_CANDIDATES else float("nan"))
               for name, m in cands]
     ok = [c for c in scored if c[1] is not None]
     if not ok:
@@ -472,10 +454,10 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
     name, best, _, _ = min(ok, key=lambda c: (not np.isfinite(c[2]),
                                               max(c[3] - floor, 0.0) if c[3] == c[3] else 0.0,
                                               c[2], c[1].n_terms))
-    changes = candidate_changes(name, plan, by_ls=name in by_ls)
+    changes = candidate_changes(name, plan)
     best.meta.update({"source": "mggp diagnose extension", "fitness": plan.setting.fitness,
                       "window": plan.setting.window, "use_phi": plan.setting.use_phi,
-                      "estimation": "cls" if cons and name not in by_ls else "ls",
-                      "changes": list(changes)})
+                      "estimation": "cls" if cons and name not in _OPERATOR_CANDIDATES
+                      else "ls", "changes": list(changes)})
     table = tuple((n, (m.n_terms if m is not None else 0), s, h) for n, m, s, h in scored)
     return Extension(best, name, table, plan, changes)
