@@ -66,7 +66,7 @@ from .simulation import bounded_mode, freerun_rmse, fresh_name
 
 __all__ = ["AugmentationTest", "phi_augmentation_test", "direction_terms", "control_terms",
            "augmentation_check", "AUGMENTATION", "operator_terms",
-           "operators_settled", "operator_augmentation_test", "OPERATOR_AUGMENTATION"]
+           "operator_augmentation_test", "OPERATOR_AUGMENTATION"]
 
 
 def direction_terms(inp: str, out: str, lag: int = 1) -> List[str]:
@@ -155,45 +155,12 @@ def operator_terms(data: Data, lags=(1,), dengtan: bool = True) -> List[str]:
     return out
 
 
-def operators_settled(data: Data, lags=(1,)) -> int:
-    r"""First sample from which the plays of :func:`operator_terms` no longer
-    depend on their initial state (at most ``data.n // 2``).
-
-    A play of radius r has :math:`v_k \in [x_k - r, x_k + r]` and rises only
-    when pushed by :math:`x_k - r`; once the input has moved from a minimum m
-    to a later maximum :math:`M \ge m + 2r` (or down by 2r), every initial
-    state gives :math:`v = M - r` (or :math:`m + r`) [1]_. So from the first
-    sample at which the running range of the input reaches twice the
-    largest radius, plus the largest lag, the operator columns are set by
-    the measured input alone; before it they depend on the unknown state
-    the record starts in.
-
-    References
-    ----------
-    .. [1] Brokate, M., Sprekels, J., *Hysteresis and Phase Transitions*,
-       Springer, 1996, ch. 2.
-    """
-    from ..primitives import play_radii
-    first = 0
-    for n in data.inputs:
-        u = data.input(n)
-        radii = play_radii(u)
-        if not radii:
-            continue
-        reach = np.maximum.accumulate(u) - np.minimum.accumulate(u) >= 2.0 * max(radii)
-        first = max(first, (int(np.argmax(reach)) if reach.any() else data.n) + max(lags))
-    return int(min(first, data.n // 2))
-
-
 def operator_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
                                alpha: float = 0.01, seed=0) -> Optional[AugmentationTest]:
     """The augmentation test with memory-operator terms (:func:`operator_terms`)
     in place of the direction terms: the baseline's terms + the operator
     terms, and y[k-1] + u[k-1] + the operator terms; placebo operators of
     the shifted input give the null, as in :func:`phi_augmentation_test`.
-    The fits and the RMSEs use the samples from :func:`operators_settled`
-    on (of the record, and of each shifted input for its placebo), where
-    the operators' values no longer depend on the state the record starts in.
     Only plays are used: their radii are fractions of the input's range, so
     the test does not depend on the input's units (Deng–Tan's
     :math:`|\\arctan z|\\, z` does)."""
@@ -215,9 +182,7 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
     for name in data.inputs:
         pairs.append((name, fresh_name(taken, "v")))
         taken.add(pairs[-1][1])
-    first = 0
     if operators:
-        first = operators_settled(data)
         D = Model(operator_terms(data, dengtan=False), **sig).term_texts
         inc = Model([f"{data.output}[k-1]"] + [f"{n}[k-1]" for n, _ in pairs], **sig).term_texts
     else:
@@ -227,8 +192,7 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
                     **sig).term_texts
     ctrl = [t for n, _ in pairs for t in Model(control_terms(n, data.output), **sig).term_texts]
     for control in (ctrl, []):       # without the control only if it cannot be simulated
-        res = _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed,
-                            first)
+        res = _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed)
         if res is not None:
             return res
     return None
@@ -247,24 +211,12 @@ def control_terms(inp: str, out: str) -> List[str]:
             f"{inp}[k-1]*{inp}[k-1]", f"{inp}[k-2]*{inp}[k-2]"]
 
 
-def _rmse_from(model: Optional[Model], data: Data, kw: dict, first: int) -> float:
-    """Simulation RMSE of ``model`` (``simulate`` arguments ``kw``) over its
-    valid samples from ``first`` on; ``first`` 0: :func:`freerun_rmse`."""
-    if not first or model is None:
-        return freerun_rmse(model, data, **kw)
-    r = model.simulate(data, **kw)
-    if r.diverged:
-        return float("inf")
-    e = (r.y - r.y_hat)[first:][r.valid[first:]]
-    return float(np.sqrt(np.dot(e, e) / e.size)) if e.size else float("inf")
-
-
-def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed, first=0):
+def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed):
     reg = model.registry
     base1 = model.term_texts + [t for t in control if t not in set(model.term_texts)]
     forms = [("baseline + direction terms", base1, [t for t in D if t not in set(base1)]),
              ("Bouc–Wen increment", inc + [t for t in control if t not in set(inc)], D)]
-    start = max(model.max_lag, 2, first)
+    start = max(model.max_lag, 2)
     blocks = []
     try:
         for label, base, add in forms:
@@ -286,13 +238,13 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed,
     if ref is None or not blocks:
         return None
     kw, r0, text = bounded_mode(ref, data)
-    r_ref = float("inf") if r0.diverged else _rmse_from(ref, data, kw, first)
+    r_ref = float("inf") if r0.diverged else r0.rmse
     if not np.isfinite(r_ref):
         return None
     real = []
     for label, base, add, _, ls, F in blocks:
         m = _model(base + add, ls.theta(F), data, reg)
-        real.append((r_ref - _rmse_from(m, data, kw, first), label, tuple(base + add)))
+        real.append((r_ref - freerun_rmse(m, data, **kw), label, tuple(base + add)))
     drop, form, terms = max(real, key=lambda r: r[0])
     rng = np.random.default_rng(seed)
     n = data.n
@@ -307,7 +259,7 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed,
             m2 = Model(base + placebo, inputs=pin, output=data.output, registry=reg)
             Fp = regressor_matrix(m2.terms[len(base):], d2, start=start, registry=reg)[0]
             m2 = _model(m2.term_texts, ls.theta(Fp), d2, reg, inputs=pin)
-            best = max(best, r_ref - _rmse_from(m2, d2, kw, first))
+            best = max(best, r_ref - freerun_rmse(m2, d2, **kw))
         null.append(best)
     null = np.asarray(null)
     q = float(np.quantile(null, 1.0 - alpha, method="higher")) if null.size else np.inf

@@ -73,7 +73,7 @@ def freerun_rmse(model: Optional[Model], data: Data, **simulate) -> float:
 
 
 def freerun_after(model: Model, data: Data, first: int):
-    """Free run of ``model`` on samples ``first..`` of ``data``, started from
+    r"""Free run of ``model`` on samples ``first..`` of ``data``, started from
     the measured outputs there, with the input-only parts of its terms
     computed over the whole record.
 
