@@ -7,7 +7,7 @@ Run::
 
 Step 1 (skipped by ``--check``): the raw checks of every registered test on
 the calibration realisations (:mod:`mggp.diagnose.controls`: six kinds ×
-20 seeds, 2,000 samples, output SNR 30, 40 and 45 dB, two held-input
+40 seeds, 2,000 samples, output SNR 30, 40 and 45 dB, two held-input
 segments) give the factors of each test's check families for a false-alarm
 rate of :data:`~mggp.diagnose.thresholds.CALIBRATION_RATE` per test
 (:func:`mggp.diagnose.calibration.threshold_factors`); paste them into
@@ -29,9 +29,10 @@ from mggp.diagnose.calibration import (FalseAlarmRate, control_checks, false_ala
 from mggp.diagnose.thresholds import CALIBRATION_RATE
 
 #: (snr_db, first seed, realisations per kind) of the calibration set
-CALIBRATION_SET = ((30.0, 0, 7), (40.0, 100, 6), (45.0, 200, 7))
+CALIBRATION_SET = ((30.0, 0, 7), (40.0, 100, 6), (45.0, 200, 7),
+                   (30.0, 1000, 7), (40.0, 1100, 6), (45.0, 1200, 7))
 #: the verification set: the same kinds and output SNRs, other seeds
-CHECK_SET = ((30.0, 1000, 7), (40.0, 1100, 6), (45.0, 1200, 7))
+CHECK_SET = ((30.0, 2000, 7), (40.0, 2100, 6), (45.0, 2200, 7))
 
 
 def factors():
