@@ -19,6 +19,9 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
     held-out free-run error is within 5 % of the least (``size``).
+``constant``
+    'auto': the constant term kept only when the held-out free-run error
+    is over 5 % lower with it (never with the steady-state constraints).
 ``prune``
     Backward elimination by BIC of the fitness or by t-statistics
     (``prune``; :mod:`mggp.pruning`).
@@ -61,7 +64,8 @@ from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
 
-from .choices import Choice, heldout_rmse, resolve_select, size_choice
+from .choices import (Choice, constant_choice, constant_off, heldout_rmse, resolve_select,
+                      size_choice, steady)
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -105,6 +109,8 @@ class FitContext:
         The search's seed.
     meta : dict
         What every model of the fit records (set by the ``record`` stage).
+    operators : tuple
+        The memory operators of the search's model class (names).
     choices : dict
         The automatic choices made (:class:`mggp.choices.Choice` by
         parameter name), recorded in ``meta['choices']``.
@@ -119,6 +125,7 @@ class FitContext:
     shape: Callable = tuple
     screen: object = None
     seed: Optional[int] = None
+    operators: tuple = ()
     meta: dict = field(default_factory=dict)
     choices: dict = field(default_factory=dict)
     _scorers: Dict[Tuple, StructureScorer] = field(default_factory=dict)
@@ -213,6 +220,20 @@ def size(terms, data, ctx):
     return c.value
 
 
+def constant(terms, data, ctx):
+    """``constant='auto'``: the constant term offered to every structure of
+    the search is kept only when the chosen structure's held-out free-run
+    error is over 5 % lower with it (:func:`mggp.choices.constant_choice`);
+    with the steady-state constraints it was not offered."""
+    if ctx.est.constant != "auto":
+        return terms
+    if steady(ctx.est):
+        ctx.choices["constant"] = constant_off()
+        return terms
+    ctx.choices["constant"], terms = constant_choice(terms, data, ctx.registry)
+    return terms
+
+
 def prune(terms, data, ctx):
     """Backward elimination of terms (``prune``: 'bic' or 't')."""
     est = ctx.est
@@ -245,7 +266,6 @@ def record(terms, data, ctx):
     """``terms_``, ``fitness_`` and the meta of the fit's models."""
     from .version import versions
     from .params import meta_of
-    from .primitives import operator_names
     est = ctx.est
     est.terms_ = terms
     est.fitness_ = ctx.result.best.fitness if terms == est.search_terms_ else \
@@ -257,8 +277,8 @@ def record(terms, data, ctx):
                     search_fitness_value=est.fitness_, versions=versions())
     if ctx.choices:
         ctx.meta["choices"] = {name: c.to_dict() for name, c in ctx.choices.items()}
-    if est.operators:
-        ctx.meta["operators"] = list(operator_names(est.operators))
+    if ctx.operators:
+        ctx.meta["operators"] = list(ctx.operators)
     return terms
 
 
@@ -380,8 +400,8 @@ def pareto(terms, data, ctx):
 
 
 #: the stages of ``fit`` after the search, in order
-STAGES = (("select", select), ("size", size), ("prune", prune), ("noise", noise), ("record", record),
-          ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
+STAGES = (("select", select), ("size", size), ("constant", constant), ("prune", prune),
+          ("noise", noise), ("record", record), ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
           ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))
 
 

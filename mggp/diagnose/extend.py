@@ -168,7 +168,7 @@ def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data, callbac
                          population=budget.population, generations=budget.generations,
                          max_terms=setting.max_terms, max_height=setting.max_height,
                          max_degree=setting.max_degree, random_state=int(seed),
-                         screen=None, select="fitness", size="search",
+                         screen=None, select="fitness", size="search", constant=False,
                          n_jobs=jobs, inputs=list(data.inputs), output=data.output,
                          operators=list(setting.operators) or None,
                          callbacks=callbacks(budget.generations) if callbacks else None)
