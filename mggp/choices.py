@@ -6,6 +6,15 @@ Typical use (``fit`` does this)::
     err = heldout_rmse(terms, data, registry)       # θ on the head, free run scored on the tail
     select, why = resolve_select(est)               # 'hold' with constraints, else 'fitness'
 
+The model class (``use_phi='auto'``): :func:`search_classes` lists the
+classes (no Φ, Φ, memory operators), each is searched for
+:func:`pilot_generations` at full population, :func:`class_choice` takes
+the one whose structure has the least held-out free-run error (a richer
+class only when over :data:`GAIN` lower) and its pilot continues to the
+full budget. The constant term (``constant='auto'``): offered to every
+structure (:func:`constant_searched`), kept by :func:`constant_choice`
+when the held-out error is over :data:`GAIN` lower with it.
+
 Each choice is a :class:`Choice`: the value taken and the figures it was
 taken on, in one line ("no Φ: held-out free-run RMSE 0.41 against 0.58 with
 Φ"). ``fit`` keeps them in ``choices_`` and in every model's ``meta``
