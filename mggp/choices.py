@@ -47,7 +47,7 @@ from narx.model import ignore_rank_warnings
 from narx.terms import Term
 
 __all__ = ["Choice", "CONSTANT", "GAIN", "HOLDOUT", "PILOT", "SIZE_TOLERANCE",
-           "SearchClass", "class_choice", "constant_choice", "constant_off", "constant_searched",
+           "SearchClass", "class_choice", "front_rows_heldout", "constant_choice", "constant_off", "constant_searched",
            "heldout_rmse", "pilot_generations", "resolve_screen", "resolve_select",
            "search_classes", "size_choice", "steady"]
 
@@ -102,6 +102,21 @@ def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT) -> 
 
 #: the smallest structure whose held-out error is within this share of the least is taken
 SIZE_TOLERANCE = 0.05
+
+
+def front_rows_heldout(terms, result, shape, data: Data, registry=None) -> list:
+    """``(n_terms, held-out RMSE, terms)`` of the structure ``terms`` and of
+    the distinct smaller structures of ``result``'s Pareto front (each
+    through ``shape``), ``terms`` first."""
+    terms = tuple(terms)
+    rows = [(len(terms), heldout_rmse(terms, data, registry), terms)]
+    seen = {frozenset(terms)}
+    for r in result.pareto:
+        ts = tuple(shape(r.terms))
+        if ts and len(ts) < len(terms) and frozenset(ts) not in seen:
+            seen.add(frozenset(ts))
+            rows.append((len(ts), heldout_rmse(ts, data, registry), ts))
+    return rows
 
 
 def size_choice(rows) -> Choice:
@@ -238,7 +253,9 @@ _WITH = {"no Φ": "without Φ", "Φ": "with Φ", "operators": "with operators"}
 
 def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     """``use_phi='auto'``: the class of ``classes`` (simplest first) whose
-    pilot's structure has the least held-out free-run error ``errors[i]``,
+    pilot has the least held-out free-run error ``errors[i]`` (of its best
+    structure and the smaller ones of its Pareto front, or with the hold
+    selection of the structure that selection takes),
     a richer class taken only when its error is more than :data:`GAIN`
     below the simpler one kept so far. ``holds[i]`` (with the hold
     selection): whether the class's search has a structure whose CLS refit

@@ -43,8 +43,8 @@ from narx.fitness import StructureScorer
 from narx.phi import default_registry
 
 from .checkpoint import checkpoint_seed, data_digest
-from .choices import (CONSTANT, Choice, class_choice, constant_searched, heldout_rmse,
-                      pilot_generations, resolve_screen, resolve_select, search_classes)
+from .choices import (CONSTANT, Choice, class_choice, constant_searched,
+                      front_rows_heldout, heldout_rmse, pilot_generations, resolve_screen, resolve_select, search_classes)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import evolve
@@ -290,8 +290,10 @@ class MGGPRegressor:
         """The search of the one model class asked for, or with
         ``use_phi='auto'`` (:func:`mggp.choices.search_classes`) a pilot of
         each class (full population, :func:`mggp.choices.pilot_generations`
-        generations, same seed), the class chosen by the held-out free-run
-        error of its pilot's structure (:func:`mggp.choices.class_choice`),
+        generations, same seed), the class chosen by the least held-out
+        free-run error of its pilot's best structure and the smaller ones of
+        its Pareto front (with the hold selection: of the structure that
+        selection takes; :func:`mggp.choices.class_choice`),
         and that pilot continued to ``generations`` (the same run as an
         uninterrupted search of that class). Sets ``ctx.seed``,
         ``ctx.result``, ``ctx.screen``, ``ctx.operators`` and the choice;
@@ -321,15 +323,19 @@ class MGGPRegressor:
                     runs.append((None, scr, path, float("inf"), False))
                     continue
                 terms, holds = self._held_candidate(ctx, res)
-                runs.append((res, scr, path, heldout_rmse(terms, ctx.data, ctx.registry),
-                             holds))
+                err = heldout_rmse(terms, ctx.data, ctx.registry) if holds is not None else \
+                    min(r[1] for r in front_rows_heldout(terms, res, ctx.shape, ctx.data,
+                                                         ctx.registry))
+                runs.append((res, scr, path, err, holds))
             if all(r[0] is None for r in runs):
                 raise ValueError("no structure with a finite fitness was found: every "
                                  "candidate diverged; try fitness='pem' or a shorter window")
             hold = None if all(r[4] is None for r in runs) else [bool(r[4]) for r in runs]
             choice = class_choice(classes, [r[3] for r in runs], hold,
                                   f"pilots of {pilot} of {self.generations} generations at "
-                                  f"full population, the chosen one continued")
+                                  f"full population"
+                                  + ("" if hold else ", least error over each pilot's "
+                                     "Pareto front") + ", the chosen one continued")
             win = [c.label for c in classes].index(choice.figures["class"])
             res, scr, path = runs[win][:3]
             evaluations = sum(r[0].evaluations for i, r in enumerate(runs)

@@ -64,8 +64,8 @@ from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
 
-from .choices import (Choice, constant_choice, constant_off, heldout_rmse, resolve_select,
-                      size_choice, steady)
+from .choices import (Choice, constant_choice, constant_off, front_rows_heldout,
+                      resolve_select, size_choice, steady)
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -208,14 +208,7 @@ def size(terms, data, ctx):
         ctx.choices["size"] = Choice("size", len(terms), f"size {len(terms)} terms: "
                                      f"chosen by {by}, not by held-out error", {})
         return terms
-    rows = [(len(terms), heldout_rmse(terms, data, ctx.registry), terms)]
-    seen = {frozenset(terms)}
-    for r in ctx.result.pareto:
-        ts = ctx.shape(r.terms)
-        if ts and len(ts) < len(terms) and frozenset(ts) not in seen:
-            seen.add(frozenset(ts))
-            rows.append((len(ts), heldout_rmse(ts, data, ctx.registry), ts))
-    c = size_choice(rows)
+    c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry))
     ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
     return c.value
 
