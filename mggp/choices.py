@@ -10,7 +10,7 @@ The model class (``use_phi='auto'``): :func:`search_classes` lists the
 classes (no Φ, Φ, memory operators), each is searched for
 :func:`pilot_generations` at full population, :func:`class_choice` takes
 the one whose structure has the least held-out free-run error (a richer
-class only when over :data:`GAIN` lower) and its pilot continues to the
+class only when over :data:`CLASS_GAIN` lower) and its pilot continues to the
 full budget. The constant term (``constant='auto'``): offered to every
 structure (:func:`constant_searched`), kept by :func:`constant_choice`
 when the held-out error is over :data:`GAIN` lower with it.
@@ -46,7 +46,8 @@ from narx.data import Data
 from narx.model import ignore_rank_warnings
 from narx.terms import Term
 
-__all__ = ["Choice", "CONSTANT", "GAIN", "HOLDOUT", "PILOT", "SIZE_TOLERANCE",
+__all__ = ["Choice", "CLASS_GAIN", "CONSTANT", "GAIN", "HOLDOUT", "PILOT",
+           "SIZE_TOLERANCE",
            "SearchClass", "class_choice", "front_rows_heldout", "constant_choice", "constant_off", "constant_searched",
            "heldout_rmse", "pilot_generations", "resolve_screen", "resolve_select",
            "search_classes", "size_choice", "steady"]
@@ -54,10 +55,15 @@ __all__ = ["Choice", "CONSTANT", "GAIN", "HOLDOUT", "PILOT", "SIZE_TOLERANCE",
 #: share of the record (its tail) on which the held-out free-run error is measured
 HOLDOUT = 0.3
 
-#: a richer choice (Φ-terms, memory operators, the constant term) is taken
-#: only when it lowers the held-out free-run error by more than this share
-#: (the simpler one wins what the split cannot tell apart)
+#: the constant term is kept only when it lowers the held-out free-run
+#: error by more than this share (the simpler model wins what the split
+#: cannot tell apart)
 GAIN = 0.05
+
+#: a richer model class is taken only when its pilot's held-out free-run
+#: error is more than this share below the simpler class's: a pilot is an
+#: early, noisy estimate of what the full search of its class reaches
+CLASS_GAIN = 0.15
 
 #: share of the generations each model class's pilot search runs (full
 #: population) before the class is chosen; the chosen class's pilot then
@@ -255,10 +261,9 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     """``use_phi='auto'``: the class of ``classes`` (simplest first) whose
     pilot has the least held-out free-run error ``errors[i]`` (of its best
     structure and the smaller ones of its Pareto front, or with the hold
-    selection of the structure that selection takes),
-    a richer class taken only when its error is more than :data:`GAIN`
-    below the simpler one kept so far. ``holds[i]`` (with the hold
-    selection): whether the class's search has a structure whose CLS refit
+    selection of the structure that selection takes), a richer class
+    taken only when its error is more than :data:`CLASS_GAIN` below the
+    simpler one kept so far. ``holds[i]`` (with the hold selection): whether the class's search has a structure whose CLS refit
     holds; classes that have one win over those that have none, whatever
     the error. ``pilot`` completes the line (how the pilots ran)."""
     n = len(classes)
@@ -266,7 +271,7 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     pool = [i for i in range(n) if holds[i]] if any(holds) else list(range(n))
     best = pool[0]
     for i in pool[1:]:
-        if errors[i] < (1.0 - GAIN) * errors[best] or (
+        if errors[i] < (1.0 - CLASS_GAIN) * errors[best] or (
                 np.isinf(errors[best]) and np.isfinite(errors[i])):
             best = i
     c = classes[best]

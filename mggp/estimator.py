@@ -75,7 +75,7 @@ class MGGPRegressor:
     full population for a fifth of the generations, takes the class whose
     pilot's structure has the least held-out free-run RMSE (θ by LS on the
     first 70 % of the record, error on the last 30 %; a richer class only
-    when over 5 % lower; with the hold selection, classes that have a
+    when over 15 % lower; with the hold selection, classes that have a
     structure whose CLS refit holds first), and continues that pilot to the
     full generations; ``constant`` offers the constant term to every
     structure (not with the steady-state constraints, which it would break)

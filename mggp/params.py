@@ -295,7 +295,7 @@ _ROWS = (
           "'auto': a pilot search of each model class (no Φ, Φ, and with operators='auto' "
           "the memory operators) at full population for a fifth of the generations; the "
           "class whose structure has the least held-out free-run error (θ on the first "
-          "70 % of the record, error on the last 30 %; a richer class only when over 5 % "
+          "70 % of the record, error on the last 30 %; a richer class only when over 15 % "
           "lower) continues to the full generations", "model class", "--no-phi",
           context=True, meta=True, const=False,
           flag_help="plain polynomial terms only: no Φ-functions (--phi: Φ-functions "
