@@ -57,6 +57,10 @@ from .stages import FitContext, run_stages, screened
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
 
+#: what ``fit`` says when no structure of the search has a finite fitness
+NO_FINITE = ("no structure with a finite fitness was found: every candidate diverged; "
+             "try fitness='pem' or a shorter window")
+
 class MGGPRegressor:
     """Multi-gene GP structure search for polynomial NARX models.
 
@@ -317,19 +321,18 @@ class MGGPRegressor:
                 scr = ctx.screen if i == 0 else self._make_screen(
                     ctx.data, ctx.start, ctx.registry, None, ctx)
                 path = os.path.join(tmp, f"pilot{i}.json")
-                try:
-                    seed, res = self._search(ctx, c, pilot, scr, seed, checkpoint=path)
-                except ValueError:              # no finite fitness in this class
+                seed, res = self._search(ctx, c, pilot, scr, seed, checkpoint=path,
+                                         require_finite=False)
+                if res.best is None or not np.isfinite(res.best.fitness):
                     runs.append((None, scr, path, float("inf"), False))
-                    continue
+                    continue                    # no finite fitness in this class
                 terms, holds = self._held_candidate(ctx, res)
                 err = heldout_rmse(terms, ctx.data, ctx.registry) if holds is not None else \
                     min(r[1] for r in front_rows_heldout(terms, res, ctx.shape, ctx.data,
                                                          ctx.registry))
                 runs.append((res, scr, path, err, holds))
             if all(r[0] is None for r in runs):
-                raise ValueError("no structure with a finite fitness was found: every "
-                                 "candidate diverged; try fitness='pem' or a shorter window")
+                raise ValueError(NO_FINITE)
             hold = None if all(r[4] is None for r in runs) else [bool(r[4]) for r in runs]
             choice = class_choice(classes, [r[3] for r in runs], hold,
                                   f"pilots of {pilot} of {self.generations} generations at "
@@ -337,6 +340,9 @@ class MGGPRegressor:
                                   + ("" if hold else ", least error over each pilot's "
                                      "Pareto front") + ", the chosen one continued")
             win = [c.label for c in classes].index(choice.figures["class"])
+            if runs[win][0] is None:            # every held-out free run diverges
+                win = next(i for i, r in enumerate(runs) if r[0] is not None)
+                choice = class_choice([classes[win]], [runs[win][3]])
             res, scr, path = runs[win][:3]
             evaluations = sum(r[0].evaluations for i, r in enumerate(runs)
                               if r[0] is not None and i != win)
@@ -361,10 +367,12 @@ class MGGPRegressor:
         return (chosen or best), chosen is not None
 
     def _search(self, ctx: FitContext, cls, generations: int, screen,
-                seed: Optional[int] = None, checkpoint=None, resume: bool = False):
+                seed: Optional[int] = None, checkpoint=None, resume: bool = False,
+                require_finite: bool = True):
         """One evolution of the model class ``cls`` (:class:`mggp.choices.SearchClass`)
         for ``generations`` (continued from ``checkpoint`` with ``resume``):
-        ``(seed, EvolutionResult)``."""
+        ``(seed, EvolutionResult)``; ``ValueError`` when no structure has a
+        finite fitness (unless not ``require_finite``)."""
         data, shape = ctx.data, ctx.shape
         pset = make_pset(data.signals, ctx.registry, use_phi=cls.use_phi,
                          phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs),
@@ -402,9 +410,8 @@ class MGGPRegressor:
                          structure=shape)
         finally:
             evaluator.close()
-        if res.best is None or not np.isfinite(res.best.fitness):
-            raise ValueError("no structure with a finite fitness was found: every "
-                             "candidate diverged; try fitness='pem' or a shorter window")
+        if require_finite and (res.best is None or not np.isfinite(res.best.fitness)):
+            raise ValueError(NO_FINITE)
         return seed, res
 
     def _make_screen(self, data, start, registry, population=None, ctx=None):
