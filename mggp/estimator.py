@@ -44,7 +44,8 @@ from narx.phi import default_registry
 
 from .checkpoint import checkpoint_seed, data_digest
 from .choices import (CONSTANT, Choice, class_choice, constant_searched,
-                      front_rows_heldout, heldout_rmse, pilot_generations, resolve_screen, resolve_select, search_classes)
+                      front_rows_heldout, heldout_rmse, pilot_generations,
+                      resolve_screen, resolve_select, search_classes)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import evolve
@@ -60,6 +61,7 @@ __all__ = ["MGGPRegressor", "ParetoFront"]
 #: what ``fit`` says when no structure of the search has a finite fitness
 NO_FINITE = ("no structure with a finite fitness was found: every candidate diverged; "
              "try fitness='pem' or a shorter window")
+
 
 class MGGPRegressor:
     """Multi-gene GP structure search for polynomial NARX models.
@@ -276,7 +278,7 @@ class MGGPRegressor:
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure)
         if self.screen == "auto":
             ctx.choices["screen"] = resolve_screen(self)
-        ctx.screen = self._make_screen(data, start, registry, None, ctx)
+        ctx.screen = self._make_screen(data, start, registry, ctx)
         evaluations = self._searches(ctx)
         run_stages(ctx.shape(ctx.result.best.terms), data, ctx)
         res = ctx.result
@@ -319,7 +321,7 @@ class MGGPRegressor:
         with tempfile.TemporaryDirectory(prefix="mggp-pilot-") as tmp:
             for i, c in enumerate(classes):
                 scr = ctx.screen if i == 0 else self._make_screen(
-                    ctx.data, ctx.start, ctx.registry, None, ctx)
+                    ctx.data, ctx.start, ctx.registry, ctx)
                 path = os.path.join(tmp, f"pilot{i}.json")
                 seed, res = self._search(ctx, c, pilot, scr, seed, checkpoint=path,
                                          require_finite=False)
@@ -414,13 +416,13 @@ class MGGPRegressor:
             raise ValueError(NO_FINITE)
         return seed, res
 
-    def _make_screen(self, data, start, registry, population=None, ctx=None):
+    def _make_screen(self, data, start, registry, ctx=None):
         how = self.screen if ctx is None else screened(ctx)
         if how in (None, "none"):
             return None
         top = self.screen_top
         if top is None:
-            top = max(1, int(round(self.elite_fraction * (population or self.population))))
+            top = max(1, int(round(self.elite_fraction * self.population)))
         return StabilityScreen(data, start, top, band=self.screen_band,
                                constraints=self.search_constraints, registry=registry,
                                hold=how == "hold")
