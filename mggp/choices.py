@@ -47,9 +47,8 @@ from narx.model import ignore_rank_warnings
 from narx.terms import Term
 
 __all__ = ["Choice", "CLASS_GAIN", "CONSTANT", "GAIN", "HOLDOUT", "PILOT",
-           "SIZE_TOLERANCE",
-           "SearchClass", "class_choice", "front_rows_heldout", "constant_choice", "constant_off", "constant_searched",
-           "heldout_rmse", "pilot_generations", "resolve_screen", "resolve_select",
+           "SIZE_TOLERANCE", "SearchClass", "class_choice", "constant_choice",
+           "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse", "pilot_generations", "resolve_screen", "resolve_select",
            "search_classes", "size_choice", "steady"]
 
 #: share of the record (its tail) on which the held-out free-run error is measured
@@ -263,9 +262,10 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     structure and the smaller ones of its Pareto front, or with the hold
     selection of the structure that selection takes), a richer class
     taken only when its error is more than :data:`CLASS_GAIN` below the
-    simpler one kept so far. ``holds[i]`` (with the hold selection): whether the class's search has a structure whose CLS refit
-    holds; classes that have one win over those that have none, whatever
-    the error. ``pilot`` completes the line (how the pilots ran)."""
+    simpler one kept so far. ``holds[i]`` (with the hold selection):
+    whether the class's search has a structure whose CLS refit holds;
+    classes that have one win over those that have none, whatever the
+    error. ``pilot`` completes the line (how the pilots ran)."""
     n = len(classes)
     holds = list(holds) if holds is not None else [None] * n
     pool = [i for i in range(n) if holds[i]] if any(holds) else list(range(n))

@@ -394,8 +394,8 @@ def pareto(terms, data, ctx):
 
 #: the stages of ``fit`` after the search, in order
 STAGES = (("select", select), ("size", size), ("constant", constant), ("prune", prune),
-          ("noise", noise), ("record", record), ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
-          ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))
+          ("noise", noise), ("record", record), ("qr_refit", qr_refit),
+          ("precision", precision), ("cls_refit", cls_refit), ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))
 
 
 def run_stages(terms, data: Data, ctx: FitContext, stages=STAGES):

@@ -182,3 +182,14 @@ def test_size_takes_the_fewest_terms_within_the_tolerance():
     assert c.value == small and c.figures["terms"] == 2
     # control: the smaller one is clearly worse, the chosen structure stays
     assert size_choice([(3, 1.0, big), (2, 1.5, small)]).value == big
+
+
+def test_search_classes_follow_the_overrides():
+    from mggp.choices import search_classes
+    labels = lambda **kw: [(c.label, c.operators) for c in search_classes(MGGPRegressor(**kw))]
+    assert labels() == [("no Φ", ()), ("Φ", ()), ("operators", ("play", "dengtan"))]
+    assert labels(operators="none") == [("no Φ", ()), ("Φ", ())]
+    assert labels(operators="play") == [("no Φ", ("play",)), ("Φ", ("play",))]
+    assert labels(use_phi=False) == [("no Φ", ())]                 # operators 'auto': none
+    assert labels(use_phi=True, operators="dengtan") == [("Φ", ("dengtan",))]
+    assert labels(checkpoint="ck.json") == [("Φ", ())]
