@@ -36,15 +36,21 @@ from narx import Data
 
 __all__ = ["GRID", "RECORDS", "bouc_wen_oscillator", "run", "markdown"]
 
-#: label (the flags of ``mggp fit``) -> MGGPRegressor keywords
+#: label (the flags of ``mggp fit``) -> MGGPRegressor keywords: the settings
+#: the studies choose by hand (the model class, the constant term, the screen
+#: and the selection), each fixed (no automatic choice left)
 GRID = {
-    "--phi --screen none --select fitness --size search": dict(
-        use_phi=True, screen=None, select="fitness", size="search"),
-    "--no-phi --screen none --select fitness --size search": dict(
-        use_phi=False, screen=None, select="fitness", size="search"),
-    "--phi --select freerun": dict(use_phi=True, select="freerun"),
-    "--no-phi --select freerun": dict(use_phi=False, select="freerun"),
+    "--phi --no-constant --screen none --select fitness --size search": dict(
+        use_phi=True, constant=False, screen=None, select="fitness", size="search"),
+    "--no-phi --no-constant --screen none --select fitness --size search": dict(
+        use_phi=False, constant=False, screen=None, select="fitness", size="search"),
+    "--phi --no-constant --select freerun": dict(use_phi=True, constant=False,
+                                                 select="freerun"),
+    "--no-phi --no-constant --select freerun": dict(use_phi=False, constant=False,
+                                                    select="freerun"),
     "--no-phi --constant": dict(use_phi=False, constant=True),
+    "--no-phi --operators play,dengtan --no-constant": dict(
+        use_phi=False, operators="play,dengtan", constant=False),
 }
 
 

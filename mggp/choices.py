@@ -6,6 +6,15 @@ Typical use (``fit`` does this)::
     err = heldout_rmse(terms, data, registry)       # θ on the head, free run scored on the tail
     select, why = resolve_select(est)               # 'hold' with constraints, else 'fitness'
 
+The model class (``use_phi='auto'``): :func:`search_classes` lists the
+classes (no Φ, Φ, memory operators), each is searched for
+:func:`pilot_generations` at full population, :func:`class_choice` takes
+the one whose structure has the least held-out free-run error (a richer
+class only when over :data:`CLASS_GAIN` lower) and its pilot continues to the
+full budget. The constant term (``constant='auto'``): offered to every
+structure (:func:`constant_searched`), kept by :func:`constant_choice`
+when the held-out error is over :data:`GAIN` lower with it.
+
 Each choice is a :class:`Choice`: the value taken and the figures it was
 taken on, in one line ("no Φ: held-out free-run RMSE 0.41 against 0.58 with
 Φ"). ``fit`` keeps them in ``choices_`` and in every model's ``meta``
@@ -35,15 +44,34 @@ import numpy as np
 from narx import Model
 from narx.data import Data
 from narx.model import ignore_rank_warnings
+from narx.terms import Term
 
-__all__ = ["Choice", "HOLDOUT", "PHI_GAIN", "SIZE_TOLERANCE", "size_choice", "heldout_rmse", "resolve_screen", "resolve_select", "phi_choice"]
+__all__ = ["Choice", "CLASS_GAIN", "CONSTANT", "GAIN", "HOLDOUT", "PILOT",
+           "SIZE_TOLERANCE", "SearchClass", "class_choice", "constant_choice",
+           "constant_off", "constant_searched", "explicit_operators", "front_rows_heldout",
+           "heldout_rmse", "pilot_generations", "resolve_screen", "resolve_select",
+           "search_classes", "size_choice", "steady"]
 
 #: share of the record (its tail) on which the held-out free-run error is measured
 HOLDOUT = 0.3
 
-#: Φ-terms are kept only when they lower the held-out free-run error by more
-#: than this share (the simpler class wins what the split cannot tell apart)
-PHI_GAIN = 0.05
+#: the constant term is kept only when it lowers the held-out free-run
+#: error by more than this share (the simpler model wins what the split
+#: cannot tell apart)
+GAIN = 0.05
+
+#: a richer model class is taken only when its pilot's held-out free-run
+#: error is more than this share below the simpler class's: a pilot is an
+#: early, noisy estimate of what the full search of its class reaches
+CLASS_GAIN = 0.15
+
+#: share of the generations each model class's pilot search runs (full
+#: population) before the class is chosen; the chosen class's pilot then
+#: continues to the full number of generations
+PILOT = 0.2
+
+#: the constant term ``1`` (the empty product)
+CONSTANT = Term(())
 
 
 @dataclass(frozen=True)
@@ -80,6 +108,21 @@ def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT) -> 
 
 #: the smallest structure whose held-out error is within this share of the least is taken
 SIZE_TOLERANCE = 0.05
+
+
+def front_rows_heldout(terms, result, shape, data: Data, registry=None) -> list:
+    """``(n_terms, held-out RMSE, terms)`` of the structure ``terms`` and of
+    the distinct smaller structures of ``result``'s Pareto front (each
+    through ``shape``), ``terms`` first."""
+    terms = tuple(terms)
+    rows = [(len(terms), heldout_rmse(terms, data, registry), terms)]
+    seen = {frozenset(terms)}
+    for r in result.pareto:
+        ts = tuple(shape(r.terms))
+        if ts and len(ts) < len(terms) and frozenset(ts) not in seen:
+            seen.add(frozenset(ts))
+            rows.append((len(ts), heldout_rmse(ts, data, registry), ts))
+    return rows
 
 
 def size_choice(rows) -> Choice:
@@ -127,32 +170,127 @@ def resolve_select(est) -> Choice:
     return Choice("select", "fitness", "select fitness: no constraints to hold", {})
 
 
-def phi_choice(err_plain: float, err_phi: float, holds_plain: Optional[bool] = None,
-               holds_phi: Optional[bool] = None) -> Choice:
-    """``use_phi='auto'``: Φ-terms only when the Φ search's structure has
-    a held-out free-run error more than :data:`PHI_GAIN` below the plain
-    one's (else no Φ, the simpler class). ``holds_*`` (with the hold
-    selection): whether the search has a structure whose CLS refit holds;
-    a search that has one wins over one that has none, whatever the error."""
-    if holds_phi is not None and holds_phi != holds_plain:
-        use = bool(holds_phi)
-    else:
-        use = bool(err_phi < (1.0 - PHI_GAIN) * err_plain
-                   or (np.isinf(err_plain) and np.isfinite(err_phi)))
-    figs = {"heldout_rmse_phi": err_phi, "heldout_rmse_no_phi": err_plain,
+def steady(est) -> bool:
+    """Whether the fit imposes the continuum of steady states (``constraints``
+    or ``search_constraints`` 'steady-state')."""
+    return "steady-state" in (est.constraints, est.search_constraints)
+
+
+def constant_searched(est) -> bool:
+    """Whether every structure of the search holds the constant term:
+    ``constant``, or with 'auto' unless the steady-state constraints are
+    imposed (a constant term moves every equilibrium by the same amount, so
+    the output could not rest at any level: no continuum of steady states)."""
+    if est.constant == "auto":
+        return not steady(est)
+    return bool(est.constant)
+
+
+def constant_choice(terms, data: Data, registry=None):
+    """``constant='auto'``: ``(Choice, terms)``. The constant term of the
+    chosen structure is kept only when its held-out free-run error is more
+    than :data:`GAIN` below that of the same structure without it (θ of
+    each by LS on the head of the record)."""
+    terms = tuple(terms)
+    if CONSTANT not in terms:
+        return Choice("constant", False, "no constant term: the chosen structure has "
+                      "none", {}), terms
+    plain = tuple(t for t in terms if t != CONSTANT)
+    err_c = heldout_rmse(terms, data, registry)
+    err_p = heldout_rmse(plain, data, registry) if plain else float("inf")
+    keep = bool(err_c < (1.0 - GAIN) * err_p or (np.isinf(err_p) and np.isfinite(err_c)))
+    figs = {"heldout_rmse_constant": err_c, "heldout_rmse_no_constant": err_p,
             "holdout": HOLDOUT}
-    if holds_phi is not None:
-        figs.update(holds_phi=holds_phi, holds_no_phi=holds_plain)
-        if holds_phi != holds_plain:
-            return Choice("use_phi", use, ("Φ" if use else "no Φ") + ": only the search "
-                          + ("with" if use else "without") + " Φ has a structure whose CLS "
-                          f"refit holds its output (held-out free-run RMSE {err_phi:.4g} "
-                          f"with Φ, {err_plain:.4g} without)", figs)
-    if use:
-        why = (f"Φ: held-out free-run RMSE {err_phi:.4g} against {err_plain:.4g} "
-               f"without Φ")
+    if keep:
+        why = (f"constant term: held-out free-run RMSE {err_c:.4g} against {err_p:.4g} "
+               f"without it")
     else:
-        why = (f"no Φ: held-out free-run RMSE {err_plain:.4g} against {err_phi:.4g} "
-               f"with Φ")
-    return Choice("use_phi", use, why + f" (θ on the first {1 - HOLDOUT:.0%}, error on "
-                  f"the last {HOLDOUT:.0%} of the record)", figs)
+        why = (f"no constant term: held-out free-run RMSE {err_p:.4g} against {err_c:.4g} "
+               f"with it (kept only when over {GAIN:.0%} lower)")
+    return Choice("constant", keep, why, figs), (terms if keep else plain)
+
+
+def constant_off() -> Choice:
+    """``constant='auto'`` with the steady-state constraints: no constant."""
+    return Choice("constant", False, "no constant term: constraints='steady-state' (a "
+                  "constant term breaks the continuum of steady states)", {})
+
+
+@dataclass(frozen=True)
+class SearchClass:
+    """A model class the search may use: its label, Φ-terms or not, and the
+    memory operators (names, empty: none)."""
+
+    label: str
+    use_phi: bool
+    operators: tuple
+
+
+def explicit_operators(v) -> tuple:
+    """The operator names ``operators`` gives (empty for None, 'none', 'auto')."""
+    from .primitives import operator_names
+    return () if v in (None, "none", "auto") else tuple(operator_names(v))
+
+
+def search_classes(est) -> list:
+    """The model classes searched, simplest first. ``use_phi='auto'``: no Φ,
+    Φ and, with ``operators='auto'``, the memory operators without Φ (each
+    class with the given operators when ``operators`` names some);
+    otherwise the one class asked for (``operators='auto'``: none). Φ of
+    outputs and a checkpointed run are one search with Φ."""
+    from .primitives import OPERATOR_CHOICES
+    ops = explicit_operators(est.operators)
+    if est.use_phi != "auto" or est.phi_outputs or est.checkpoint is not None:
+        phi = est.use_phi is not False
+        return [SearchClass("Φ" if phi else "no Φ", phi, ops)]
+    out = [SearchClass("no Φ", False, ops), SearchClass("Φ", True, ops)]
+    if est.operators == "auto":
+        out.append(SearchClass("operators", False, tuple(OPERATOR_CHOICES)))
+    return out
+
+
+def pilot_generations(generations: int) -> int:
+    """Generations of each class's pilot search: :data:`PILOT` of
+    ``generations``, at least 1 (at most ``generations``)."""
+    return min(generations, max(1, int(round(PILOT * generations))))
+
+
+_WITH = {"no Φ": "without Φ", "Φ": "with Φ", "operators": "with operators"}
+
+
+def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
+    """``use_phi='auto'``: the class of ``classes`` (simplest first) whose
+    pilot has the least held-out free-run error ``errors[i]`` (of its best
+    structure and the smaller ones of its Pareto front, or with the hold
+    selection of the structure that selection takes), a richer class
+    taken only when its error is more than :data:`CLASS_GAIN` below the
+    simpler one kept so far. ``holds[i]`` (with the hold selection):
+    whether the class's search has a structure whose CLS refit holds;
+    classes that have one win over those that have none, whatever the
+    error. ``pilot`` completes the line (how the pilots ran)."""
+    n = len(classes)
+    holds = list(holds) if holds is not None else [None] * n
+    pool = [i for i in range(n) if holds[i]] if any(holds) else list(range(n))
+    best = pool[0]
+    for i in pool[1:]:
+        if errors[i] < (1.0 - CLASS_GAIN) * errors[best] or (
+                np.isinf(errors[best]) and np.isfinite(errors[i])):
+            best = i
+    c = classes[best]
+    figs = {"class": c.label, "operators": list(c.operators), "holdout": HOLDOUT}
+    for cl, e in zip(classes, errors):
+        key = {"no Φ": "no_phi", "Φ": "phi"}.get(cl.label, cl.label)
+        figs[f"heldout_rmse_{key}"] = e
+    others = ", ".join(f"{errors[i]:.4g} {_WITH.get(classes[i].label, classes[i].label)}"
+                       for i in range(n) if i != best)
+    why = f"{c.label}: held-out free-run RMSE {errors[best]:.4g} against {others}"
+    if any(holds):
+        figs["holds"] = {cl.label: h for cl, h in zip(classes, holds)}
+        if len(pool) < n:
+            why += (f"; only {'the search' if len(pool) == 1 else 'the searches'} "
+                    f"{', '.join(_WITH.get(classes[i].label) for i in pool)} "
+                    f"{'has' if len(pool) == 1 else 'have'} a structure whose CLS refit "
+                    f"holds its output")
+    why += (f" (θ on the first {1 - HOLDOUT:.0%}, error on the last {HOLDOUT:.0%} of the "
+            f"record{'; ' + pilot if pilot else ''})")
+    return Choice("use_phi", c.use_phi, why, figs)

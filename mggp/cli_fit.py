@@ -30,6 +30,9 @@ FIT_OPTIONS = tuple(PARAMS.values()) + (
     Param("phi", None, Bool(), "Φ-functions allowed: one search, no comparison with a "
           "search without them", "model class", "--phi", const=True,
           default_text="chosen by held-out free-run error", estimator=False),
+    Param("no_constant", None, Bool(), "no constant term in any structure", "model class",
+          "--no-constant", const=True, default_text="chosen by held-out free-run error",
+          estimator=False),
     Param("out", None, PATH, "write the model: with --constraints the CLS fit, unless its "
           "free run diverges on the training record or (unless --screen hold, or --select "
           "hold found a structure that holds) its RMSE there is over twice the LS fit's: "
@@ -46,7 +49,8 @@ def register(sub):
     p = sub.add_parser("fit", help="search a model structure by MGGP",
                        description="Search the structure of a polynomial NARX model by "
                                    "multi-gene GP. Without options the search chooses for "
-                                   "itself whether to use Φ-terms (held-out free-run error) "
+                                   "itself the model class (Φ-terms, memory operators) and "
+                                   "the constant term by held-out free-run error, the size "
                                    "and, with --constraints, a structure whose constrained "
                                    "refit holds its output; each choice is printed and "
                                    "recorded in the model. An explicit option overrides it.")
@@ -93,6 +97,10 @@ def _cmd_fit(args) -> int:
         if est.use_phi is False:
             raise CLIError("--phi and --no-phi exclude each other: give one")
         est.set_params(use_phi=True)
+    if args.no_constant:
+        if est.constant is True:
+            raise CLIError("--constant and --no-constant exclude each other: give one")
+        est.set_params(constant=False)
     check_params(est, cli=True)
     mode_option(est.fitness, {"ksa": "k", "ms": "window"}, args, "--fitness")
     check_refine_args(args)

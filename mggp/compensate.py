@@ -179,7 +179,9 @@ def identify_inverse(u, y, *, lead=1, reference="r", constrained=True, estimator
     max_lag=2`` with that selection gave a good inverse for one seed of
     three and drifting ones for the other two; ``fitness="freerun"`` gave
     some with a ``u[k-2]`` recursion that oscillates at half the sampling
-    rate. Check an inverse on a validation record before use.
+    rate. Check an inverse on a validation record before use. Unless
+    ``operators`` is given the search has no memory operators: the
+    compensator evaluates polynomial and Φ-terms only.
     """
     from .estimator import MGGPRegressor
     lead = check_count("lead", lead)
@@ -196,6 +198,7 @@ def identify_inverse(u, y, *, lead=1, reference="r", constrained=True, estimator
         params.setdefault("constraints", "steady-state" if constrained else None)
         params.setdefault("select", "freerun")
         params.setdefault("screen", "freerun")      # leaders that run away in free run
+        params.setdefault("operators", None)        # the inversion takes no memory operators
         estimator = MGGPRegressor(**params)
     with warnings.catch_warnings():           # the model is chosen here, explicitly
         warnings.simplefilter("ignore", CLSRejectedWarning)

@@ -28,7 +28,9 @@ References
 from __future__ import annotations
 
 import json
+import os
 import random
+import tempfile
 import time
 import warnings
 from typing import Optional
@@ -39,10 +41,11 @@ from narx import Model
 from narx.data import Data, DataError, as_data
 from narx.fitness import StructureScorer
 from narx.phi import default_registry
-from narx.terms import Term
 
 from .checkpoint import checkpoint_seed, data_digest
-from .choices import Choice, heldout_rmse, phi_choice, resolve_screen, resolve_select
+from .choices import (CONSTANT, Choice, class_choice, constant_searched,
+                      front_rows_heldout, heldout_rmse, pilot_generations,
+                      resolve_screen, resolve_select, search_classes)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import evolve
@@ -55,8 +58,9 @@ from .stages import FitContext, run_stages, screened
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
 
-#: the constant term ``1`` (the empty product) added by ``constant=True``
-CONSTANT = Term(())
+#: what ``fit`` says when no structure of the search has a finite fitness
+NO_FINITE = ("no structure with a finite fitness was found: every candidate diverged; "
+             "try fitness='pem' or a shorter window")
 
 
 class MGGPRegressor:
@@ -72,11 +76,17 @@ class MGGPRegressor:
     Automatic choices (``choices_``, and ``meta['choices']`` of every model,
     each with the figures it was taken on): ``screen`` and ``select`` are
     'hold' with ``constraints='steady-state'``, else 'freerun' and
-    'fitness'; ``use_phi`` runs a search with Φ and one without at half the
-    population each and keeps Φ when its structure's held-out free-run RMSE
-    (θ by LS on the first 70 % of the record, error on the last 30 %) is
-    over 5 % lower — or, with the hold selection, when only the Φ search has
-    a structure that holds; ``size`` takes the fewest terms of the run's
+    'fitness'; ``use_phi`` runs a pilot search of each model class (no Φ,
+    Φ, and with ``operators='auto'`` the memory operators without Φ) at the
+    full population for a fifth of the generations, takes the class whose
+    pilot's structure has the least held-out free-run RMSE (θ by LS on the
+    first 70 % of the record, error on the last 30 %; a richer class only
+    when over 15 % lower; with the hold selection, classes that have a
+    structure whose CLS refit holds first), and continues that pilot to the
+    full generations; ``constant`` offers the constant term to every
+    structure (not with the steady-state constraints, which it would break)
+    and keeps it in the result only when it lowers the held-out free-run
+    RMSE by over 5 %; ``size`` takes the fewest terms of the run's
     Pareto front within 5 % of the least held-out free-run RMSE. An
     explicit value of a parameter disables its choice.
 
@@ -144,8 +154,8 @@ class MGGPRegressor:
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi="auto", phi_names=None,
-                 phi_outputs=False, operators=None, operator_entry="stage",
-                 constant=False, max_lag=None, max_degree=None, select="auto",
+                 phi_outputs=False, operators="auto", operator_entry="stage",
+                 constant="auto", max_lag=None, max_degree=None, select="auto",
                  size="auto", local_search=True, select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, estimator="ls", refine=None, refine_window=None,
@@ -268,12 +278,10 @@ class MGGPRegressor:
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
                                  registry=registry, estimator=self.estimator)
-        half = self.population // 2 if (self.use_phi == "auto"
-                                        and not self.phi_outputs) else None
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure)
         if self.screen == "auto":
             ctx.choices["screen"] = resolve_screen(self)
-        ctx.screen = self._make_screen(data, start, registry, half, ctx)
+        ctx.screen = self._make_screen(data, start, registry, ctx)
         evaluations = self._searches(ctx)
         run_stages(ctx.shape(ctx.result.best.terms), data, ctx)
         res = ctx.result
@@ -288,38 +296,68 @@ class MGGPRegressor:
         return self
 
     def _searches(self, ctx: FitContext) -> int:
-        """The search, or with ``use_phi='auto'`` (and no checkpoint) one
-        search with Φ and one without at half the population each, the one
-        kept whose best structure has the lower held-out free-run error
-        (:mod:`mggp.choices`). Sets ``ctx.seed``, ``ctx.result``,
-        ``ctx.screen`` and the choice; returns the structures evaluated."""
-        if self.use_phi != "auto" or self.phi_outputs:      # Φ of outputs: Φ asked for
-            ctx.seed, ctx.result = self._search(ctx, self.use_phi is not False,
-                                                self.population,
-                                                ctx.screen)
+        """The search of the one model class asked for, or with
+        ``use_phi='auto'`` (:func:`mggp.choices.search_classes`) a pilot of
+        each class (full population, :func:`mggp.choices.pilot_generations`
+        generations, same seed), the class chosen by the least held-out
+        free-run error of its pilot's best structure and the smaller ones of
+        its Pareto front (with the hold selection: of the structure that
+        selection takes; :func:`mggp.choices.class_choice`),
+        and that pilot continued to ``generations`` (the same run as an
+        uninterrupted search of that class). Sets ``ctx.seed``,
+        ``ctx.result``, ``ctx.screen``, ``ctx.operators`` and the choice;
+        returns the structures evaluated."""
+        classes = search_classes(self)
+        if len(classes) == 1:
+            c = classes[0]
+            if self.use_phi == "auto":
+                ctx.choices["use_phi"] = Choice(
+                    "use_phi", True, "Φ: a checkpointed run (or one with Φ of outputs) is "
+                    "one search with Φ, not compared with other model classes", {})
+            ctx.operators = c.operators
+            ctx.seed, ctx.result = self._search(ctx, c, self.generations, ctx.screen,
+                                                checkpoint=self.checkpoint,
+                                                resume=self.resume)
             return ctx.result.evaluations
-        if self.checkpoint is not None:
-            ctx.choices["use_phi"] = Choice(
-                "use_phi", True, "Φ: a checkpointed run is one search (with Φ), not "
-                "compared with one without", {})
-            ctx.seed, ctx.result = self._search(ctx, True, self.population, ctx.screen)
-            return ctx.result.evaluations
-        half = max(2, self.population // 2)
-        screens = (ctx.screen, self._make_screen(ctx.data, ctx.start, ctx.registry, half,
-                                                 ctx))
-        runs = []
-        seed = None
-        holding = []
-        for use, scr in zip((True, False), screens):
-            seed, res = self._search(ctx, use, half, scr, seed)
-            terms, holds = self._held_candidate(ctx, res)
-            holding.append(holds)
-            runs.append((res, scr, heldout_rmse(terms, ctx.data, ctx.registry)))
-        choice = phi_choice(runs[1][2], runs[0][2], holding[1], holding[0])
+        pilot = pilot_generations(self.generations)
+        seed, runs = None, []
+        with tempfile.TemporaryDirectory(prefix="mggp-pilot-") as tmp:
+            for i, c in enumerate(classes):
+                scr = ctx.screen if i == 0 else self._make_screen(
+                    ctx.data, ctx.start, ctx.registry, ctx)
+                path = os.path.join(tmp, f"pilot{i}.json")
+                seed, res = self._search(ctx, c, pilot, scr, seed, checkpoint=path,
+                                         require_finite=False)
+                if res.best is None or not np.isfinite(res.best.fitness):
+                    runs.append((None, scr, path, float("inf"), False))
+                    continue                    # no finite fitness in this class
+                terms, holds = self._held_candidate(ctx, res)
+                err = heldout_rmse(terms, ctx.data, ctx.registry) if holds is not None else \
+                    min(r[1] for r in front_rows_heldout(terms, res, ctx.shape, ctx.data,
+                                                         ctx.registry))
+                runs.append((res, scr, path, err, holds))
+            if all(r[0] is None for r in runs):
+                raise ValueError(NO_FINITE)
+            hold = None if all(r[4] is None for r in runs) else [bool(r[4]) for r in runs]
+            choice = class_choice(classes, [r[3] for r in runs], hold,
+                                  f"pilots of {pilot} of {self.generations} generations at "
+                                  f"full population"
+                                  + ("" if hold else ", least error over each pilot's "
+                                     "Pareto front") + ", the chosen one continued")
+            win = [c.label for c in classes].index(choice.figures["class"])
+            if runs[win][0] is None:            # every held-out free run diverges
+                win = next(i for i, r in enumerate(runs) if r[0] is not None)
+                choice = class_choice([classes[win]], [runs[win][3]])
+            res, scr, path = runs[win][:3]
+            evaluations = sum(r[0].evaluations for i, r in enumerate(runs)
+                              if r[0] is not None and i != win)
+            if pilot < self.generations:
+                _, res = self._search(ctx, classes[win], self.generations, scr, seed,
+                                      checkpoint=path, resume=True)
         ctx.choices["use_phi"] = choice
-        ctx.seed = seed
-        ctx.result, ctx.screen, _ = runs[0] if choice.value else runs[1]
-        return sum(r.evaluations for r, _, _ in runs)
+        ctx.seed, ctx.result, ctx.screen = seed, res, scr
+        ctx.operators = classes[win].operators
+        return evaluations + res.evaluations
 
     def _held_candidate(self, ctx: FitContext, res):
         """The structure of ``res`` the hold selection would take (when
@@ -333,14 +371,20 @@ class MGGPRegressor:
         chosen, _ = select_hold(cands, ctx.data, ctx.start, ctx.registry, self.screen_band)
         return (chosen or best), chosen is not None
 
-    def _search(self, ctx: FitContext, use_phi: bool, population: int, screen,
-                seed: Optional[int] = None):
-        """One evolution: ``(seed, EvolutionResult)``."""
+    def _search(self, ctx: FitContext, cls, generations: int, screen,
+                seed: Optional[int] = None, checkpoint=None, resume: bool = False,
+                require_finite: bool = True):
+        """One evolution of the model class ``cls`` (:class:`mggp.choices.SearchClass`)
+        for ``generations`` (continued from ``checkpoint`` with ``resume``):
+        ``(seed, EvolutionResult)``; ``ValueError`` when no structure has a
+        finite fitness (unless not ``require_finite``)."""
         data, shape = ctx.data, ctx.shape
-        pset = make_pset(data.signals, ctx.registry, use_phi=use_phi,
+        pset = make_pset(data.signals, ctx.registry, use_phi=cls.use_phi,
                          phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs),
-                         operators=search_operators(self.operators, data.U)
-                         if self.operator_entry == "search" else None)
+                         operators=search_operators(
+                             cls.operators if (self.operator_entry == "search"
+                                               or cls.label == "operators") else None,
+                             data.U))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
                               constraints=self.search_constraints, start=ctx.start,
                               estimator=self.estimator, criterion=self.criterion,
@@ -358,34 +402,33 @@ class MGGPRegressor:
             for cb in callbacks:
                 cb(state)
         seed = self._seed() if seed is None else seed
-        if self.resume and self.checkpoint is not None and self.random_state is None:
-            seed = checkpoint_seed(self.checkpoint) or seed   # continue its run
+        if resume and checkpoint is not None and self.random_state is None:
+            seed = checkpoint_seed(checkpoint) or seed   # continue its run
         context = {"data": data_digest(data), **context_of(self)}
         try:
-            res = evolve(pset, evaluate_batch, seed=seed, population_size=population,
-                         generations=self.generations, cxpb=self.cxpb, mutpb=self.mutpb,
+            res = evolve(pset, evaluate_batch, seed=seed, population_size=self.population,
+                         generations=generations, cxpb=self.cxpb, mutpb=self.mutpb,
                          high_level_cx_rate=self.high_level_cx_rate,
                          high_level_mut_rate=self.high_level_mut_rate,
                          tournament_size=self.tournament_size,
                          elite_fraction=self.elite_fraction, max_terms=self.max_terms,
                          max_height=self.max_height, on_generation=on_generation,
-                         checkpoint=self.checkpoint, resume=self.resume,
+                         checkpoint=checkpoint, resume=resume,
                          context=json.loads(json.dumps(context, default=str)),
                          structure=shape)
         finally:
             evaluator.close()
-        if res.best is None or not np.isfinite(res.best.fitness):
-            raise ValueError("no structure with a finite fitness was found: every "
-                             "candidate diverged; try fitness='pem' or a shorter window")
+        if require_finite and (res.best is None or not np.isfinite(res.best.fitness)):
+            raise ValueError(NO_FINITE)
         return seed, res
 
-    def _make_screen(self, data, start, registry, population=None, ctx=None):
+    def _make_screen(self, data, start, registry, ctx=None):
         how = self.screen if ctx is None else screened(ctx)
         if how in (None, "none"):
             return None
         top = self.screen_top
         if top is None:
-            top = max(1, int(round(self.elite_fraction * (population or self.population))))
+            top = max(1, int(round(self.elite_fraction * self.population)))
         return StabilityScreen(data, start, top, band=self.screen_band,
                                constraints=self.search_constraints, registry=registry,
                                hold=how == "hold")
@@ -394,7 +437,7 @@ class MGGPRegressor:
         """The scored structure of decoded terms: the allowed ones, after
         the constant term when ``constant``."""
         kept = tuple(t for t in terms if self._allowed(t))
-        return (CONSTANT,) + kept if self.constant else kept
+        return (CONSTANT,) + kept if constant_searched(self) else kept
 
     def _allowed(self, term) -> bool:
         if identically_zero(term, self.registry or default_registry()):

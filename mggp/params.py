@@ -167,6 +167,8 @@ def _path(v) -> bool:
 
 def _operators(v) -> bool:
     from .primitives import operator_names
+    if v in ("auto", "none"):
+        return True
     try:
         operator_names(v)
     except ValueError:
@@ -175,7 +177,8 @@ def _operators(v) -> bool:
 
 
 ANY = Kind("anything", lambda v: True)
-OPERATORS = Kind("None or names among play, dengtan (a list, or comma-separated text)",
+OPERATORS = Kind("'auto', None, 'none' or names among play, dengtan (a list, or "
+                 "comma-separated text)",
                  _operators)
 NAMES = Kind("None or a list of names", _names)
 PATH = Kind("None or a path", _path)
@@ -289,32 +292,44 @@ _ROWS = (
           "lags up to 1 + 3h", "model class", "--max-height", meta=True),
     Param("use_phi", "auto", OneOf((True, False, "auto")), "terms may hold Φ-functions "
           "of lagged inputs (input increments and their signs, which model hysteresis); "
-          "'auto': a search with Φ and one without, each with half the population; Φ is "
-          "kept when its structure's held-out free-run error (θ on the first 70 % of the "
-          "record, error on the last 30 %) is over 5 % lower", "model class", "--no-phi",
+          "'auto': a pilot search of each model class (no Φ, Φ, and with operators='auto' "
+          "the memory operators) at full population for a fifth of the generations; the "
+          "class whose structure has the least held-out free-run error (θ on the first "
+          "70 % of the record, error on the last 30 %; a richer class only when over 15 % "
+          "lower) continues to the full generations", "model class", "--no-phi",
           context=True, meta=True, const=False,
           flag_help="plain polynomial terms only: no Φ-functions (--phi: Φ-functions "
-          "allowed; neither: both searched at half population, the one with the lower "
-          "held-out free-run error kept)", default_text="chosen by held-out free-run error"),
+          "allowed; neither: pilots of the classes no Φ, Φ and memory operators, the one "
+          "with the lowest held-out free-run error continued)",
+          default_text="chosen by held-out free-run error"),
     Param("phi_names", None, NAMES, "Φ-functions the search uses (default: all "
           "registered)", "model class", context=True, meta=True),
     Param("phi_outputs", False, Bool(), "Φ-terms of output lags too, e.g. "
           "Phi1(y[k-1],y[k-2]) (hysteresis driven by the output's rate)", "model class",
           "--phi-outputs", context="if set", meta=True, const=True,
           default_text="inputs only"),
-    Param("operators", None, OPERATORS, "memory operators of the inputs in the model "
-          "(how they enter: --operator-entry), comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range) "
-          "and dengtan (Deng–Tan operator)", "model class", "--operators",
-          context="if set", metavar="NAMES", default_text="none"),
+    Param("operators", "auto", OPERATORS, "memory operators of the inputs, "
+          "comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range) "
+          "and dengtan (Deng–Tan operator), entering as --operator-entry says; none: no "
+          "operators; auto: a model class of the automatic choice of --phi/--no-phi (a "
+          "search with the operators in its primitive set, without Φ), none when --phi or "
+          "--no-phi is given", "model class", "--operators", context="if set",
+          metavar="NAMES", default_text="a class of the automatic choice"),
     Param("operator_entry", "stage", OneOf(("stage", "search")),
-          "how --operators enter the model: stage (after the search, each operator term "
-          "that lowers the fitness by 5 % is added, then terms it made redundant are "
-          "dropped) or search (operators join the search's primitive set)", "model class",
-          "--operator-entry", context="if set", meta=True),
-    Param("constant", False, Bool(), "every structure also holds the constant term 1 (an "
-          "intercept), for an output that rests at an offset the lag terms cannot express",
+          "how operators named by --operators enter the model: stage (after the search, "
+          "each operator term that lowers the fitness by 5 % is added, then terms it made "
+          "redundant are dropped) or search (operators join the search's primitive set)",
+          "model class", "--operator-entry", context="if set", meta=True),
+    Param("constant", "auto", OneOf((True, False, "auto")), "every structure also holds "
+          "the constant term 1 (an intercept), for an output that rests at an offset the "
+          "lag terms cannot express; 'auto': offered to every structure and kept in the "
+          "result only when it lowers the held-out free-run error by over 5 %; never with "
+          "the steady-state constraints (it breaks the continuum of steady states)",
           "model class", "--constant", context="if set", meta=True, const=True,
-          default_text="no constant term"),
+          flag_help="every structure holds the constant term 1 (an intercept) "
+          "(--no-constant: never; neither: offered, kept when it lowers the held-out "
+          "free-run error by over 5 %, never with --constraints steady-state)",
+          default_text="chosen by held-out free-run error"),
     Param("max_lag", None, Int(1, none=True), "largest lag a term may use, in samples",
           "model class", "--max-lag", context=True, meta=True,
           default_text="what --max-height reaches"),

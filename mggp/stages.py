@@ -19,6 +19,9 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
     held-out free-run error is within 5 % of the least (``size``).
+``constant``
+    'auto': the constant term kept only when the held-out free-run error
+    is over 5 % lower with it (never with the steady-state constraints).
 ``operators``
     With ``operators`` and ``operator_entry='stage'``: memory-operator
     terms added stepwise to the structure (:mod:`mggp.operator_stage`);
@@ -69,7 +72,8 @@ from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
 
-from .choices import Choice, heldout_rmse, resolve_select, size_choice
+from .choices import (Choice, constant_choice, constant_off, explicit_operators,
+                      front_rows_heldout, resolve_select, size_choice, steady)
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -118,6 +122,8 @@ class FitContext:
         The search's seed.
     meta : dict
         What every model of the fit records (set by the ``record`` stage).
+    operators : tuple
+        The memory operators of the search's model class (names).
     choices : dict
         The automatic choices made (:class:`mggp.choices.Choice` by
         parameter name), recorded in ``meta['choices']``.
@@ -132,6 +138,7 @@ class FitContext:
     shape: Callable = tuple
     screen: object = None
     seed: Optional[int] = None
+    operators: tuple = ()
     meta: dict = field(default_factory=dict)
     choices: dict = field(default_factory=dict)
     _scorers: Dict[Tuple, StructureScorer] = field(default_factory=dict)
@@ -252,16 +259,23 @@ def size(terms, data, ctx):
         ctx.choices["size"] = Choice("size", len(terms), f"size {len(terms)} terms: "
                                      f"chosen by {by}, not by held-out error", {})
         return terms
-    rows = [(len(terms), heldout_rmse(terms, data, ctx.registry), terms)]
-    seen = {frozenset(terms)}
-    for r in ctx.result.pareto:
-        ts = ctx.shape(r.terms)
-        if ts and len(ts) < len(terms) and frozenset(ts) not in seen:
-            seen.add(frozenset(ts))
-            rows.append((len(ts), heldout_rmse(ts, data, ctx.registry), ts))
-    c = size_choice(rows)
+    c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry))
     ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
     return c.value
+
+
+def constant(terms, data, ctx):
+    """``constant='auto'``: the constant term offered to every structure of
+    the search is kept only when the chosen structure's held-out free-run
+    error is over 5 % lower with it (:func:`mggp.choices.constant_choice`);
+    with the steady-state constraints it was not offered."""
+    if ctx.est.constant != "auto":
+        return terms
+    if steady(ctx.est):
+        ctx.choices["constant"] = constant_off()
+        return terms
+    ctx.choices["constant"], terms = constant_choice(terms, data, ctx.registry)
+    return terms
 
 
 def operators(terms, data, ctx):
@@ -269,11 +283,12 @@ def operators(terms, data, ctx):
     ``operator_entry='stage'``; :func:`mggp.operator_stage.add_operators`)."""
     est = ctx.est
     est.operator_steps_ = None
-    if not est.operators or est.operator_entry != "stage":
+    names = explicit_operators(est.operators)
+    if not names or est.operator_entry != "stage":
         return terms
     from .operator_stage import add_operators, operator_candidates
     terms, est.operator_steps_ = add_operators(
-        ctx.scorer, terms, operator_candidates(data, est.operators), est.max_terms,
+        ctx.scorer, terms, operator_candidates(data, names), est.max_terms,
         keep=ctx.shape(()))
     return terms
 
@@ -310,7 +325,6 @@ def record(terms, data, ctx):
     """``terms_``, ``fitness_`` and the meta of the fit's models."""
     from .version import versions
     from .params import meta_of
-    from .primitives import operator_names
     est = ctx.est
     est.terms_ = terms
     est.fitness_ = ctx.result.best.fitness if terms == est.search_terms_ else \
@@ -322,8 +336,8 @@ def record(terms, data, ctx):
                     search_fitness_value=est.fitness_, versions=versions())
     if ctx.choices:
         ctx.meta["choices"] = {name: c.to_dict() for name, c in ctx.choices.items()}
-    if est.operators:
-        ctx.meta["operators"] = list(operator_names(est.operators))
+    if ctx.operators:
+        ctx.meta["operators"] = list(ctx.operators)
     return terms
 
 
@@ -445,10 +459,11 @@ def pareto(terms, data, ctx):
 
 
 #: the stages of ``fit`` after the search, in order
-STAGES = (("select", select), ("size", size), ("operators", operators), ("prune", prune),
-          ("local_search", local_search), ("noise", noise), ("record", record),
-          ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
-          ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))
+STAGES = (("select", select), ("size", size), ("constant", constant),
+          ("operators", operators), ("prune", prune), ("local_search", local_search),
+          ("noise", noise), ("record", record), ("qr_refit", qr_refit),
+          ("precision", precision), ("cls_refit", cls_refit), ("refine", refine),
+          ("cls_verdict", cls_verdict), ("pareto", pareto))
 
 
 def run_stages(terms, data: Data, ctx: FitContext, stages=STAGES):

@@ -1,25 +1,48 @@
-"""Automatic choices of MGGPRegressor (mggp.choices): Φ by held-out free-run
-error, the selection by the constraints; recorded in choices_ and meta."""
+"""Automatic choices of MGGPRegressor (mggp.choices): the model class (no Φ,
+Φ, memory operators) and the constant term by held-out free-run error, the
+selection by the constraints; recorded in choices_ and meta."""
 import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from mggp.choices import PHI_GAIN, heldout_rmse, phi_choice
+from mggp.choices import CLASS_GAIN, SearchClass, class_choice, heldout_rmse
 from narx.data import Data
 from narx.testsystems import system_by_name
+
+from conftest import first_order_record
+from test_constant import affine_record
+
+PLAIN, PHI, OPS = (SearchClass("no Φ", False, ()), SearchClass("Φ", True, ()),
+                   SearchClass("operators", False, ("play", "dengtan")))
 
 _KW = dict(fitness="pem", population=16, generations=2, max_height=2, max_terms=5,
            random_state=1)
 
 
+def phi_choice(err_plain, err_phi, holds_plain=None, holds_phi=None):
+    holds = None if holds_phi is None else [holds_plain, holds_phi]
+    return class_choice([PLAIN, PHI], [err_plain, err_phi], holds)
+
+
 def test_phi_kept_only_for_a_clear_gain():
     assert phi_choice(1.0, 0.5).value is True
-    assert phi_choice(1.0, 1.0 - PHI_GAIN / 2).value is False     # within the margin
+    assert phi_choice(1.0, 1.0 - CLASS_GAIN / 2).value is False         # within the margin
     assert phi_choice(0.5, 1.0).value is False
     assert phi_choice(float("inf"), 3.0).value is True            # plain diverges
     c = phi_choice(0.41, 0.58)
     assert c.why.startswith("no Φ: held-out free-run RMSE 0.41 against 0.58 with Φ")
     assert c.figures["heldout_rmse_phi"] == 0.58
+
+
+def test_operators_class_taken_only_for_a_clear_gain():
+    c = class_choice([PLAIN, PHI, OPS], [1.0, 0.8, 0.06])
+    assert c.value is False and c.figures["class"] == "operators"
+    assert c.figures["operators"] == ["play", "dengtan"]
+    assert c.why.startswith("operators: held-out free-run RMSE 0.06 against 1 without Φ, "
+                            "0.8 with Φ")
+    # control: within the margin of Φ's error, the simpler class (Φ) stays
+    c = class_choice([PLAIN, PHI, OPS], [1.0, 0.8, 0.8 * (1 - CLASS_GAIN / 2)])
+    assert c.figures["class"] == "Φ" and c.value is True
 
 
 def test_a_search_that_holds_wins_whatever_its_error():
@@ -47,12 +70,53 @@ def test_defaults_choose_and_record_with_figures():
     meta = est.model_.meta
     assert meta["use_phi"] is phi["value"] and meta["select"] == "fitness"
     assert meta["choices"]["use_phi"]["why"] == phi["why"]
+    assert {"heldout_rmse_operators", "class"} <= set(phi["figures"])
+    assert meta["constant"] is est.choices_["constant"]["value"]
+
+
+def test_chosen_class_is_the_uninterrupted_search_of_that_class():
+    """The chosen class's pilot is continued to the full generations: the
+    result is the one search of that class with the same seed (the other
+    pilots change nothing but the choice)."""
+    d = system_by_name("S1", n=500, seed=0)
+    kw = dict(_KW, generations=5, size="search", constant=False)
+    est = MGGPRegressor(**kw).fit(d.u, d.y)
+    fig = est.choices_["use_phi"]["figures"]
+    one = MGGPRegressor(use_phi=est.choices_["use_phi"]["value"],
+                        operators=",".join(fig["operators"]) or "none", **kw).fit(d.u, d.y)
+    assert [r["best"] for r in est.logbook_] == [r["best"] for r in one.logbook_]
+    assert len(est.logbook_) == 6 and est.model_.term_texts == one.model_.term_texts
+    # the pilots' structures are counted too
+    assert est.n_evaluations_ > one.n_evaluations_
+
+
+def test_constant_kept_for_an_offset_only():
+    """An output resting at an offset (y = 0.5 + 0.6 y[k-1] + 0.4 u[k-1])
+    keeps the constant term; control: a record without one drops it."""
+    kw = dict(_KW, population=40, generations=6, use_phi=False)
+    est = MGGPRegressor(**kw).fit(*affine_record())
+    c = est.choices_["constant"]
+    assert c["value"] is True and "1" in est.model_.term_texts
+    assert c["figures"]["heldout_rmse_constant"] < 0.5 * c["figures"]["heldout_rmse_no_constant"]
+    assert est.model_.meta["constant"] is True
+    ctl = MGGPRegressor(**kw).fit(*first_order_record(500, 0, noise=0.01))
+    assert ctl.choices_["constant"]["value"] is False and "1" not in ctl.model_.term_texts
+    assert ctl.choices_["constant"]["why"].startswith("no constant term: held-out")
+    assert ctl.model_.meta["constant"] is False
+
+
+def test_no_constant_under_the_steady_state_constraints():
+    kw = dict(_KW, population=40, generations=4, use_phi=False)
+    est = MGGPRegressor(constraints="steady-state", **kw).fit(*affine_record())
+    assert est.choices_["constant"]["value"] is False
+    assert "breaks the continuum of steady states" in est.choices_["constant"]["why"]
+    assert all("1" not in row["terms"] for row in est.pareto_front_)
 
 
 def test_explicit_values_disable_the_choices():
     d = system_by_name("S1", n=500, seed=0)
     est = MGGPRegressor(use_phi=False, select="fitness", screen="freerun", size="search",
-                        **_KW).fit(d.u, d.y)
+                        constant=False, **_KW).fit(d.u, d.y)
     assert est.choices_ == {} and "choices" not in est.model_.meta
 
 
@@ -73,6 +137,23 @@ def test_cli_phi_and_no_phi_exclude_each_other(tmp_path, capsys, argv):
     assert "--phi and --no-phi" in capsys.readouterr().err
 
 
+def test_cli_constant_and_no_constant(tmp_path, capsys):
+    import json
+    from mggp.cli import main
+    u, y = affine_record(300)
+    path = tmp_path / "d.csv"
+    np.savetxt(path, np.column_stack([u, y]), delimiter=",", header="u,y", comments="")
+    assert main(["fit", str(path), "--constant", "--no-constant"]) == 2
+    assert "--constant and --no-constant" in capsys.readouterr().err
+    out = tmp_path / "m.json"
+    assert main(["fit", str(path), "--no-constant", "--no-phi", "--population", "16",
+                 "--generations", "2", "--max-height", "2", "--seed", "1", "--quiet",
+                 "--out", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["meta"]["constant"] is False and "1" not in doc["terms"]
+    assert "constant term" not in capsys.readouterr().err     # no automatic choice
+
+
 def test_cli_prints_each_automatic_choice(tmp_path, capsys):
     from mggp.cli import main
     d = system_by_name("S1", n=300, seed=0)
@@ -82,6 +163,7 @@ def test_cli_prints_each_automatic_choice(tmp_path, capsys):
                  "--max-height", "2", "--seed", "1", "--quiet"]) == 0
     err = capsys.readouterr().err
     assert "auto: " in err and "held-out free-run RMSE" in err and "auto: select" in err
+    assert "auto: no constant term" in err or "auto: constant term" in err
 
 
 def test_screen_follows_the_constraints():
@@ -100,3 +182,14 @@ def test_size_takes_the_fewest_terms_within_the_tolerance():
     assert c.value == small and c.figures["terms"] == 2
     # control: the smaller one is clearly worse, the chosen structure stays
     assert size_choice([(3, 1.0, big), (2, 1.5, small)]).value == big
+
+
+def test_search_classes_follow_the_overrides():
+    from mggp.choices import search_classes
+    labels = lambda **kw: [(c.label, c.operators) for c in search_classes(MGGPRegressor(**kw))]
+    assert labels() == [("no Φ", ()), ("Φ", ()), ("operators", ("play", "dengtan"))]
+    assert labels(operators="none") == [("no Φ", ()), ("Φ", ())]
+    assert labels(operators="play") == [("no Φ", ("play",)), ("Φ", ("play",))]
+    assert labels(use_phi=False) == [("no Φ", ())]                 # operators 'auto': none
+    assert labels(use_phi=True, operators="dengtan") == [("Φ", ("dengtan",))]
+    assert labels(checkpoint="ck.json") == [("Φ", ())]

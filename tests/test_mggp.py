@@ -135,7 +135,8 @@ def test_fit_cli_bad_arguments(tmp_path, capsys):
 def test_select_freerun_picks_the_best_whole_record_simulation():
     u, y = _piezo()
     kw = dict(fitness="ms", window=50, population=40, generations=4, random_state=2,
-              max_terms=8, local_search=False)      # the selection as it chose
+              max_terms=8, local_search=False, constant=False,
+              size="search")      # the selection as it chose
     a = MGGPRegressor(select="freerun", select_candidates=10, **kw).fit(u, y)
     ranked = a.selection_
     assert ranked and all(m1 <= m2 for (m1, _), (m2, _) in zip(ranked, ranked[1:]))
@@ -159,7 +160,8 @@ def _two_input_fit(scale=1.0):
     u2 = training_input(2000, seed=2, bandwidth=2.0, amplitude=1.0)
     y = piezo_bouc_wen(u1 + 20 * u2)
     est = MGGPRegressor(fitness="ms", window=50, population=40, generations=4,
-                        random_state=5, max_terms=8, n_jobs=1, inputs=["u1", "u2"])
+                        random_state=5, max_terms=8, n_jobs=1, inputs=["u1", "u2"],
+                        use_phi=True)
     return est.fit(np.c_[u1, scale * u2], y)
 
 

@@ -169,6 +169,7 @@ def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data, callbac
                          max_terms=setting.max_terms, max_height=setting.max_height,
                          max_degree=setting.max_degree, random_state=int(seed),
                          screen=None, select="fitness", size="search", local_search=False,
+                         constant=False,
                          n_jobs=jobs, inputs=list(data.inputs), output=data.output,
                          operators=list(setting.operators) or None,
                          operator_entry="search",
