@@ -506,18 +506,3 @@ def test_operator_augmentation_sees_a_play_behind_dynamics_not_a_linear_control(
     c = operator_augmentation_test(narx.Model(lin).fit(ctl), ctl, shifts=19, seed=0)
     assert c.statistic < a.statistic / 10
     assert c.statistic <= 0.005 * np.ptp(ctl.y)          # below the resolution floor
-
-
-def test_augmentation_controls_leave_out_terms_the_baseline_spans():
-    from mggp.diagnose.augmentation import (control_terms, independent_terms,
-                                            phi_augmentation_test)
-    from mggp.diagnose.controls import control_record
-    d = control_record("linear", seed=0, n=2000, snr_db=40.0).data
-    lin = ["y[k-1]", "y[k-2]", "u[k-1]", "u[k-2]"]
-    sig = dict(inputs=d.inputs, output=d.output, registry=narx.Model(lin).registry)
-    ctrl = narx.Model(control_terms("u", "y")).term_texts
-    kept = independent_terms(lin, ctrl, d, sig, 2)
-    dropped = set(ctrl) - set(kept)
-    assert dropped == {"Phi1(u[k-1],u[k-2])", "y[k-2]"}, dropped   # Δu = u[k-1] − u[k-2]
-    a = phi_augmentation_test(narx.Model(lin).fit(d), d, shifts=9, seed=0)
-    assert set(kept) <= set(a.terms)                     # the controls are in the fit

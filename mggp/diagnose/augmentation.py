@@ -29,17 +29,13 @@ and the nested form gains nothing, whichever terms are used.
 
 Both forms, real and placebo, also hold *control terms*
 (:func:`control_terms`): the odd twins of the direction terms
-(Δu, y[k-1]Δu, u[k-1]Δu), y[k-2], u[k-1]², u[k-2]², y[k-1]² and
-y[k-1]u[k-1]. The direction terms carry information about the last two
-inputs that placebo terms do not; a model that merely lacks a second lag,
-a dead time or a memoryless input or output nonlinearity would otherwise
-gain from them and be called hysteretic. With the controls in both fits,
-only what is even in the input change counts. A control term whose
-column is a linear combination of the form's other columns (Δu =
-u[k-1] − u[k-2] when the baseline has both lags) adds nothing and would
-make the LS fit singular; it is left out (:func:`independent_terms`).
+(Δu, y[k-1]Δu, u[k-1]Δu), y[k-2], u[k-1]² and u[k-2]². The direction terms
+carry information about the last two inputs that placebo terms do not; a
+model that merely lacks a second lag, a dead time or a memoryless
+nonlinearity would otherwise gain from them and be called hysteretic. With
+the controls in both fits, only what is even in the input change counts.
 The reference is the refitted baseline with its controls (the test falls
-back to the baseline alone when that cannot be fitted or simulated).
+back to the baseline alone when that cannot be simulated).
 
 As the diagnose test :data:`AUGMENTATION` (effect ``hysteresis``), one
 check, ``Φ-augmentation``, with threshold max(placebo quantile,
@@ -69,7 +65,6 @@ from .registry import DiagnosticTest, Outcome
 from .simulation import bounded_mode, freerun_rmse, fresh_name
 
 __all__ = ["AugmentationTest", "phi_augmentation_test", "direction_terms", "control_terms",
-           "independent_terms",
            "augmentation_check", "AUGMENTATION", "operator_terms",
            "operator_augmentation_test", "OPERATOR_AUGMENTATION"]
 
@@ -206,58 +201,24 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
 def control_terms(inp: str, out: str) -> List[str]:
     """Polynomial terms that stand in for the direction terms' information
     about the last samples without their evenness in the input change: the
-    odd twins Δu, y[k-1]Δu, u[k-1]Δu, a second output lag, the squares
-    of the last two inputs, and y[k-1]², y[k-1]u[k-1] for a static output
-    nonlinearity (a Wiener system's). Added to both the real and the
-    placebo fits (those whose columns are not combinations of the fit's
-    other terms, :func:`independent_terms`), so a model that only lacks
-    dynamics, a dead time or a memoryless input or output nonlinearity
-    gains nothing more from the direction terms than from placebo ones."""
+    odd twins Δu, y[k-1]Δu, u[k-1]Δu, a second output lag and the squares
+    of the last two inputs. Added to both the real and the placebo fits, so
+    a model that only lacks dynamics, a dead time or a memoryless
+    nonlinearity gains nothing more from the direction terms than from
+    placebo ones."""
     d = f"Phi1({inp}[k-1],{inp}[k-2])"
     return [d, f"{out}[k-1]*{d}", f"{inp}[k-1]*{d}", f"{out}[k-2]",
-            f"{inp}[k-1]*{inp}[k-1]", f"{inp}[k-2]*{inp}[k-2]",
-            f"{out}[k-1]*{out}[k-1]", f"{out}[k-1]*{inp}[k-1]"]
-
-
-def independent_terms(terms, extra, data: Data, sig, start: int, tol: float = 1e-8):
-    """The terms of ``extra`` whose columns leave the span of ``terms``'
-    columns and of the ``extra`` terms kept before them.
-
-    A column c is kept when its residual after projection on the kept
-    columns has norm above ``tol`` · ‖c‖ (Gram–Schmidt, orthogonalised
-    twice). Control terms that are exact combinations of the baseline's,
-    e.g. Δu = ``Phi1(u[k-1],u[k-2])`` = u[k-1] − u[k-2] when both lags are
-    in the baseline, would make the LS fit singular.
-    """
-    extra = [t for t in extra if t not in set(terms)]
-    if not extra:
-        return []
-    reg = sig["registry"]
-    Psi = regressor_matrix(Model(terms, **sig).terms, data, start=start, registry=reg)[0]
-    E = regressor_matrix(Model(extra, **sig).terms, data, start=start, registry=reg)[0]
-    Q = np.linalg.qr(Psi)[0] if Psi.shape[1] else np.zeros((E.shape[0], 0))
-    kept = []
-    for t, c in zip(extra, E.T):
-        norm = float(np.linalg.norm(c))
-        r = c - Q @ (Q.T @ c)
-        r = r - Q @ (Q.T @ r)
-        rn = float(np.linalg.norm(r))
-        if norm > 0 and rn > tol * norm:
-            kept.append(t)
-            Q = np.column_stack([Q, r / rn])
-    return kept
+            f"{inp}[k-1]*{inp}[k-1]", f"{inp}[k-2]*{inp}[k-2]"]
 
 
 def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed):
     reg = model.registry
+    base1 = model.term_texts + [t for t in control if t not in set(model.term_texts)]
+    forms = [("baseline + direction terms", base1, [t for t in D if t not in set(base1)]),
+             ("Bouc–Wen increment", inc + [t for t in control if t not in set(inc)], D)]
     start = max(model.max_lag, 2)
     blocks = []
     try:
-        base1 = model.term_texts + independent_terms(model.term_texts, control, data, sig,
-                                                     start)
-        forms = [("baseline + direction terms", base1, [t for t in D if t not in set(base1)]),
-                 ("Bouc–Wen increment", inc + independent_terms(inc, control, data, sig,
-                                                                start), D)]
         for label, base, add in forms:
             if not add:
                 continue
