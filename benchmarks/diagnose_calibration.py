@@ -41,7 +41,7 @@ def _tests(names=None):
     if names:
         unknown = sorted(set(names) - {t.name for t in tests})
         if unknown:
-            raise SystemExit(f"error: --test must name registered tests "
+            raise ValueError(f"--test must name registered tests "
                              f"{[t.name for t in tests]}, got {unknown}")
         tests = [t for t in tests if t.name in names]
     return tests
@@ -79,6 +79,10 @@ def main(argv=None):
     p.add_argument("--test", action="append", metavar="NAME",
                    help="only this registered test (repeatable)")
     a = p.parse_args(argv)
+    try:
+        _tests(a.test)
+    except ValueError as e:
+        p.error(str(e))
     if not a.check:
         f, n = factors(a.test)
         print(f"CALIBRATION_REALISATIONS = {n}")
