@@ -4,6 +4,7 @@ Run::
 
     python -m benchmarks.diagnose_calibration            # factors + rates
     python -m benchmarks.diagnose_calibration --check    # rates only
+    python -m benchmarks.diagnose_calibration --test Φ-augmentation   # one test only
 
 Step 1 (skipped by ``--check``): the raw checks of every registered test on
 the calibration realisations (:mod:`mggp.diagnose.controls`: six kinds ×
@@ -35,11 +36,23 @@ CALIBRATION_SET = ((30.0, 0, 7), (40.0, 100, 6), (45.0, 200, 7),
 CHECK_SET = ((30.0, 2000, 7), (40.0, 2100, 6), (45.0, 2200, 7))
 
 
-def factors():
+def _tests(names=None):
+    tests = registered()
+    if names:
+        unknown = sorted(set(names) - {t.name for t in tests})
+        if unknown:
+            raise ValueError(f"--test must name registered tests "
+                             f"{[t.name for t in tests]}, got {unknown}")
+        tests = [t for t in tests if t.name in names]
+    return tests
+
+
+def factors(names=None):
     """Each test's family factors for a false-alarm rate of
-    :data:`CALIBRATION_RATE` per test; returns (factors, realisations)."""
+    :data:`CALIBRATION_RATE` per test (only the tests ``names``, when
+    given); returns (factors, realisations)."""
     out, n = {}, 0
-    for test in registered():
+    for test in _tests(names):
         rows = [checks for snr, seed, per in CALIBRATION_SET
                 for _, _, checks in control_checks(test, per_kind=per, snr_db=snr, seed=seed,
                                                    holds=2, calibrated=False)]
@@ -48,9 +61,9 @@ def factors():
     return out, n
 
 
-def rates():
+def rates(names=None):
     out = []
-    for test in registered():
+    for test in _tests(names):
         t0 = time.perf_counter()
         parts = [false_alarm_rate(test, holds=2, snr_db=snr, seed=seed, per_kind=per)
                  for snr, seed, per in CHECK_SET]
@@ -63,15 +76,21 @@ def rates():
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--check", action="store_true", help="rates only")
+    p.add_argument("--test", action="append", metavar="NAME",
+                   help="only this registered test (repeatable)")
     a = p.parse_args(argv)
+    try:
+        _tests(a.test)
+    except ValueError as e:
+        p.error(str(e))
     if not a.check:
-        f, n = factors()
+        f, n = factors(a.test)
         print(f"CALIBRATION_REALISATIONS = {n}")
         print("CALIBRATION = {" + ", ".join(f"{k!r}: {v:.4g}" for k, v in f.items()) + "}")
     print(f"| test | false alarms | realisations | rate | 95 % interval | stated "
           f"{CALIBRATION_RATE:g} in it or below | without power | by kind |")
     print("|---|---|---|---|---|---|---|---|")
-    for fa, secs in rates():
+    for fa, secs in rates(a.test):
         lo, hi = fa.interval()
         kinds = ", ".join(f"{k} {x}/{m}" for k, (x, m) in fa.by_kind.items())
         print(f"| {fa.test} | {int(np.sum(fa.alarms))} | {fa.realisations} | {fa.rate:.3g} | "
