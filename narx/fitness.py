@@ -53,7 +53,8 @@ from .kernels import Plan, run_windows
 from .linalg import divergence_bound, gram_lstsq
 from .ms_kernel import BUDGET as MS_BUDGET, MultipleShooting, window_sse
 from .phi import PhiRegistry, default_registry
-from .output_error import OutputErrorProblem, burn_in, check_estimator, output_error_theta
+from .output_error import (OutputErrorProblem, burn_in, check_estimator, innovation_mse,
+                           noise_order, output_error_theta)
 from .regressors import factor_column, input_part_into, regressor_matrix
 from .simulate import MODES, mode_name, recursion_windows
 from .steady import steady_state_constraints
@@ -451,8 +452,6 @@ class StructureScorer:
         out, diverged = self.run_windows(terms, theta, starts, length, self.burn)
         if diverged:
             return float("inf")
-        scored = np.isfinite(out)
-        if not scored.any():
+        if not np.isfinite(out).any():
             return float("inf")
-        r = self.y[scored] - out[scored]
-        return float(fixed_dot(r, r) / r.size)
+        return innovation_mse(self.y - out, noise_order(length - self.burn))

@@ -57,8 +57,9 @@ from .gram import cross_products, fixed_dot
 from .linalg import gram_lstsq, iv_lstsq
 
 __all__ = ["ESTIMATORS", "IV_ITERATIONS", "GN_ITERATIONS", "GN_RTOL", "BURN_IN",
-           "OutputErrorProblem", "iv_theta", "gauss_newton", "output_error_theta",
-           "burn_in", "check_estimator"]
+           "NOISE_ORDER", "OutputErrorProblem", "iv_theta", "gauss_newton",
+           "output_error_theta", "burn_in", "check_estimator", "noise_order",
+           "innovation_mse"]
 
 #: θ estimators of a structure search: least squares, or output error
 ESTIMATORS = ("ls", "oe")
@@ -73,6 +74,8 @@ GN_HALVINGS = 6
 #: simulated steps at the start of each window that the output-error score
 #: leaves out (the transient of noisy initial conditions)
 BURN_IN = 50
+#: largest order of the autoregressive noise model of the simulation error
+NOISE_ORDER = 8
 
 Simulation = Callable[[np.ndarray], Tuple[np.ndarray, bool]]
 
@@ -230,3 +233,77 @@ def output_error_theta(problem: OutputErrorProblem, theta: np.ndarray) -> np.nda
     """IV from the least-squares ``theta`` (:func:`iv_theta`), then
     Gauss–Newton on the scored simulation error (:func:`gauss_newton`)."""
     return gauss_newton(problem, iv_theta(problem, np.asarray(theta, dtype=np.float64)))
+
+
+def noise_order(length: int) -> int:
+    """Largest order of the noise model on scored runs of ``length``
+    samples: :data:`NOISE_ORDER`, at most a quarter of a run (0 for runs
+    shorter than 4 samples: the simulation error is then scored as is)."""
+    return max(0, min(NOISE_ORDER, int(length) // 4))
+
+
+def innovation_mse(r: np.ndarray, order: int) -> float:
+    r"""Innovation variance of the simulation error ``r`` under an
+    autoregressive noise model of order chosen by BIC, with that choice's
+    penalty.
+
+    ``r`` holds the simulation error at the scored samples and NaN
+    elsewhere (the runs of a multiple-shooting record are separated by
+    NaN). When the disturbance is not white at the output, e.g. equation
+    noise :math:`e_k` carried through the dynamics plus measurement noise
+    :math:`v_k`, the simulation error of the true structure is coloured,
+    :math:`r_k = H(q)\varepsilon_k`, and a mean squared error counts every
+    sample as independent: a term that fits the realisation of the
+    low-frequency disturbance by chance lowers it by far more than an
+    information criterion's per-term penalty assumes. The Gaussian
+    likelihood of the Box–Jenkins model :math:`y = G(q,\theta)u +
+    H(q)\varepsilon` [4]_ scores the whitened error instead: with
+    :math:`1/H \approx A_m(q) = 1 - a_1q^{-1} - \dots - a_mq^{-m}` fitted by
+    least squares on the :math:`n` samples of ``r`` whose ``order`` previous
+    samples are scored (the same samples for every :math:`m`),
+
+    .. math:: \sigma^2_m = \frac1n\sum_k (A_m(q) r)_k^2,\qquad
+              m^* = \arg\min_{0\le m\le M} n\ln\sigma^2_m + m\ln n,
+
+    :math:`M` = ``order``; the value returned is
+    :math:`\sigma^2_{m^*} n^{m^*/n}`,
+    whose :math:`n\ln(\cdot)` is the noise model's BIC: the structure's
+    own terms are penalised by the search's criterion on top. A white
+    simulation error (output noise only) gives :math:`m^* = 0`: the mean
+    squared error. Every sum is taken in a fixed order
+    (:func:`narx.gram.cross_products`).
+
+    References
+    ----------
+    .. [4] Ljung, L., *System Identification: Theory for the User*, 2nd ed.,
+       Prentice Hall, 1999, sec. 4.2 and 7.3.
+    """
+    r = np.asarray(r, dtype=np.float64)
+    ok = np.isfinite(r)
+    order = max(0, int(order))
+    rows = ok.copy()                     # samples whose `order` predecessors are scored
+    for j in range(1, order + 1):
+        rows[j:] &= ok[:-j]
+    rows[:order] = False
+    k = np.flatnonzero(rows)
+    n = k.size
+    if n == 0:
+        return float("inf")
+    t = np.ascontiguousarray(r[k])
+    X = np.ascontiguousarray(np.stack([r[k - j] for j in range(1, order + 1)])) if order \
+        else np.empty((0, n))
+    G, g = cross_products(X, X), cross_products(X, t[None, :])[:, 0]
+    best = None
+    for m in range(min(order, (n - 1) // 2) + 1):
+        w = t.copy()
+        if m:
+            a = gram_lstsq(G[:m, :m], g[:m])[0]
+            for j in range(m):           # fixed order: no BLAS in the residual
+                w -= a[j] * X[j]
+        var = fixed_dot(w, w) / n
+        if not var > 0:                  # an exact fit
+            return float(var)
+        bic = n * np.log(var) + m * np.log(n)
+        if best is None or bic < best[0]:
+            best = (bic, var * np.exp(m * np.log(n) / n))
+    return float(best[1])
