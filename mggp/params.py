@@ -352,7 +352,9 @@ _ROWS = (
           "θ of every structure scored in the search: least squares (ls), or output error "
           "(oe: instrumental variables, then Gauss-Newton on the simulation error), which "
           "white measurement noise on the output does not bias; oe needs --fitness ms or "
-          "freerun and scores each window from its 50th step (ms: at most half a window)",
+          "freerun, scores each window from its 50th step (ms: at most half a window) and "
+          "whitens the simulation error by an autoregressive noise model (order by BIC, at "
+          "most 8) before taking its mean square",
           "selection", "--estimator", context="if set", meta=True),
     Param("refine", None, OneOf((None, "ms", "freerun")),
           "refine θ by minimising the simulation error (ms: windows of --refine-window "

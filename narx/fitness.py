@@ -192,7 +192,10 @@ class StructureScorer:
         measured output; for the ``ms`` and ``freerun`` fitness, without
         ``constraints``. With ``'oe'`` the first
         :func:`narx.output_error.burn_in` steps of each simulated window
-        are not scored.
+        are not scored, and the score is the simulation error's variance
+        after an autoregressive noise model has whitened it
+        (:func:`narx.output_error.innovation_mse`; the mean squared error
+        when it is white).
 
     Attributes
     ----------
@@ -446,8 +449,10 @@ class StructureScorer:
         return float(fixed_dot(r, r) / r.size)
 
     def _burnt_mse(self, terms, theta, s) -> float:
-        """MSE of the ``ms``/``freerun`` simulation without the first
-        ``self.burn`` steps of each window; ``inf`` when it diverges."""
+        """Error variance of the ``ms``/``freerun`` simulation without the
+        first ``self.burn`` steps of each window, whitened by a noise model
+        (:func:`narx.output_error.innovation_mse`); ``inf`` when it
+        diverges."""
         starts, length, _, _ = recursion_windows(self.fitness, self.data.n, s, self.window)
         out, diverged = self.run_windows(terms, theta, starts, length, self.burn)
         if diverged:

@@ -3,9 +3,11 @@
 Typical use (inside :class:`narx.fitness.StructureScorer` with
 ``estimator='oe'``)::
 
-    from narx.output_error import OutputErrorProblem, output_error_theta
+    from narx.output_error import (OutputErrorProblem, output_error_theta,
+                                   innovation_mse, noise_order)
     problem = OutputErrorProblem(y, Psi, start, instruments, freerun, scored)
     theta = output_error_theta(problem, theta_ls)
+    score = innovation_mse(y - simulated, noise_order(len(y) - start))
 
 When the output is measured with white noise, :math:`y_k = x_k + v_k`,
 the regressors built from the measured output carry the noise too, and
@@ -35,6 +37,16 @@ steps remove the bias:
 
 A structure whose simulations diverge keeps the last θ that did not.
 
+The score of the structure (:func:`innovation_mse`, used by
+:class:`narx.fitness.StructureScorer`) is the variance of its simulation
+error after an autoregressive noise model, of order chosen by BIC up to
+:data:`NOISE_ORDER`, has whitened it: the prediction error of a
+Box–Jenkins model [4]_. With white output noise alone the simulation error
+of the true structure is white and the score is its mean squared error;
+with equation noise too (carried through the dynamics, hence coloured) an
+information criterion on the plain mean squared error rewards terms that
+fit the disturbance's realisation.
+
 References
 ----------
 .. [1] Söderström, T., Stoica, P., *System Identification*, Prentice Hall,
@@ -45,6 +57,8 @@ References
 .. [3] Piroddi, L., Spinelli, W., "An identification algorithm for
    polynomial NARX models based on simulation error minimization",
    Int. J. Control 76 (2003) 1767-1781.
+.. [4] Ljung, L., *System Identification: Theory for the User*, 2nd ed.,
+   Prentice Hall, 1999, sec. 4.2 and 7.3.
 """
 from __future__ import annotations
 
@@ -257,7 +271,8 @@ def innovation_mse(r: np.ndarray, order: int) -> float:
     low-frequency disturbance by chance lowers it by far more than an
     information criterion's per-term penalty assumes. The Gaussian
     likelihood of the Box–Jenkins model :math:`y = G(q,\theta)u +
-    H(q)\varepsilon` [4]_ scores the whitened error instead: with
+    H(q)\varepsilon` (Ljung, *System Identification*, 1999, sec. 4.2 and
+    7.3) scores the whitened error instead: with
     :math:`1/H \approx A_m(q) = 1 - a_1q^{-1} - \dots - a_mq^{-m}` fitted by
     least squares on the :math:`n` samples of ``r`` whose ``order`` previous
     samples are scored (the same samples for every :math:`m`),
@@ -272,11 +287,6 @@ def innovation_mse(r: np.ndarray, order: int) -> float:
     simulation error (output noise only) gives :math:`m^* = 0`: the mean
     squared error. Every sum is taken in a fixed order
     (:func:`narx.gram.cross_products`).
-
-    References
-    ----------
-    .. [4] Ljung, L., *System Identification: Theory for the User*, 2nd ed.,
-       Prentice Hall, 1999, sec. 4.2 and 7.3.
     """
     r = np.asarray(r, dtype=np.float64)
     ok = np.isfinite(r)
