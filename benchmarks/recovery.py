@@ -70,7 +70,7 @@ def main(argv=None):
     p.add_argument("--noise-snr", type=float, default=None, metavar="DB",
                    help="white measurement noise on the output at this SNR in dB")
     p.add_argument("--fitness", default=SETTINGS["fitness"], help="search fitness (pem)")
-    p.add_argument("--estimator", default="ls", help="θ in the search: ls or oe (ls)")
+    p.add_argument("--estimator", default="ls", help="θ in the search: ls, oe or bj (ls)")
     p.add_argument("--systems", nargs="+", default=list(SYSTEMS), metavar="S")
     p.add_argument("--show-misses", action="store_true",
                    help="print the structure of every miss (stderr)")

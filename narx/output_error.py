@@ -37,15 +37,18 @@ steps remove the bias:
 
 A structure whose simulations diverge keeps the last θ that did not.
 
-The score of the structure (:func:`innovation_mse`, used by
-:class:`narx.fitness.StructureScorer`) is the variance of its simulation
-error after an autoregressive noise model, of order chosen by BIC up to
-:data:`NOISE_ORDER`, has whitened it: the prediction error of a
-Box–Jenkins model [4]_. With white output noise alone the simulation error
-of the true structure is white and the score is its mean squared error;
-with equation noise too (carried through the dynamics, hence coloured) an
+With ``estimator='oe'`` a structure scores the mean squared simulation
+error. With ``'bj'`` (same θ) it scores the variance of that error after
+an autoregressive noise model, of order chosen by BIC up to
+:data:`NOISE_ORDER`, has whitened it (:func:`innovation_mse`): the
+prediction error of a Box–Jenkins model [4]_. With white output noise alone
+the simulation error of the true structure is white and both agree; with
+equation noise too (carried through the dynamics, hence coloured) an
 information criterion on the plain mean squared error rewards terms that
-fit the disturbance's realisation.
+fit the disturbance's realisation, which the whitened score does not. The
+noise model of a wrong structure also whitens part of its misfit, which is
+coloured as well, so wrong structures score closer to the true one than by
+the plain error.
 
 References
 ----------
@@ -70,13 +73,16 @@ import numpy as np
 from .gram import cross_products, fixed_dot
 from .linalg import gram_lstsq, iv_lstsq
 
-__all__ = ["ESTIMATORS", "IV_ITERATIONS", "GN_ITERATIONS", "GN_RTOL", "BURN_IN",
+__all__ = ["ESTIMATORS", "OE_ESTIMATORS", "IV_ITERATIONS", "GN_ITERATIONS", "GN_RTOL", "BURN_IN",
            "NOISE_ORDER", "OutputErrorProblem", "iv_theta", "gauss_newton",
            "output_error_theta", "burn_in", "check_estimator", "noise_order",
            "innovation_mse"]
 
-#: θ estimators of a structure search: least squares, or output error
-ESTIMATORS = ("ls", "oe")
+#: θ estimators of a structure search: least squares, output error, or
+#: output error scored with a noise model (Box–Jenkins)
+ESTIMATORS = ("ls", "oe", "bj")
+#: the estimators whose θ is the output-error estimate
+OE_ESTIMATORS = ("oe", "bj")
 #: IV passes, each with instruments from the previous θ's free run
 IV_ITERATIONS = 2
 #: Gauss-Newton steps on the simulation error
@@ -96,18 +102,18 @@ Simulation = Callable[[np.ndarray], Tuple[np.ndarray, bool]]
 
 def check_estimator(estimator, fitness: str, constraints=None) -> None:
     """Raise ``ValueError`` unless ``estimator`` is one of :data:`ESTIMATORS`
-    and, for ``'oe'``, the fitness simulates (``'ms'`` or ``'freerun'``:
+    and, for ``'oe'`` and ``'bj'``, the fitness simulates (``'ms'`` or ``'freerun'``:
     the one-step error is what least squares already minimises) and θ is
     unconstrained."""
     if not any(estimator is e or (type(estimator) is str and estimator == e)
                for e in ESTIMATORS):
         raise ValueError(f"estimator must be one of {', '.join(map(repr, ESTIMATORS))}, "
                          f"got {estimator!r}")
-    if estimator == "oe" and fitness not in ("ms", "freerun"):
-        raise ValueError(f"estimator='oe' needs a simulation fitness ('ms' or 'freerun'), "
-                         f"got fitness={fitness!r}")
-    if estimator == "oe" and constraints is not None:
-        raise ValueError(f"estimator='oe' estimates unconstrained θ, got "
+    if estimator in OE_ESTIMATORS and fitness not in ("ms", "freerun"):
+        raise ValueError(f"estimator={estimator!r} needs a simulation fitness ('ms' or "
+                         f"'freerun'), got fitness={fitness!r}")
+    if estimator in OE_ESTIMATORS and constraints is not None:
+        raise ValueError(f"estimator={estimator!r} estimates unconstrained θ, got "
                          f"constraints={constraints!r}")
 
 
