@@ -8,6 +8,9 @@ Typical use::
     # estimation inside a free-run search
     python -m benchmarks.recovery --noise-snr 20 --n 2000 --fitness freerun \
         --estimator oe --vary-data
+    # the same, its simulation error whitened by a noise model (Box-Jenkins)
+    python -m benchmarks.recovery --noise-snr 20 --n 2000 --fitness freerun \
+        --estimator bj --vary-data
 
 Setup (issue 3): 500 samples, candidate terms with lags up to 4 and degree
 up to 3, one-step-ahead (PEM) fitness with the BIC criterion, population
