@@ -8,7 +8,9 @@ Run::
 Each record is diagnosed by :func:`mggp.diagnose.diagnose` with the budget
 :data:`BUDGET` (MGGP baseline, evidence, extension, gain) and the table
 lists the effects named against the truth, the gain (baseline / extended
-free-run RMSE on the measuring samples) and the time.
+free-run RMSE on the measuring samples), the share of the measuring
+samples whose input lies outside the fitting samples' range (there the
+gain measures extrapolation too) and the time.
 
 Hysteretic records (truth ``hysteresis``): a play (backlash) operator of
 half-width 0.2, a Prandtl–Ishlinskii sum of plays (:func:`narx.systems.prandtl_ishlinskii`)
@@ -157,8 +159,8 @@ def main(argv=None):
         return 2
     doc = []
     print("| record | truth | named | hysteresis named | gain (RMSE ratio) | "
-          "recommended | s |")
-    print("|---|---|---|---|---|---|---|", flush=True)
+          "recommended | measured input outside the fitting range | s |")
+    print("|---|---|---|---|---|---|---|---|", flush=True)
     rows = []
     for rec in RECORDS:
         if a.only and a.only not in rec.name:
@@ -175,8 +177,10 @@ def main(argv=None):
                         "seconds": secs, **dx.to_dict()})
             with open(a.json, "w") as fh:
                 json.dump(doc, fh, indent=1, default=str)
+        out = dx.settings["measure_outside_fit_range"]
         print(f"| {rec.name} | {rec.truth} | {', '.join(dx.effects) or 'none'} | "
               f"{'yes' if hyst else 'no'} | {dx.gain.ratio:.3g} | {dx.gain.recommended} | "
+              f"{', '.join(f'{k} {100 * v:.0f} %' for k, v in out.items())} | "
               f"{secs:.0f} |", flush=True)
     hy = [r for r in rows if r[0].truth == "hysteresis"]
     ct = [r for r in rows if r[0].truth == "none"]

@@ -75,6 +75,8 @@ def main(argv=None):
     p.add_argument("--fitness", default=SETTINGS["fitness"], help="search fitness (pem)")
     p.add_argument("--estimator", default="ls", help="θ in the search: ls, oe or bj (ls)")
     p.add_argument("--systems", nargs="+", default=list(SYSTEMS), metavar="S")
+    p.add_argument("--no-local-search", action="store_true",
+                   help="the search's structure without the one-term local search")
     p.add_argument("--show-misses", action="store_true",
                    help="print the structure of every miss (stderr)")
     a = p.parse_args(argv)
@@ -86,7 +88,7 @@ def main(argv=None):
         hits = 0
         for s, d in zip(range(a.seeds), ds):
             hit, est = run(name, s, d, a.n, a.noise_snr, fitness=a.fitness,
-                           estimator=a.estimator)
+                           estimator=a.estimator, local_search=not a.no_local_search)
             hits += hit
             if not hit and a.show_misses:
                 print(f"  {name} seed {s} data seed {d}: {', '.join(est.model_.term_texts)}",

@@ -132,6 +132,13 @@ def _cmd_fit(args) -> int:
     final = m
     for c in est.choices_.values():
         print(f"auto: {c['why']}", file=sys.stderr)
+    if est.local_search_:
+        moves = ", ".join(f"{s['removed']} -> {s['added']}" if s["added"] and s["removed"]
+                          else f"+{s['added']}" if s["added"] else f"-{s['removed']}"
+                          for s in est.local_search_)
+        print(f"local search: {len(est.local_search_)} one-term move(s): {moves} "
+              f"({est.fitness} fitness {fmt(est.local_search_[-1]['fitness'])} after)",
+              file=sys.stderr)
     fr_ls = m.simulate(data, mode="freerun")
     lines = [f"seed {est.seed_}; {est.n_evaluations_} structures evaluated in "
              f"{est.fit_time_:.1f} s; best {est.fitness} fitness {fmt(est.fitness_)}"

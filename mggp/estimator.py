@@ -144,8 +144,9 @@ class MGGPRegressor:
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height=5, use_phi="auto", phi_names=None,
-                 phi_outputs=False, operators=None, constant=False, max_lag=None,
-                 max_degree=None, select="auto", size="auto", select_candidates=50,
+                 phi_outputs=False, operators=None, operator_entry="stage",
+                 constant=False, max_lag=None, max_degree=None, select="auto",
+                 size="auto", local_search=True, select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, estimator="ls", refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
@@ -171,11 +172,13 @@ class MGGPRegressor:
         self.phi_names = phi_names
         self.phi_outputs = phi_outputs
         self.operators = operators
+        self.operator_entry = operator_entry
         self.constant = constant
         self.max_lag = max_lag
         self.max_degree = max_degree
         self.select = select
         self.size = size
+        self.local_search = local_search
         self.select_candidates = select_candidates
         self.screen = screen
         self.screen_top = screen_top
@@ -336,7 +339,8 @@ class MGGPRegressor:
         data, shape = ctx.data, ctx.shape
         pset = make_pset(data.signals, ctx.registry, use_phi=use_phi,
                          phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs),
-                         operators=search_operators(self.operators, data.U))
+                         operators=search_operators(self.operators, data.U)
+                         if self.operator_entry == "search" else None)
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
                               constraints=self.search_constraints, start=ctx.start,
                               estimator=self.estimator, criterion=self.criterion,

@@ -304,10 +304,15 @@ _ROWS = (
           "Phi1(y[k-1],y[k-2]) (hysteresis driven by the output's rate)", "model class",
           "--phi-outputs", context="if set", meta=True, const=True,
           default_text="inputs only"),
-    Param("operators", None, OPERATORS, "memory operators of the inputs in the search, "
-          "comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range) "
+    Param("operators", None, OPERATORS, "memory operators of the inputs in the model "
+          "(how they enter: --operator-entry), comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range) "
           "and dengtan (Deng–Tan operator)", "model class", "--operators",
           context="if set", metavar="NAMES", default_text="none"),
+    Param("operator_entry", "stage", OneOf(("stage", "search")),
+          "how --operators enter the model: stage (after the search, each operator term "
+          "that lowers the fitness by 5 % is added, then terms it made redundant are "
+          "dropped) or search (operators join the search's primitive set)", "model class",
+          "--operator-entry", context="if set", meta=True),
     Param("constant", False, Bool(), "every structure also holds the constant term 1 (an "
           "intercept), for an output that rests at an offset the lag terms cannot express",
           "model class", "--constant", context="if set", meta=True, const=True,
@@ -329,6 +334,11 @@ _ROWS = (
           "held-out free-run error (θ on the first 70 % of the record, error on the last "
           "30 %) is within 5 % of the least; the hold selection keeps its structure",
           "selection", "--size", meta=True),
+    Param("local_search", True, Bool(), "after the search, improve the chosen structure "
+          "one term at a time (drop a term, or replace, drop or add one lagged-signal "
+          "factor of a term) while the fitness improves", "selection", "--no-local-search",
+          meta=True, const=False, flag_help="keep the structure the search chose, without "
+          "the one-term improvements", default_text="on"),
     Param("select_candidates", 50, Int(1), "structures compared by --select freerun and "
           "hold", "selection"),
     Param("screen", "auto", OneOf(("auto", "freerun", "hold", "none", None)),

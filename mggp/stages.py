@@ -19,9 +19,17 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
     held-out free-run error is within 5 % of the least (``size``).
+``operators``
+    With ``operators`` and ``operator_entry='stage'``: memory-operator
+    terms added stepwise to the structure (:mod:`mggp.operator_stage`);
+    sets ``operator_steps_``.
 ``prune``
     Backward elimination by BIC of the fitness or by t-statistics
     (``prune``; :mod:`mggp.pruning`).
+``local_search``
+    One-term moves from the chosen structure while they lower the search's
+    fitness (``local_search``; :mod:`mggp.local_search`), then the same
+    pruning again; sets ``local_search_``.
 ``noise``
     Moving-average noise terms by extended least squares (``noise_lags``;
     :mod:`mggp.noise`).
@@ -79,6 +87,11 @@ CLS_WORSE = 2.0
 
 #: warnings point at the caller of ``fit`` (fit -> run_stages -> stage)
 _CALLER = 4
+
+#: the local search starts no step once it has scored this share of the
+#: structures the search scored (and at least LOCAL_EVALS_MIN)
+LOCAL_EVALS_SHARE = 0.1
+LOCAL_EVALS_MIN = 1000
 
 
 @dataclass
@@ -188,6 +201,44 @@ def select(terms, data, ctx):
     return terms
 
 
+def local_search(terms, data, ctx):
+    """``local_search``: best-improvement one-term moves from the chosen
+    structure while the measure that chose it falls: the search's fitness
+    (criterion included), or with ``select`` 'freerun' the free-run error
+    over the record; each accepted move passes the search's stability
+    screen (:func:`mggp.local_search.improve`), within
+    :data:`LOCAL_EVALS_SHARE` of the search's evaluations; a moved structure is pruned
+    again (``prune``). A structure chosen for its holding (``select``
+    'hold') is kept as chosen."""
+    est = ctx.est
+    est.local_search_ = []
+    how = selected(ctx)
+    if not est.local_search or how == "hold":
+        return terms
+    from .local_search import improve, term_moves
+    from .primitives import max_lag_for_height
+    reach = max_lag_for_height(est.max_height)
+    lags = range(1, min(est.max_lag or reach, reach) + 1)
+    degree = est.max_degree or max(3, max((t.degree for t in terms), default=1))
+    moves = term_moves(data.signals, lags, degree, est._allowed)
+    n = data.n - ctx.start
+
+    sc = ctx.scorer_for("freerun") if how == "freerun" else ctx.scorer
+
+    def score(ts):
+        return criterion_value(sc.score(ts), len(ts), n, est.criterion)
+
+    scr = ctx.screen
+    passes = None
+    if scr is not None:
+        def passes(ts):
+            return scr.inside_band(ts) and (scr.hold is None or scr.holds(ts))
+    budget = max(LOCAL_EVALS_MIN, int(LOCAL_EVALS_SHARE * ctx.result.evaluations))
+    terms, steps = improve(terms, score, moves, passes, max_evals=budget)
+    est.local_search_ = [s.to_dict() for s in steps]
+    return prune(terms, data, ctx) if steps else terms
+
+
 def size(terms, data, ctx):
     """``size='auto'``: the smallest structure of the run's Pareto front
     whose held-out free-run error is within 5 % of the least, the chosen
@@ -213,6 +264,20 @@ def size(terms, data, ctx):
     c = size_choice(rows)
     ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
     return c.value
+
+
+def operators(terms, data, ctx):
+    """Memory-operator terms added stepwise (``operators`` given and
+    ``operator_entry='stage'``; :func:`mggp.operator_stage.add_operators`)."""
+    est = ctx.est
+    est.operator_steps_ = None
+    if not est.operators or est.operator_entry != "stage":
+        return terms
+    from .operator_stage import add_operators, operator_candidates
+    terms, est.operator_steps_ = add_operators(
+        ctx.scorer, terms, operator_candidates(data, est.operators), est.max_terms,
+        keep=ctx.shape(()))
+    return terms
 
 
 def prune(terms, data, ctx):
@@ -382,7 +447,8 @@ def pareto(terms, data, ctx):
 
 
 #: the stages of ``fit`` after the search, in order
-STAGES = (("select", select), ("size", size), ("prune", prune), ("noise", noise), ("record", record),
+STAGES = (("select", select), ("size", size), ("operators", operators), ("prune", prune),
+          ("local_search", local_search), ("noise", noise), ("record", record),
           ("qr_refit", qr_refit), ("precision", precision), ("cls_refit", cls_refit),
           ("refine", refine), ("cls_verdict", cls_verdict), ("pareto", pareto))
 

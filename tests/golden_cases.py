@@ -46,7 +46,7 @@ def recovery():
     for name in SYSTEMS:
         d = system_by_name(name, n=500, seed=0)
         kw = dict(SETTINGS, population=40, generations=6, screen=None, select="fitness",
-                  size="search")
+                  size="search", local_search=False)
         est = MGGPRegressor(random_state=1, **kw).fit(d.u, d.y)
         out[name] = _estimator(est)
     return out
@@ -59,7 +59,7 @@ def case_study():
     out = {}
     pem = MGGPRegressor(fitness="pem", population=24, generations=4, random_state=1,
                         screen="freerun", use_phi=True, select="fitness",
-                        size="search").fit(cs.u, cs.y)
+                        size="search", local_search=False).fit(cs.u, cs.y)
     out["pem"] = _estimator(pem)
     ms = MGGPRegressor(fitness="ms", window=200, population=24, generations=4,
                        random_state=1, screen="freerun", constraints="steady-state",

@@ -61,3 +61,24 @@ def test_hysteresis_and_bias_tests_raise_no_alarm_on_controls_with_their_exact_m
         fa = false_alarm_rate(test, kinds=EXACT, per_kind=2)
         assert fa.realisations == 6 and fa.without_power == 0
         assert fa.rate == 0.0, fa.describe()
+
+
+def _fam(name, ratios):
+    return [Check(name, "steady-state-drift", r, 1.0, "") for r in ratios]
+
+
+def test_threshold_factors_hold_the_rate_per_test_not_per_family():
+    from mggp.diagnose.calibration import threshold_factors
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(0, 3, 100), rng.uniform(0, 3, 100)     # independent families
+    rows = [[Check("hold x:1", "steady-state-drift", x, 1.0, ""),
+             Check("rest error x:1", "steady-state-drift", y, 1.0, "")] for x, y in zip(a, b)]
+    f = threshold_factors(rows, 0.05)
+    per_family = {k: float(np.quantile(v, 0.95, method="higher")) for k, v in
+                  (("hold", a), ("rest error", b))}
+    alarms = lambda F: np.mean((a > max(F["hold"], 1)) | (b > max(F["rest error"], 1)))
+    assert alarms(per_family) > 0.05                 # each family at 5 %: the test above it
+    assert alarms(f) <= 0.05 and alarms(f) >= 0.03   # per test: at the stated rate
+    # one family: its (1 - rate) quantile
+    assert threshold_factors([[c] for c in _fam("loop gap (u)", a)], 0.05) == {
+        "loop gap": per_family["hold"]}

@@ -340,3 +340,28 @@ def test_a_diverging_augmentation_is_said_so_not_a_drop_of_inf():
     from mggp.diagnose.report import _g as rg
     assert _g(float("-inf")) == "-inf" and rg(float("-inf")) == "-inf"
     assert _g(float("nan")) == "undefined" and rg(float("inf")) == "inf"
+
+
+def test_tail_free_run_carries_the_memory_operators_state_from_the_input_before_it():
+    from mggp.diagnose.simulation import freerun_after
+    from narx.systems import training_input
+    u = training_input(1200, bandwidth=4.0, seed=5)
+    y = np.zeros(u.size)
+    d = Data(u, y)
+    op = narx.Model(["Play(u[k-1],30)"], theta=np.array([1.0]))
+    whole = op.simulate(d, mode="freerun").y_hat
+    tail = freerun_after(op, d, 800)
+    np.testing.assert_allclose(tail.y_hat[1:], whole[801:], rtol=0, atol=1e-12)
+    cut = op.simulate(d.slice(800), mode="freerun").y_hat
+    assert np.max(np.abs(cut[1:] - whole[801:])) > 1.0       # a cut record starts at rest
+    poly = narx.Model(["u[k-1]", "u[k-2]*u[k-2]"], theta=np.array([0.5, 0.01]))
+    np.testing.assert_array_equal(freerun_after(poly, d, 800).y_hat,
+                                  poly.simulate(d.slice(800), mode="freerun").y_hat)
+
+
+def test_share_of_the_measuring_input_outside_the_fitting_range():
+    from mggp.diagnose.run import outside_fit_range
+    fit = Data(np.linspace(-1, 1, 100), np.zeros(100))
+    meas = Data(np.r_[np.zeros(5), np.full(3, 2.0), np.full(2, -1.5)], np.zeros(10))
+    assert outside_fit_range(fit, meas) == {"u": 0.5}
+    assert outside_fit_range(fit, meas, start=8) == {"u": 1.0}

@@ -375,6 +375,59 @@ def test_search_pset_with_operators_decodes_and_keeps_phi_only_set():
         search_operators(("hysteron",), np.zeros((1, 3)))
 
 
+def test_operator_stage_adds_plays_to_a_pi_record_not_to_a_linear_one():
+    from narx.fitness import StructureScorer
+    from mggp.operator_stage import add_operators, operator_candidates
+    rec = operator_record("pi", n=1500, seed=0, snr_db=40)
+    start = [parse_term("y[k-1]"), parse_term("u[k-1]")]
+    data = as_data(rec.u, rec.y)
+    cands = operator_candidates(data, "play,dengtan")
+    assert [c.text for c in cands] == ["Play(u[k-1],0.1)", "Play(u[k-1],0.2)",
+                                       "Play(u[k-1],0.4)", "Play(u[k-1],0.7)",
+                                       "DengTan(u[k-1])"]
+    scorer = StructureScorer(data, "ms", window=100, start=16)
+    terms, steps = add_operators(scorer, start, cands, max_terms=15)
+    added = [s["term"] for s in steps if s["step"] == "add"]
+    assert len(added) >= 3 and all(t.startswith("Play(") for t in added)
+    assert scorer.score(terms) < 0.1 * scorer.score(start)
+    # control: a linear first-order record with the same input gains nothing
+    y = np.zeros_like(rec.u)
+    for k in range(1, y.size):
+        y[k] = 0.9 * y[k - 1] + 0.1 * rec.u[k - 1]
+    lin = as_data(rec.u, y + 1e-3 * np.random.default_rng(0).standard_normal(y.size))
+    same, none = add_operators(StructureScorer(lin, "ms", window=100, start=16), start,
+                               cands, max_terms=15)
+    assert none == [] and same == tuple(start)
+
+
+def test_operator_candidates_name_each_input_with_its_own_radii():
+    from narx import Data
+    from mggp.operator_stage import operator_candidates
+    t = np.linspace(0, 6, 60)
+    d = Data(np.c_[np.sin(t), 4 * np.cos(t)], np.sin(t), inputs=("E", "v"), output="f")
+    texts = [c.text for c in operator_candidates(d, "play,dengtan")]
+    assert texts[:5] == ["Play(E[k-1],0.1)", "Play(E[k-1],0.2)", "Play(E[k-1],0.4)",
+                         "Play(E[k-1],0.7)", "DengTan(E[k-1])"]
+    assert texts[5:] == ["Play(v[k-1],0.4)", "Play(v[k-1],0.8)", "Play(v[k-1],1.6)",
+                         "Play(v[k-1],2.8)", "DengTan(v[k-1])"]
+
+
+def test_operator_entry_search_or_stage():
+    from mggp import MGGPRegressor
+    rec = operator_record("pi", n=800, seed=0, snr_db=40)
+    kw = dict(operators="play", population=20, generations=2, random_state=1,
+              use_phi=True)
+    stage = MGGPRegressor(**kw).fit(rec.u, rec.y)
+    # the search ran without operators: only the stage's additions hold any
+    assert stage.operator_steps_ and stage.model_.meta["operator_entry"] == "stage"
+    added = {s["term"] for s in stage.operator_steps_ if s["step"] == "add"}
+    assert {t for t in stage.model_.term_texts if "Play(" in t} <= added
+    assert all("Play(" not in t.text for t in stage.result_.best.terms)
+    search = MGGPRegressor(operator_entry="search", **kw).fit(rec.u, rec.y)
+    assert search.operator_steps_ is None
+    assert any("Play(" in t.text for r in search.result_.pareto for t in r.terms)
+
+
 def test_fit_with_operators_finds_play_terms(capsys, tmp_path):
     rec = operator_record("pi", n=1500, seed=0, snr_db=40)
     data = tmp_path / "pi.csv"

@@ -40,7 +40,7 @@ def test_recovery_control_wrong_with_tiny_budget():
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SYSTEMS)
 def test_structure_recovery_nine_of_ten_seeds(name):
-    hits = sum(recover(name, seed)[0] == recover(name, seed)[1] for seed in range(10))
+    hits = sum(found == true for found, true, _ in (recover(name, s) for s in range(10)))
     assert hits >= 9, f"{name}: exact structure in {hits}/10 seeds"
 
 
@@ -135,7 +135,7 @@ def test_fit_cli_bad_arguments(tmp_path, capsys):
 def test_select_freerun_picks_the_best_whole_record_simulation():
     u, y = _piezo()
     kw = dict(fitness="ms", window=50, population=40, generations=4, random_state=2,
-              max_terms=8)
+              max_terms=8, local_search=False)      # the selection as it chose
     a = MGGPRegressor(select="freerun", select_candidates=10, **kw).fit(u, y)
     ranked = a.selection_
     assert ranked and all(m1 <= m2 for (m1, _), (m2, _) in zip(ranked, ranked[1:]))

@@ -168,9 +168,10 @@ def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data, callbac
                          population=budget.population, generations=budget.generations,
                          max_terms=setting.max_terms, max_height=setting.max_height,
                          max_degree=setting.max_degree, random_state=int(seed),
-                         screen=None, select="fitness", size="search",
+                         screen=None, select="fitness", size="search", local_search=False,
                          n_jobs=jobs, inputs=list(data.inputs), output=data.output,
                          operators=list(setting.operators) or None,
+                         operator_entry="search",
                          callbacks=callbacks(budget.generations) if callbacks else None)
 
 

@@ -103,6 +103,12 @@ def terminal_summary(dx) -> str:
     if not np.isfinite(g.baseline):
         lines.append("warning: the baseline's free run diverges on the measuring samples, "
                      "so no gain can be measured against it")
+    out = {k: v for k, v in dx.settings.get("measure_outside_fit_range", {}).items() if v > 0}
+    if out:
+        lines.append("note: " + ", ".join(f"{100 * v:.3g} % of the measuring samples' {k}"
+                                          for k, v in out.items())
+                     + " lie outside the range of the fitting samples: the gain includes "
+                       "extrapolation")
     lines.append(f"gain: free-run RMSE {_rm(g.baseline)} (baseline) -> {_rm(g.extended)} "
                  f"(extended), ratio {_g(g.ratio)}; MAPE {_rm(b.mape)} % -> {_rm(e.mape)} %")
     lines.append(f"recommended: {verdict(dx)}")

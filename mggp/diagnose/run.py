@@ -14,7 +14,9 @@ the first ``1 − holdout`` of the training samples and the gain is measured
 on the rest (the *tail*). Either way the measuring record is simulated free
 from its first L measured samples (L = the larger largest lag of the two
 models), and RMSE and MAPE are computed on the samples after them, the same
-samples for both models. The evidence comes from the fitting samples;
+samples for both models; on the training tail the models' memory operators
+(:mod:`narx.memory`) carry their state from the inputs before it (they are
+measured), while a validation record starts them at rest. The evidence comes from the fitting samples;
 held-input segments are searched in both records (a validation record with
 holds is what exposes drift); nothing is fitted on the measuring record.
 """
@@ -35,8 +37,10 @@ from .extend import (Budget, Extension, baseline_search, fit_extension, plan_ext
                      user_setting)
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
+from .simulation import freerun_after
 
-__all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data"]
+__all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data",
+           "outside_fit_range"]
 
 
 def slice_data(data: Data, a: int, b: int) -> Data:
@@ -224,13 +228,30 @@ def _split(train: Data, validation: Optional[Data], holdout: float, names):
             (names[0], (0, n_fit)), (names[0], (n_fit, train.n)))
 
 
-def _score(model: Model, data: Data, start: int) -> Tuple[float, float, np.ndarray]:
-    r = model.simulate(data, mode="freerun")
+def _score(model: Model, record: Data, first: int,
+           start: int) -> Tuple[float, float, np.ndarray]:
+    """Free-run RMSE and MAPE of ``model`` on samples ``first + start..`` of
+    ``record`` (:func:`~mggp.diagnose.simulation.freerun_after`: the free
+    run starts at ``first`` from the measured outputs, the memory operators
+    carry their state from the inputs before it) and the simulation."""
+    r = freerun_after(model, record, first)
     if r.diverged:
         return float("inf"), float("inf"), r.y_hat
-    y, yh = data.y[start:], r.y_hat[start:]
+    y, yh = r.y[start:], r.y_hat[start:]
     err = y - yh
     return float(np.sqrt(np.mean(err * err))), mape(y, yh), r.y_hat
+
+
+def outside_fit_range(fit: Data, measure: Data, start: int = 0) -> Dict[str, float]:
+    """Share of the measuring samples from ``start`` on whose input lies
+    outside the range the fitting samples span, per input: where it is not
+    0 the gain measures extrapolation too (a model is identified only on
+    the range it was fitted on)."""
+    out = {}
+    for name in fit.inputs:
+        u, v = fit.input(name), measure.input(name)[start:]
+        out[name] = float(np.mean((v < u.min()) | (v > u.max()))) if v.size else 0.0
+    return out
 
 
 def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Model] = None,
@@ -305,8 +326,11 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     if measure.n <= start + 10:
         raise DataError(f"{rec_names[1]}: {measure.n} samples are too few to measure models "
                         f"with largest lag {start}")
-    b_rmse, b_mape, b_hat = _score(base, measure, start)
-    e_rmse, e_mape, e_hat = _score(ext.model, measure, start)
+    # the training tail is simulated with the input history before it (memory
+    # operators carry their state); a validation record starts on its own
+    record, first = (train, meas_rng[0]) if validation is None else (measure, 0)
+    b_rmse, b_mape, b_hat = _score(base, record, first, start)
+    e_rmse, e_mape, e_hat = _score(ext.model, record, first, start)
     off = meas_rng[0]
     split = Split(fit_name, fit_rng, meas_name, meas_rng, off + start)
     ext_source = ("the baseline (nothing named, nothing changed)" if not findings else
@@ -316,6 +340,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                 "resolution": resolution, "holdout": None if validation is not None
                 else holdout, "budget": dict(budget.__dict__),
                 "baseline": base_source, "extension_search": plan.setting.describe(),
+                "measure_outside_fit_range": outside_fit_range(fit, measure, start),
                 "candidates": [{"name": n, "terms": k, "fit_freerun_rmse": _num(s),
                                 "probe_hold_movement": _num(h)}
                                for n, k, s, h in ext.candidates]}

@@ -18,7 +18,7 @@ from narx import Model
 from narx.data import Data
 
 __all__ = ["direction_of_change", "bounded_mode", "simulation_residual", "freerun_rmse",
-           "fresh_name"]
+           "freerun_after", "fresh_name"]
 
 
 def direction_of_change(u) -> np.ndarray:
@@ -70,6 +70,37 @@ def freerun_rmse(model: Optional[Model], data: Data, **simulate) -> float:
         return float("inf")
     r = model.simulate(data, **(simulate or {"mode": "freerun"}))
     return float("inf") if r.diverged else r.rmse
+
+
+def freerun_after(model: Model, data: Data, first: int):
+    r"""Free run of ``model`` on samples ``first..`` of ``data``, started from
+    the measured outputs there, with the input-only parts of its terms
+    computed over the whole record.
+
+    A memory operator of an input (:mod:`narx.memory`, e.g. a play
+    :math:`v_k = \max(\min(x_k + r, v_{k-1}), x_k - r)`) carries a state
+    that depends on every earlier input sample; started on a cut record
+    it would begin at rest on the cut's first sample and keep that error
+    until the input has swept over its width. The input before ``first``
+    is measured, so the operators' states at ``first`` are known: only the
+    output lags are taken from the record at ``first`` (as in a free run of
+    ``data.slice(first)``). For terms without operators the result is that
+    free run.
+
+    Returns
+    -------
+    narx.simulate.SimulationResult
+        Over samples ``first..`` (index 0 is sample ``first``).
+    """
+    from narx.kernels import Plan
+    from narx.simulate import simulate
+    first = int(first)
+    if first <= 0:
+        return model.simulate(data, mode="freerun")
+    plan = Plan.from_terms(model.terms, data.inputs, model.registry)
+    P = np.ascontiguousarray(plan.input_parts(data, model.registry)[:, first:])
+    return simulate(model.terms, model.theta, data.slice(first), "freerun", plan=plan, P=P,
+                    registry=model.registry)
 
 
 def fresh_name(taken, base: str) -> str:

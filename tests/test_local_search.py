@@ -1,0 +1,110 @@
+"""Local search on the chosen structure (mggp.local_search, the local_search stage)."""
+import numpy as np
+import pytest
+
+from mggp import MGGPRegressor
+from mggp.evaluate import criterion_value
+from mggp.local_search import improve, term_moves
+from narx import Data
+from narx.fitness import StructureScorer
+from narx.terms import Signals, parse_terms
+from narx.testsystems import system_by_name
+
+S3_TRUE = ["u[k-2]*u[k-2]", "y[k-1]*u[k-1]", "y[k-1]*y[k-1]*y[k-1]", "y[k-2]",
+           "y[k-2]*u[k-2]*u[k-2]"]
+# where the search ends on S3 (data 0) with seed 0 at population 200 x 40:
+# y[k-1]**3 approximated by y[k-1]**2 * y[k-3], two spurious terms
+S3_STUCK = ["u[k-2]*u[k-2]", "y[k-1]*u[k-1]", "y[k-1]*y[k-1]", "y[k-1]*y[k-1]*y[k-3]",
+            "y[k-2]", "y[k-2]*u[k-2]*u[k-2]", "y[k-3]"]
+
+
+def _bic(data, start=4):
+    sc = StructureScorer(data, "pem", start=start)
+    n = data.n - start
+    return lambda ts: criterion_value(sc.score(ts), len(ts), n, "bic")
+
+
+def _moves(data, **kw):
+    return term_moves(data.signals, range(1, 5), 3, **kw)
+
+
+def test_neighbourhood_is_one_term_edits_that_keep_phi_calls_and_constant():
+    terms = tuple(parse_terms(["1", "y[k-1]*u[k-2]", "Phi1(u[k-1],u[k-2])"]))
+    moves = term_moves(Signals(), range(1, 3), 2)
+    seen = [tuple(map(str, m)) for m in moves(terms)]
+    assert len(seen) == len(set(seen))
+    assert all("1" in m for m in seen)                        # the constant stays
+    assert ("1", "Phi1(u[k-1],u[k-2])") in seen               # a term dropped
+    assert ("1", "y[k-2]*u[k-2]", "Phi1(u[k-1],u[k-2])") in seen      # a lag replaced
+    assert ("1", "u[k-2]", "Phi1(u[k-1],u[k-2])") in seen     # a factor dropped
+    assert ("1", "y[k-1]*u[k-2]") in seen                     # the Φ-term dropped
+    assert ("1", "y[k-1]*u[k-2]", "y[k-2]*Phi1(u[k-1],u[k-2])") in seen   # joined
+    for m in seen:
+        assert len(m) == 3 or len(m) == 2
+        assert all(t.count("*") <= 1 for t in m)              # degree <= 2
+        phi = [t for t in m if "Phi1" in t]                   # the call is unchanged
+        assert len(phi) <= 1 and all("Phi1(u[k-1],u[k-2])" in t for t in phi)
+
+
+def test_climbs_from_where_the_search_stuck_to_the_true_structure():
+    d = system_by_name("S3", n=500, seed=0)
+    data = Data(d.u, d.y)
+    score = _bic(data)
+    start = tuple(parse_terms(S3_STUCK))
+    terms, steps = improve(start, score, _moves(data))
+    assert set(S3_TRUE) <= set(map(str, terms)) and len(terms) <= 6
+    assert score(terms) < score(start)
+    assert [s.to_dict()["fitness"] for s in steps] == sorted(
+        (s.to_dict()["fitness"] for s in steps), reverse=True)
+    assert steps[0].to_dict()["added"] == "y[k-1]*y[k-1]*y[k-1]"
+
+
+def test_true_structure_is_a_local_optimum():
+    # control: from the true structure no one-term edit lowers the BIC
+    d = system_by_name("S3", n=500, seed=0)
+    data = Data(d.u, d.y)
+    start = tuple(parse_terms(S3_TRUE))
+    terms, steps = improve(start, _bic(data), _moves(data))
+    assert steps == [] and terms == start
+
+
+def test_a_move_the_screen_refuses_is_not_taken():
+    d = system_by_name("S3", n=500, seed=0)
+    data = Data(d.u, d.y)
+    start = tuple(parse_terms(S3_STUCK))
+    terms, steps = improve(start, _bic(data), _moves(data), passes=lambda ts: False)
+    assert steps == [] and terms == start
+
+
+@pytest.mark.parametrize("on", [True, False])
+def test_estimator_stage_records_its_moves(on):
+    d = system_by_name("S3", n=500, seed=0)
+    est = MGGPRegressor(fitness="pem", criterion="bic", population=40, generations=3,
+                        max_terms=8, max_height=3, use_phi=False, max_lag=4,
+                        max_degree=3, random_state=0, local_search=on).fit(d.u, d.y)
+    assert est.get_params()["local_search"] is on
+    assert est.model_.meta["local_search"] is on
+    if not on:
+        assert est.local_search_ == [] and est.terms_ == est.search_terms_
+    else:
+        assert est.local_search_, "a 3-generation search leaves a one-term improvement"
+        last = est.local_search_[-1]["fitness"]
+        assert np.isclose(last, est.fitness_)
+
+
+def test_cli_says_the_moves_and_the_flag_turns_them_off(tmp_path, capsys):
+    from mggp.cli import main
+    from narx import Model
+    d = system_by_name("S3", n=500, seed=0)
+    csv = tmp_path / "s3.csv"
+    np.savetxt(csv, np.c_[d.u, d.y], delimiter=",", header="u,y", comments="")
+    args = ["fit", str(csv), "--fitness", "pem", "--criterion", "bic", "--population", "40",
+            "--generations", "3", "--max-height", "3", "--no-phi", "--max-lag", "4",
+            "--max-degree", "3", "--seed", "0", "--quiet"]
+    assert main(args + ["--out", str(tmp_path / "a.json")]) == 0
+    err = capsys.readouterr().err
+    assert "local search: " in err and " -> " in err
+    assert Model.load(tmp_path / "a.json").meta["local_search"] is True
+    assert main(args + ["--no-local-search", "--out", str(tmp_path / "b.json")]) == 0
+    assert "local search" not in capsys.readouterr().err
+    assert Model.load(tmp_path / "b.json").meta["local_search"] is False
