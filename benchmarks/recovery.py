@@ -8,6 +8,9 @@ Typical use::
     # estimation inside a free-run search
     python -m benchmarks.recovery --noise-snr 20 --n 2000 --fitness freerun \
         --estimator oe --vary-data
+    # the same, its simulation error whitened by a noise model (Box-Jenkins)
+    python -m benchmarks.recovery --noise-snr 20 --n 2000 --fitness freerun \
+        --estimator bj --vary-data
 
 Setup (issue 3): 500 samples, candidate terms with lags up to 4 and degree
 up to 3, one-step-ahead (PEM) fitness with the BIC criterion, population
@@ -70,7 +73,7 @@ def main(argv=None):
     p.add_argument("--noise-snr", type=float, default=None, metavar="DB",
                    help="white measurement noise on the output at this SNR in dB")
     p.add_argument("--fitness", default=SETTINGS["fitness"], help="search fitness (pem)")
-    p.add_argument("--estimator", default="ls", help="θ in the search: ls or oe (ls)")
+    p.add_argument("--estimator", default="ls", help="θ in the search: ls, oe or bj (ls)")
     p.add_argument("--systems", nargs="+", default=list(SYSTEMS), metavar="S")
     p.add_argument("--no-local-search", action="store_true",
                    help="the search's structure without the one-term local search")

@@ -198,7 +198,7 @@ class Evaluator:
         Fixed first row for estimation and scoring (>= every set's lag;
         ``MGGPRegressor`` fixes it from ``max_height``, so all structures
         are scored on the same rows). Default: each set's own largest lag.
-    estimator : {'ls', 'oe'}
+    estimator : {'ls', 'oe', 'bj'}
         θ of each set (:class:`narx.fitness.StructureScorer`).
     criterion : {'mse', 'bic', 'aic'}
     n_jobs : int

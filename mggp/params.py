@@ -28,6 +28,8 @@ import textwrap
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, Iterable, Optional, Sequence, Tuple
 
+from narx.output_error import ESTIMATORS, OE_ESTIMATORS
+
 __all__ = ["Param", "Rule", "Int", "Real", "OneOf", "Bool", "Seed", "Kind", "PARAMS",
            "DIAGNOSE_PARAMS", "GROUPS", "check_params", "check_value", "context_of",
            "meta_of", "add_options", "options_given", "check_options", "params_doc"]
@@ -373,11 +375,14 @@ _ROWS = (
     Param("t_threshold", None, Real(0, lo_open=True, none=True),
           "|t| below which a term is pruned (default: Bonferroni over the candidate "
           "monomials)", "selection"),
-    Param("estimator", "ls", OneOf(("ls", "oe")),
+    Param("estimator", "ls", OneOf(ESTIMATORS),
           "θ of every structure scored in the search: least squares (ls), or output error "
           "(oe: instrumental variables, then Gauss-Newton on the simulation error), which "
           "white measurement noise on the output does not bias; oe needs --fitness ms or "
-          "freerun and scores each window from its 50th step (ms: at most half a window)",
+          "freerun and scores each window from its 50th step (ms: at most half a window); "
+          "bj: oe, with the simulation error whitened by an autoregressive noise model "
+          "(order by BIC, at most 8) before its mean square is taken, for equation noise "
+          "that the dynamics colour",
           "selection", "--estimator", context="if set", meta=True),
     Param("refine", None, OneOf((None, "ms", "freerun")),
           "refine θ by minimising the simulation error (ms: windows of --refine-window "
@@ -460,14 +465,14 @@ _COMBINED = (
     (lambda e: not (e.phi_outputs and not e.use_phi),
      lambda e: f"phi_outputs=True needs Φ-functions in the search, got use_phi={e.use_phi}",
      "--phi-outputs needs Φ-functions in the search: drop --no-phi"),
-    (lambda e: e.estimator != "oe" or e.fitness in ("ms", "freerun"),
-     lambda e: f"estimator='oe' needs a simulation fitness ('ms' or 'freerun'), got "
+    (lambda e: e.estimator not in OE_ESTIMATORS or e.fitness in ("ms", "freerun"),
+     lambda e: f"estimator={e.estimator!r} needs a simulation fitness ('ms' or 'freerun'), got "
                f"fitness={e.fitness!r}",
-     "--estimator oe needs --fitness ms or freerun"),
-    (lambda e: e.estimator != "oe" or e.search_constraints is None,
-     lambda e: f"estimator='oe' estimates unconstrained θ, got "
+     "--estimator oe and bj need --fitness ms or freerun"),
+    (lambda e: e.estimator not in OE_ESTIMATORS or e.search_constraints is None,
+     lambda e: f"estimator={e.estimator!r} estimates unconstrained θ, got "
                f"search_constraints={e.search_constraints!r}",
-     "--estimator oe estimates unconstrained θ: drop --search-constraints"),
+     "--estimator oe and bj estimate unconstrained θ: drop --search-constraints"),
 )
 
 

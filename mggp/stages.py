@@ -71,6 +71,7 @@ from narx import Model
 from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
+from narx.output_error import OE_ESTIMATORS
 
 from .choices import (Choice, constant_choice, constant_off, explicit_operators,
                       front_rows_heldout, resolve_select, size_choice, steady)
@@ -152,11 +153,12 @@ class FitContext:
             return sc
         key = (fitness, constraints)
         if key not in self._scorers:
-            oe = sc.estimator == "oe" and fitness in ("ms", "freerun") and constraints is None
+            oe = sc.estimator in OE_ESTIMATORS and fitness in ("ms", "freerun") \
+                and constraints is None
             self._scorers[key] = StructureScorer(
                 self.data, fitness, window=sc.window, k=sc.k, start=self.start,
                 constraints=constraints, registry=self.registry,
-                estimator="oe" if oe else "ls")
+                estimator=sc.estimator if oe else "ls")
         return self._scorers[key]
 
 
@@ -349,7 +351,7 @@ def _model(terms, data, ctx, estimation, theta=None, **extra) -> Model:
 def qr_refit(terms, data, ctx):
     """``model_``: least squares by QR on the record. Terms the record cannot
     tell apart (``rank_`` below their number) get the minimum-norm θ.
-    With ``estimator='oe'`` (and no noise terms) θ is the output-error
+    With ``estimator`` 'oe' or 'bj' (and no noise terms) θ is the output-error
     estimate of the search's scorer (:mod:`narx.output_error`), which
     measurement noise does not bias, and ``model_.meta['estimation']`` is
     ``'oe'``."""
@@ -357,7 +359,7 @@ def qr_refit(terms, data, ctx):
     with ignore_rank_warnings():
         est.model_ = _model(terms, data, ctx, "ls").fit(data)
     est.rank_ = int(est.model_.fit_info_["rank"])
-    if est.estimator == "oe" and not any(t.has_noise for t in terms):
+    if est.estimator in OE_ESTIMATORS and not any(t.has_noise for t in terms):
         theta, _ = ctx.scorer.fitted(terms)
         if theta is not None:
             est.model_ = _model(terms, data, ctx, "oe", theta)

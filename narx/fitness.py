@@ -53,7 +53,8 @@ from .kernels import Plan, run_windows
 from .linalg import divergence_bound, gram_lstsq
 from .ms_kernel import BUDGET as MS_BUDGET, MultipleShooting, window_sse
 from .phi import PhiRegistry, default_registry
-from .output_error import OutputErrorProblem, burn_in, check_estimator, output_error_theta
+from .output_error import (OE_ESTIMATORS, OutputErrorProblem, burn_in, check_estimator,
+                           innovation_mse, noise_order, output_error_theta)
 from .regressors import factor_column, input_part_into, regressor_matrix
 from .simulate import MODES, mode_name, recursion_windows
 from .steady import steady_state_constraints
@@ -184,14 +185,17 @@ class StructureScorer:
     prefault : bool
         Write the column cache at construction, so the resident size does
         not grow later (for long-lived worker processes).
-    estimator : {'ls', 'oe'}
+    estimator : {'ls', 'oe', 'bj'}
         θ of a term set: least squares (default), or output error
         (:mod:`narx.output_error`: IV from the LS θ, then Gauss–Newton on
         the simulation error), which is not biased by white noise on the
         measured output; for the ``ms`` and ``freerun`` fitness, without
         ``constraints``. With ``'oe'`` the first
         :func:`narx.output_error.burn_in` steps of each simulated window
-        are not scored.
+        are not scored. ``'bj'``: θ as ``'oe'``, and the score is the
+        simulation error's variance after an autoregressive noise model
+        has whitened it (:func:`narx.output_error.innovation_mse`; the
+        mean squared error when it is white).
 
     Attributes
     ----------
@@ -220,7 +224,7 @@ class StructureScorer:
         if self.window < 1 or self.k < 1:
             raise ValueError(f"window and k must be >= 1, got window={window!r}, k={k!r}")
         #: simulated steps of each window left out of the score
-        self.burn = burn_in(fitness, self.window) if estimator == "oe" else 0
+        self.burn = burn_in(fitness, self.window) if estimator in OE_ESTIMATORS else 0
         self.constraints = constraints
         self.start = None if start is None else int(start)
         self.registry = registry or default_registry()
@@ -349,7 +353,7 @@ class StructureScorer:
         G, b = self._gram(slots, s)
         if constraints is None:
             theta = gram_lstsq(G, b)[0]
-            if self.estimator == "oe" and any(t.output_factors for t in terms) \
+            if self.estimator in OE_ESTIMATORS and any(t.output_factors for t in terms) \
                     and np.all(np.isfinite(theta)):
                 theta = output_error_theta(self._output_error(terms, slots, s), theta)
             return theta, s
@@ -446,7 +450,10 @@ class StructureScorer:
 
     def _burnt_mse(self, terms, theta, s) -> float:
         """MSE of the ``ms``/``freerun`` simulation without the first
-        ``self.burn`` steps of each window; ``inf`` when it diverges."""
+        ``self.burn`` steps of each window, or with ``estimator='bj'`` its
+        variance whitened by a noise model
+        (:func:`narx.output_error.innovation_mse`); ``inf`` when it
+        diverges."""
         starts, length, _, _ = recursion_windows(self.fitness, self.data.n, s, self.window)
         out, diverged = self.run_windows(terms, theta, starts, length, self.burn)
         if diverged:
@@ -454,5 +461,7 @@ class StructureScorer:
         scored = np.isfinite(out)
         if not scored.any():
             return float("inf")
+        if self.estimator == "bj":
+            return innovation_mse(self.y - out, noise_order(length - self.burn))
         r = self.y[scored] - out[scored]
         return float(fixed_dot(r, r) / r.size)

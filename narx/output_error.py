@@ -3,9 +3,11 @@
 Typical use (inside :class:`narx.fitness.StructureScorer` with
 ``estimator='oe'``)::
 
-    from narx.output_error import OutputErrorProblem, output_error_theta
+    from narx.output_error import (OutputErrorProblem, output_error_theta,
+                                   innovation_mse, noise_order)
     problem = OutputErrorProblem(y, Psi, start, instruments, freerun, scored)
     theta = output_error_theta(problem, theta_ls)
+    score = innovation_mse(y - simulated, noise_order(len(y) - start))
 
 When the output is measured with white noise, :math:`y_k = x_k + v_k`,
 the regressors built from the measured output carry the noise too, and
@@ -35,6 +37,19 @@ steps remove the bias:
 
 A structure whose simulations diverge keeps the last θ that did not.
 
+With ``estimator='oe'`` a structure scores the mean squared simulation
+error. With ``'bj'`` (same θ) it scores the variance of that error after
+an autoregressive noise model, of order chosen by BIC up to
+:data:`NOISE_ORDER`, has whitened it (:func:`innovation_mse`): the
+prediction error of a Box–Jenkins model [4]_. With white output noise alone
+the simulation error of the true structure is white and both agree; with
+equation noise too (carried through the dynamics, hence coloured) an
+information criterion on the plain mean squared error rewards terms that
+fit the disturbance's realisation, which the whitened score does not. The
+noise model of a wrong structure also whitens part of its misfit, which is
+coloured as well, so wrong structures score closer to the true one than by
+the plain error.
+
 References
 ----------
 .. [1] Söderström, T., Stoica, P., *System Identification*, Prentice Hall,
@@ -45,6 +60,8 @@ References
 .. [3] Piroddi, L., Spinelli, W., "An identification algorithm for
    polynomial NARX models based on simulation error minimization",
    Int. J. Control 76 (2003) 1767-1781.
+.. [4] Ljung, L., *System Identification: Theory for the User*, 2nd ed.,
+   Prentice Hall, 1999, sec. 4.2 and 7.3.
 """
 from __future__ import annotations
 
@@ -56,12 +73,16 @@ import numpy as np
 from .gram import cross_products, fixed_dot
 from .linalg import gram_lstsq, iv_lstsq
 
-__all__ = ["ESTIMATORS", "IV_ITERATIONS", "GN_ITERATIONS", "GN_RTOL", "BURN_IN",
-           "OutputErrorProblem", "iv_theta", "gauss_newton", "output_error_theta",
-           "burn_in", "check_estimator"]
+__all__ = ["ESTIMATORS", "OE_ESTIMATORS", "IV_ITERATIONS", "GN_ITERATIONS", "GN_RTOL", "BURN_IN",
+           "NOISE_ORDER", "OutputErrorProblem", "iv_theta", "gauss_newton",
+           "output_error_theta", "burn_in", "check_estimator", "noise_order",
+           "innovation_mse"]
 
-#: θ estimators of a structure search: least squares, or output error
-ESTIMATORS = ("ls", "oe")
+#: θ estimators of a structure search: least squares, output error, or
+#: output error scored with a noise model (Box–Jenkins)
+ESTIMATORS = ("ls", "oe", "bj")
+#: the estimators whose θ is the output-error estimate
+OE_ESTIMATORS = ("oe", "bj")
 #: IV passes, each with instruments from the previous θ's free run
 IV_ITERATIONS = 2
 #: Gauss-Newton steps on the simulation error
@@ -73,24 +94,26 @@ GN_HALVINGS = 6
 #: simulated steps at the start of each window that the output-error score
 #: leaves out (the transient of noisy initial conditions)
 BURN_IN = 50
+#: largest order of the autoregressive noise model of the simulation error
+NOISE_ORDER = 8
 
 Simulation = Callable[[np.ndarray], Tuple[np.ndarray, bool]]
 
 
 def check_estimator(estimator, fitness: str, constraints=None) -> None:
     """Raise ``ValueError`` unless ``estimator`` is one of :data:`ESTIMATORS`
-    and, for ``'oe'``, the fitness simulates (``'ms'`` or ``'freerun'``:
+    and, for ``'oe'`` and ``'bj'``, the fitness simulates (``'ms'`` or ``'freerun'``:
     the one-step error is what least squares already minimises) and θ is
     unconstrained."""
     if not any(estimator is e or (type(estimator) is str and estimator == e)
                for e in ESTIMATORS):
         raise ValueError(f"estimator must be one of {', '.join(map(repr, ESTIMATORS))}, "
                          f"got {estimator!r}")
-    if estimator == "oe" and fitness not in ("ms", "freerun"):
-        raise ValueError(f"estimator='oe' needs a simulation fitness ('ms' or 'freerun'), "
-                         f"got fitness={fitness!r}")
-    if estimator == "oe" and constraints is not None:
-        raise ValueError(f"estimator='oe' estimates unconstrained θ, got "
+    if estimator in OE_ESTIMATORS and fitness not in ("ms", "freerun"):
+        raise ValueError(f"estimator={estimator!r} needs a simulation fitness ('ms' or "
+                         f"'freerun'), got fitness={fitness!r}")
+    if estimator in OE_ESTIMATORS and constraints is not None:
+        raise ValueError(f"estimator={estimator!r} estimates unconstrained θ, got "
                          f"constraints={constraints!r}")
 
 
@@ -230,3 +253,73 @@ def output_error_theta(problem: OutputErrorProblem, theta: np.ndarray) -> np.nda
     """IV from the least-squares ``theta`` (:func:`iv_theta`), then
     Gauss–Newton on the scored simulation error (:func:`gauss_newton`)."""
     return gauss_newton(problem, iv_theta(problem, np.asarray(theta, dtype=np.float64)))
+
+
+def noise_order(length: int) -> int:
+    """Largest order of the noise model on scored runs of ``length``
+    samples: :data:`NOISE_ORDER`, at most a quarter of a run (0 for runs
+    shorter than 4 samples: the simulation error is then scored as is)."""
+    return max(0, min(NOISE_ORDER, int(length) // 4))
+
+
+def innovation_mse(r: np.ndarray, order: int) -> float:
+    r"""Innovation variance of the simulation error ``r`` under an
+    autoregressive noise model of order chosen by BIC, with that choice's
+    penalty.
+
+    ``r`` holds the simulation error at the scored samples and NaN
+    elsewhere (the runs of a multiple-shooting record are separated by
+    NaN). When the disturbance is not white at the output, e.g. equation
+    noise :math:`e_k` carried through the dynamics plus measurement noise
+    :math:`v_k`, the simulation error of the true structure is coloured,
+    :math:`r_k = H(q)\varepsilon_k`, and a mean squared error counts every
+    sample as independent: a term that fits the realisation of the
+    low-frequency disturbance by chance lowers it by far more than an
+    information criterion's per-term penalty assumes. The Gaussian
+    likelihood of the Box–Jenkins model :math:`y = G(q,\theta)u +
+    H(q)\varepsilon` (Ljung, *System Identification*, 1999, sec. 4.2 and
+    7.3) scores the whitened error instead: with
+    :math:`1/H \approx A_m(q) = 1 - a_1q^{-1} - \dots - a_mq^{-m}` fitted by
+    least squares on the :math:`n` samples of ``r`` whose ``order`` previous
+    samples are scored (the same samples for every :math:`m`),
+
+    .. math:: \sigma^2_m = \frac1n\sum_k (A_m(q) r)_k^2,\qquad
+              m^* = \arg\min_{0\le m\le M} n\ln\sigma^2_m + m\ln n,
+
+    :math:`M` = ``order``; the value returned is
+    :math:`\sigma^2_{m^*} n^{m^*/n}`,
+    whose :math:`n\ln(\cdot)` is the noise model's BIC: the structure's
+    own terms are penalised by the search's criterion on top. A white
+    simulation error (output noise only) gives :math:`m^* = 0`: the mean
+    squared error. Every sum is taken in a fixed order
+    (:func:`narx.gram.cross_products`).
+    """
+    r = np.asarray(r, dtype=np.float64)
+    ok = np.isfinite(r)
+    order = max(0, int(order))
+    rows = ok.copy()                     # samples whose `order` predecessors are scored
+    for j in range(1, order + 1):
+        rows[j:] &= ok[:-j]
+    rows[:order] = False
+    k = np.flatnonzero(rows)
+    n = k.size
+    if n == 0:
+        return float("inf")
+    t = np.ascontiguousarray(r[k])
+    X = np.ascontiguousarray(np.stack([r[k - j] for j in range(1, order + 1)])) if order \
+        else np.empty((0, n))
+    G, g = cross_products(X, X), cross_products(X, t[None, :])[:, 0]
+    best = None
+    for m in range(min(order, (n - 1) // 2) + 1):
+        w = t.copy()
+        if m:
+            a = gram_lstsq(G[:m, :m], g[:m])[0]
+            for j in range(m):           # fixed order: no BLAS in the residual
+                w -= a[j] * X[j]
+        var = fixed_dot(w, w) / n
+        if not var > 0:                  # an exact fit
+            return float(var)
+        bic = n * np.log(var) + m * np.log(n)
+        if best is None or bic < best[0]:
+            best = (bic, var * np.exp(m * np.log(n) / n))
+    return float(best[1])
