@@ -17,7 +17,7 @@ def recover(name, seed, data_seed=0, **kw):
     d = system_by_name(name, n=500, seed=data_seed)
     params = dict(fitness="pem", criterion="bic", population=200, generations=40,
                   max_terms=8, max_height=3, use_phi=False, prune="t",
-                  max_lag=4, max_degree=3, random_state=seed)
+                  max_lag=4, max_degree=3, constant=False, random_state=seed)
     params.update(kw)
     est = MGGPRegressor(**params).fit(d.u, d.y)
     true = sorted(t for t in d.terms if "e[" not in t)

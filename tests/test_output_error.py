@@ -105,7 +105,7 @@ def _recover(estimator, fitness, name="S1", seed=0):
     est = MGGPRegressor(fitness=fitness, estimator=estimator, criterion="bic",
                         population=200, generations=40, max_terms=8, max_height=3,
                         use_phi=False, prune="t", max_lag=4, max_degree=3,
-                        random_state=seed).fit(d.u, d.y)
+                        constant=False, random_state=seed).fit(d.u, d.y)
     return sorted(est.model_.term_texts), sorted(d.terms), est
 
 
