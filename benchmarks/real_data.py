@@ -59,7 +59,7 @@ RECORDS = {
     "buck converter": ("buck_id.csv", "buck_valid.csv", ("input", "y"), ("input", "y"), {}),
 }
 #: label -> MGGPRegressor keywords (the CLI option in the label)
-SETTINGS = {"default (Φ, ms Δm=100)": {}, "--no-phi": {"use_phi": False},
+SETTINGS = {"default (mggp fit)": {}, "--no-phi": {"use_phi": False},
             "--no-phi --constant": {"use_phi": False, "constant": True}}
 ARX = ("y[k-1]", "y[k-2]", "u[k-1]", "u[k-2]")
 
