@@ -99,7 +99,7 @@ def fit_forward(u, y, uv, yv, seeds, budget, jobs):
                             max_degree=3, max_terms=10, random_state=seed, n_jobs=jobs,
                             # the compensators' measured setting: Φ primitives, no screen
                             use_phi=True, screen=None, select="fitness", size="search",
-                            local_search=False,
+                            local_search=False, constant=False,
                             **budget).fit(u, y)
         for m in (est.model_, est.model_cls_):
             if m is None:

@@ -43,7 +43,8 @@ def run(n=50_000, population=500, generations=200, jobs=2, seed=0, window=100,
                         generations=generations, max_terms=max_terms, max_height=max_height,
                         constraints="steady-state", random_state=seed, n_jobs=jobs,
                         backend=backend, callbacks=[on_generation], use_phi=True,
-                        screen=None, select="fitness", size="search", local_search=False)
+                        screen=None, select="fitness", size="search",
+                        local_search=False, constant=False)
     load0 = load_note()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

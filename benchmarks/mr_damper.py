@@ -103,7 +103,7 @@ def run_damper(args, log):
                             n_jobs=getattr(args, "jobs", 1), registry=_registry(),
                             # the published study's setting: Φ primitives, searched size
                             use_phi=True, screen=None, select="fitness", size="search",
-                            local_search=False)
+                            local_search=False, constant=False)
         est.fit(Data(tr[:, :2], tr[:, 2], inputs=("E", "v"), output="f"))
         fit_time = time.perf_counter() - t0
         dte = Data(te[:, :2], te[:, 2], inputs=("E", "v"), output="f")

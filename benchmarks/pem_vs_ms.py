@@ -52,9 +52,9 @@ def _search(fitness, cs, args, seed, constraints=None):
               random_state=seed, n_jobs=args.jobs, constraints=constraints,
               screen=None if args.no_screen else "freerun",
               # the published setup: primitives with Φ and the structure the search
-              # finds (no automatic Φ or size choice, no local search), so the
-              # fitness modes compare
-              use_phi=True, size="search", local_search=False)
+              # finds (no automatic Φ, size or constant choice, no local search),
+              # so the fitness modes compare
+              use_phi=True, size="search", local_search=False, constant=False)
     if fitness == "ms":
         kw["window"] = args.window
         if not args.no_screen:
