@@ -48,7 +48,7 @@ from narx.terms import Term
 
 __all__ = ["Choice", "CLASS_GAIN", "CONSTANT", "GAIN", "HOLDOUT", "PILOT",
            "SIZE_TOLERANCE", "SearchClass", "class_choice", "constant_choice",
-           "constant_off", "constant_searched", "explicit_operators", "front_rows_heldout",
+           "constant_off", "constant_searched", "front_rows_heldout",
            "heldout_rmse", "pilot_generations", "resolve_screen", "resolve_select",
            "search_classes", "size_choice", "steady"]
 
@@ -218,15 +218,18 @@ def constant_off() -> Choice:
 
 @dataclass(frozen=True)
 class SearchClass:
-    """A model class the search may use: its label, Φ-terms or not, and the
-    memory operators (names, empty: none)."""
+    """A model class the search may use: its label, Φ-terms or not, the
+    memory operators (names, empty: none) and whether they join the
+    search's primitive set (else the operator stage offers them to the
+    searched structure)."""
 
     label: str
     use_phi: bool
     operators: tuple
+    in_search: bool = False
 
 
-def explicit_operators(v) -> tuple:
+def _explicit_operators(v) -> tuple:
     """The operator names ``operators`` gives (empty for None, 'none', 'auto')."""
     from .primitives import operator_names
     return () if v in (None, "none", "auto") else tuple(operator_names(v))
@@ -234,18 +237,20 @@ def explicit_operators(v) -> tuple:
 
 def search_classes(est) -> list:
     """The model classes searched, simplest first. ``use_phi='auto'``: no Φ,
-    Φ and, with ``operators='auto'``, the memory operators without Φ (each
-    class with the given operators when ``operators`` names some);
+    Φ and, with ``operators='auto'``, the memory operators without Φ in the
+    primitive set (each class with the operators ``operators`` names, which
+    enter as ``operator_entry`` says);
     otherwise the one class asked for (``operators='auto'``: none). Φ of
     outputs and a checkpointed run are one search with Φ."""
     from .primitives import OPERATOR_CHOICES
-    ops = explicit_operators(est.operators)
+    ops = _explicit_operators(est.operators)
+    entry = est.operator_entry == "search"
     if est.use_phi != "auto" or est.phi_outputs or est.checkpoint is not None:
         phi = est.use_phi is not False
-        return [SearchClass("Φ" if phi else "no Φ", phi, ops)]
-    out = [SearchClass("no Φ", False, ops), SearchClass("Φ", True, ops)]
+        return [SearchClass("Φ" if phi else "no Φ", phi, ops, entry)]
+    out = [SearchClass("no Φ", False, ops, entry), SearchClass("Φ", True, ops, entry)]
     if est.operators == "auto":
-        out.append(SearchClass("operators", False, tuple(OPERATOR_CHOICES)))
+        out.append(SearchClass("operators", False, tuple(OPERATOR_CHOICES), True))
     return out
 
 

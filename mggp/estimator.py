@@ -305,7 +305,7 @@ class MGGPRegressor:
         selection takes; :func:`mggp.choices.class_choice`),
         and that pilot continued to ``generations`` (the same run as an
         uninterrupted search of that class). Sets ``ctx.seed``,
-        ``ctx.result``, ``ctx.screen``, ``ctx.operators`` and the choice;
+        ``ctx.result``, ``ctx.screen``, ``ctx.search_class`` and the choice;
         returns the structures evaluated."""
         classes = search_classes(self)
         if len(classes) == 1:
@@ -314,7 +314,7 @@ class MGGPRegressor:
                 ctx.choices["use_phi"] = Choice(
                     "use_phi", True, "Φ: a checkpointed run (or one with Φ of outputs) is "
                     "one search with Φ, not compared with other model classes", {})
-            ctx.operators = c.operators
+            ctx.search_class = c
             ctx.seed, ctx.result = self._search(ctx, c, self.generations, ctx.screen,
                                                 checkpoint=self.checkpoint,
                                                 resume=self.resume)
@@ -356,7 +356,7 @@ class MGGPRegressor:
                                       checkpoint=path, resume=True)
         ctx.choices["use_phi"] = choice
         ctx.seed, ctx.result, ctx.screen = seed, res, scr
-        ctx.operators = classes[win].operators
+        ctx.search_class = classes[win]
         return evaluations + res.evaluations
 
     def _held_candidate(self, ctx: FitContext, res):
@@ -382,9 +382,7 @@ class MGGPRegressor:
         pset = make_pset(data.signals, ctx.registry, use_phi=cls.use_phi,
                          phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs),
                          operators=search_operators(
-                             cls.operators if (self.operator_entry == "search"
-                                               or cls.label == "operators") else None,
-                             data.U))
+                             cls.operators if cls.in_search else None, data.U))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,
                               constraints=self.search_constraints, start=ctx.start,
                               estimator=self.estimator, criterion=self.criterion,

@@ -73,8 +73,8 @@ from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
 from narx.output_error import OE_ESTIMATORS
 
-from .choices import (Choice, constant_choice, constant_off, explicit_operators,
-                      front_rows_heldout, resolve_select, size_choice, steady)
+from .choices import (Choice, constant_choice, constant_off, front_rows_heldout,
+                      resolve_select, size_choice, steady)
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -123,8 +123,9 @@ class FitContext:
         The search's seed.
     meta : dict
         What every model of the fit records (set by the ``record`` stage).
-    operators : tuple
-        The memory operators of the search's model class (names).
+    search_class : SearchClass
+        The model class searched (:func:`mggp.choices.search_classes`):
+        Φ or not, the memory operators and where they enter.
     choices : dict
         The automatic choices made (:class:`mggp.choices.Choice` by
         parameter name), recorded in ``meta['choices']``.
@@ -139,7 +140,7 @@ class FitContext:
     shape: Callable = tuple
     screen: object = None
     seed: Optional[int] = None
-    operators: tuple = ()
+    search_class: object = None
     meta: dict = field(default_factory=dict)
     choices: dict = field(default_factory=dict)
     _scorers: Dict[Tuple, StructureScorer] = field(default_factory=dict)
@@ -281,13 +282,15 @@ def constant(terms, data, ctx):
 
 
 def operators(terms, data, ctx):
-    """Memory-operator terms added stepwise (``operators`` given and
+    """Memory-operator terms added stepwise when the searched class has
+    operators outside its primitive set (``operators`` named,
     ``operator_entry='stage'``; :func:`mggp.operator_stage.add_operators`)."""
     est = ctx.est
     est.operator_steps_ = None
-    names = explicit_operators(est.operators)
-    if not names or est.operator_entry != "stage":
+    cls = ctx.search_class
+    if cls is None or not cls.operators or cls.in_search:
         return terms
+    names = cls.operators
     from .operator_stage import add_operators, operator_candidates
     terms, est.operator_steps_ = add_operators(
         ctx.scorer, terms, operator_candidates(data, names), est.max_terms,
@@ -338,8 +341,8 @@ def record(terms, data, ctx):
                     search_fitness_value=est.fitness_, versions=versions())
     if ctx.choices:
         ctx.meta["choices"] = {name: c.to_dict() for name, c in ctx.choices.items()}
-    if ctx.operators:
-        ctx.meta["operators"] = list(ctx.operators)
+    if ctx.search_class is not None and ctx.search_class.operators:
+        ctx.meta["operators"] = list(ctx.search_class.operators)
     return terms
 
 
