@@ -21,32 +21,32 @@ References
 """
 from __future__ import annotations
 
-from typing import Callable, Tuple
+from typing import Callable, Iterator, Tuple
 
 import numpy as np
 
 from narx.terms import Term
 
 from .evaluate import criterion_value
+from .local_search import improve
 
-__all__ = ["prune_by_criterion", "prune_by_t", "bonferroni_t", "t_threshold_of"]
+__all__ = ["drops", "prune_by_criterion", "prune_by_t", "bonferroni_t", "t_threshold_of"]
+
+
+def drops(terms: Tuple[Term, ...]) -> Iterator[Tuple[Term, ...]]:
+    """Every structure with one term of ``terms`` fewer (none below one term)."""
+    if len(terms) > 1:
+        for i in range(len(terms)):
+            yield terms[:i] + terms[i + 1:]
 
 
 def prune_by_criterion(scorer, terms: Tuple[Term, ...], n: int, criterion: str = "bic"):
     """Backward elimination: drop the term whose removal lowers the
     information criterion (of the scorer's fitness, ``n`` samples) most,
-    while one does."""
-    cur = criterion_value(scorer.score(terms), len(terms), n, criterion)
-    while len(terms) > 1:
-        trials = []
-        for i in range(len(terms)):
-            sub = terms[:i] + terms[i + 1:]
-            trials.append((criterion_value(scorer.score(sub), len(sub), n, criterion), i))
-        best, i = min(trials)
-        if not best < cur:
-            break
-        cur, terms = best, terms[:i] + terms[i + 1:]
-    return terms
+    while one does; the drop-only case of :func:`mggp.local_search.improve`."""
+    def value(ts):
+        return criterion_value(scorer.score(ts), len(ts), n, criterion)
+    return improve(tuple(terms), value, drops, max_steps=len(terms))[0]
 
 
 def prune_by_t(terms, t_of: Callable, crit: float) -> Tuple:
