@@ -365,3 +365,27 @@ def test_share_of_the_measuring_input_outside_the_fitting_range():
     meas = Data(np.r_[np.zeros(5), np.full(3, 2.0), np.full(2, -1.5)], np.zeros(10))
     assert outside_fit_range(fit, meas) == {"u": 0.5}
     assert outside_fit_range(fit, meas, start=8) == {"u": 1.0}
+
+
+def test_augmentation_leaves_out_only_the_control_terms_in_the_span_of_the_others():
+    from mggp.diagnose.augmentation import (augmentation_check, independent_terms,
+                                            phi_augmentation_test)
+    from narx.testsystems import polynomial_narx
+    s = polynomial_narx(n=1500, seed=0, noise_std=0.02)
+    d = Data(s.u, s.y)
+    sig = dict(inputs=d.inputs, output=d.output, registry=narx.Model(["u[k-1]"]).registry)
+    kept, dropped = independent_terms(["u[k-1]", "u[k-2]"], [P1, "u[k-1]*u[k-1]"], d, sig, 2)
+    assert kept == ["u[k-1]*u[k-1]"] and dropped == [P1]     # P1 = u[k-1] - u[k-2]
+    # with both input lags in the baseline only Δu goes; the other controls stay
+    both = narx.Model(["y[k-1]", "y[k-2]", "u[k-1]", "u[k-2]"]).fit(d)
+    a = phi_augmentation_test(both, d, shifts=9, seed=0)
+    assert a is not None and a.dropped_controls == (P1,)
+    assert set(a.controls) == {f"y[k-1]*{P1}", f"u[k-1]*{P1}", "u[k-1]*u[k-1]",
+                               "u[k-2]*u[k-2]"}
+    assert f"left out of the fits as linear combinations of the others: {P1}" in \
+        augmentation_check(a, 0.01, 0.0, "y").detail
+    # control: a baseline with one input lag keeps every control term
+    one = narx.Model(["y[k-1]", "u[k-1]"]).fit(d)
+    b = phi_augmentation_test(one, d, shifts=9, seed=0)
+    assert b.dropped_controls == () and len(b.controls) == 6
+    assert "left out" not in augmentation_check(b, 0.01, 0.0, "y").detail

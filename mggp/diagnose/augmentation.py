@@ -34,8 +34,13 @@ carry information about the last two inputs that placebo terms do not; a
 model that merely lacks a second lag, a dead time or a memoryless
 nonlinearity would otherwise gain from them and be called hysteretic. With
 the controls in both fits, only what is even in the input change counts.
-The reference is the refitted baseline with its controls (the test falls
-back to the baseline alone when that cannot be simulated).
+A control whose column is a linear combination of the form's other
+columns (Δu = u[k-1] − u[k-2] when the baseline holds both input lags)
+adds nothing and would make the fit singular: it is left out of that form
+(:func:`independent_terms`), the others stay, and the check's detail names
+those left out. The reference is the refitted baseline with its controls;
+when it cannot be estimated or simulated the test reports that it could
+not run.
 
 As the diagnose test :data:`AUGMENTATION` (effect ``hysteresis``), one
 check, ``Φ-augmentation``, with threshold max(placebo quantile,
@@ -65,7 +70,7 @@ from .registry import DiagnosticTest, Outcome
 from .simulation import bounded_mode, freerun_rmse, fresh_name
 
 __all__ = ["AugmentationTest", "phi_augmentation_test", "direction_terms", "control_terms",
-           "augmentation_check", "AUGMENTATION", "operator_terms",
+           "augmentation_check", "AUGMENTATION", "operator_terms", "independent_terms",
            "operator_augmentation_test", "OPERATOR_AUGMENTATION"]
 
 
@@ -82,7 +87,9 @@ class AugmentationTest:
     ``statistic`` = reference RMSE − RMSE of the better direction-aware
     form (``form``, with terms ``terms``); ``null_quantile`` the (1 − α)
     quantile of the same drop with placebo terms; ``mode`` the simulation
-    compared.
+    compared; ``controls`` the control terms in the baseline form's fits
+    and ``dropped_controls`` those left out of a form because their
+    columns lie in the span of its other columns (:func:`independent_terms`).
     """
 
     statistic: float
@@ -93,6 +100,8 @@ class AugmentationTest:
     terms: Tuple[str, ...]
     n_shifts: int
     mode: str
+    controls: Tuple[str, ...] = ()
+    dropped_controls: Tuple[str, ...] = ()
 
 
 class _BlockLS:
@@ -191,11 +200,7 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
         inc = Model([f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n, _ in pairs],
                     **sig).term_texts
     ctrl = [t for n, _ in pairs for t in Model(control_terms(n, data.output), **sig).term_texts]
-    for control in (ctrl, []):       # without the control only if it cannot be simulated
-        res = _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed)
-        if res is not None:
-            return res
-    return None
+    return _augmentation(model, data, sig, pairs, D, inc, ctrl, shifts, alpha, seed)
 
 
 def control_terms(inp: str, out: str) -> List[str]:
@@ -211,12 +216,70 @@ def control_terms(inp: str, out: str) -> List[str]:
             f"{inp}[k-1]*{inp}[k-1]", f"{inp}[k-2]*{inp}[k-2]"]
 
 
+#: relative residual below which a control column counts as lying in the
+#: span of the columns before it (exact dependence leaves ~1e-15)
+SPAN_TOLERANCE = 1e-8
+
+
+def independent_terms(base, extra, data: Data, sig, start: int,
+                      tol: float = SPAN_TOLERANCE) -> Tuple[List[str], List[str]]:
+    r"""Split ``extra`` into the terms whose regressor columns add to the span
+    of ``base``'s (and of the extra columns kept before them) and those that
+    do not.
+
+    Each column :math:`c` of ``extra`` (over samples ``start..``) is scaled
+    to unit norm and orthogonalised against an orthonormal basis Q of the
+    columns kept so far (classical Gram–Schmidt, applied twice for
+    numerical orthogonality [1]_): :math:`r = c - Q Q^\top c`. The term is
+    kept, and :math:`r/\|r\|` joins Q, when :math:`\|r\| > \mathrm{tol}`;
+    otherwise its column is a linear combination of the kept ones (e.g.
+    ``Phi1(u[k-1],u[k-2])`` = u[k-1] − u[k-2] beside both input lags) and
+    an LS fit holding it would be singular.
+
+    Returns
+    -------
+    (kept, dropped) : lists of term texts, in ``extra``'s order.
+
+    References
+    ----------
+    .. [1] Giraud, L., Langou, J., Rozložník, M., "The loss of orthogonality
+       in the Gram–Schmidt orthogonalization process", Comput. Math. Appl.
+       50, 2005, 1069-1075.
+    """
+    reg = sig["registry"]
+    extra = [t for t in extra if t not in set(base)]
+    if not extra:
+        return [], []
+    Psi = regressor_matrix(Model(base, **sig).terms, data, start=start, registry=reg)[0]
+    n = np.sqrt(np.einsum("ij,ij->j", Psi, Psi))
+    Q = np.linalg.qr(Psi[:, n > 0] / n[n > 0])[0] if np.any(n > 0) else Psi[:, :0]
+    C = regressor_matrix(Model(extra, **sig).terms, data, start=start, registry=reg)[0]
+    kept, dropped = [], []
+    for term, c in zip(extra, C.T):
+        nc = float(np.linalg.norm(c))
+        r = c / nc if nc > 0 else c
+        for _ in range(2):
+            r = r - Q @ (Q.T @ r)
+        nr = float(np.linalg.norm(r))
+        if nc > 0 and np.isfinite(nr) and nr > tol:
+            kept.append(term)
+            Q = np.column_stack([Q, r / nr])
+        else:
+            dropped.append(term)
+    return kept, dropped
+
+
 def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed):
     reg = model.registry
-    base1 = model.term_texts + [t for t in control if t not in set(model.term_texts)]
-    forms = [("baseline + direction terms", base1, [t for t in D if t not in set(base1)]),
-             ("Bouc–Wen increment", inc + [t for t in control if t not in set(inc)], D)]
     start = max(model.max_lag, 2)
+    try:
+        ctrl1, drop1 = independent_terms(model.term_texts, control, data, sig, start)
+        ctrl2, drop2 = independent_terms(inc, control, data, sig, start)
+    except (EstimationError, ValueError):
+        return None
+    base1 = model.term_texts + ctrl1
+    forms = [("baseline + direction terms", base1, [t for t in D if t not in set(base1)]),
+             ("Bouc–Wen increment", inc + ctrl2, D)]
     blocks = []
     try:
         for label, base, add in forms:
@@ -264,7 +327,8 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed)
     null = np.asarray(null)
     q = float(np.quantile(null, 1.0 - alpha, method="higher")) if null.size else np.inf
     return AugmentationTest(float(drop), q, r_ref, float(r_ref - drop), form, terms,
-                            int(null.size), text)
+                            int(null.size), text, tuple(ctrl1),
+                            tuple(dict.fromkeys(drop1 + drop2)))
 
 
 def augmentation_check(a: AugmentationTest, alpha: float, floor: float, output: str) -> Check:
@@ -282,6 +346,9 @@ def augmentation_check(a: AugmentationTest, alpha: float, floor: float, output: 
               f"(|Δu| = Phi1·Phi2 of u[k-1], u[k-2]) {effect}; placebo terms from the input "
               f"shifted in time ({a.n_shifts} shifts) drop it by at most "
               f"{_g(a.null_quantile)} ({pct} quantile); resolution floor {_g(floor)}")
+    if a.dropped_controls:
+        detail += (f"; control terms left out of the fits as linear combinations of the "
+                   f"others: {', '.join(a.dropped_controls)}")
     return Check("Φ-augmentation", "hysteresis", a.statistic, max(a.null_quantile, floor),
                  detail)
 
