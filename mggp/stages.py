@@ -74,7 +74,7 @@ from narx.model import ignore_rank_warnings
 from narx.output_error import OE_ESTIMATORS
 
 from .choices import (Choice, constant_choice, constant_off, front_rows_heldout,
-                      resolve_select, size_choice, steady)
+                      heldout_samples, resolve_select, size_choice, steady)
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -262,7 +262,8 @@ def size(terms, data, ctx):
         ctx.choices["size"] = Choice("size", len(terms), f"size {len(terms)} terms: "
                                      f"chosen by {by}, not by held-out error", {})
         return terms
-    c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry))
+    c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry),
+                    heldout_samples(data.n))
     ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
     return c.value
 

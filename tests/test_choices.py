@@ -184,6 +184,19 @@ def test_size_takes_the_fewest_terms_within_the_tolerance():
     assert size_choice([(3, 1.0, big), (2, 1.5, small)]).value == big
 
 
+def test_size_tolerance_widens_on_a_short_held_out_part():
+    from mggp.choices import SIZE_TOLERANCE, heldout_samples, size_choice, size_tolerance
+    big, small = ("a", "b", "c", "d"), ("a", "b")
+    rows = [(4, 1.0, big), (2, 1.10, small)]
+    # 150 held-out samples (a 500-sample record): a 10 % difference is
+    # within the RMSE's sampling spread, the fewer terms are taken
+    assert heldout_samples(500) == 150 and size_tolerance(150) > 0.10
+    assert size_choice(rows, heldout_samples(500)).value == small
+    # control: on a long record the same difference decides
+    assert size_tolerance(heldout_samples(50_000)) == SIZE_TOLERANCE
+    assert size_choice(rows, heldout_samples(50_000)).value == big
+
+
 def test_search_classes_follow_the_overrides():
     from mggp.choices import search_classes
     labels = lambda **kw: [(c.label, c.operators) for c in search_classes(MGGPRegressor(**kw))]
