@@ -347,7 +347,8 @@ _ROWS = (
           "number of terms: search (the chosen structure as it is), or auto: the "
           "smallest structure of the run's Pareto front (complexity against fitness) whose "
           "held-out free-run error (θ on the first 70 % of the record, error on the last "
-          "30 %) is within 5 % of the least; the hold selection keeps its structure",
+          "30 %) is within 5 % of the least (2/√n on n held-out samples when larger: 16 % "
+          "on 150); the hold selection keeps its structure",
           "selection", "--size", meta=True),
     Param("local_search", True, Bool(), "after the search, improve the chosen structure "
           "one term at a time (drop a term, or replace, drop or add one lagged-signal "

@@ -18,7 +18,8 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
     sets ``selection_`` and ``search_terms_``.
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
-    held-out free-run error is within 5 % of the least (``size``).
+    held-out free-run error is within 5 % of the least, or within 2/√n
+    on n held-out samples when that is larger (``size``).
 ``constant``
     'auto': the constant term kept only when the held-out free-run error
     is over 5 % lower with it (never with the steady-state constraints).
@@ -249,7 +250,8 @@ def local_search(terms, data, ctx):
 
 def size(terms, data, ctx):
     """``size='auto'``: the smallest structure of the run's Pareto front
-    whose held-out free-run error is within 5 % of the least, the chosen
+    whose held-out free-run error is within 5 % of the least (2/√n on n
+    held-out samples when larger: :func:`mggp.choices.size_tolerance`), the chosen
     structure included (:func:`mggp.choices.size_choice`). A structure
     chosen for its holding (``select`` 'hold') is kept, and so is the size an
     information criterion (``criterion`` 'bic'/'aic') or pruning chose."""
