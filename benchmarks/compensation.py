@@ -56,6 +56,7 @@ from narx.compensate import RootCompensator
 from narx.metrics import mape
 from narx.systems import piezo_bouc_wen, sine_input, training_input
 from mggp import MGGPRegressor
+from mggp.choices import AS_SEARCHED
 from mggp.compensate import PiezoPlant, identify_inverse, pi_loop
 
 from .casestudy import model19
@@ -98,8 +99,7 @@ def fit_forward(u, y, uv, yv, seeds, budget, jobs):
         est = MGGPRegressor(fitness="freerun", constraints="steady-state", max_lag=3,
                             max_degree=3, max_terms=10, random_state=seed, n_jobs=jobs,
                             # the compensators' measured setting: Φ primitives, no screen
-                            use_phi=True, screen=None, select="fitness", size="search",
-                            local_search=False, constant=False,
+                            use_phi=True, screen=None, select="fitness", **AS_SEARCHED,
                             **budget).fit(u, y)
         for m in (est.model_, est.model_cls_):
             if m is None:

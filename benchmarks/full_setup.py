@@ -30,6 +30,7 @@ def run(n=50_000, population=500, generations=200, jobs=2, seed=0, window=100,
         max_terms=15, max_height=5, backend="loky") -> dict:
     import narx.ms_kernel as msk
     from mggp import MGGPRegressor
+    from mggp.choices import AS_SEARCHED
     from narx.systems import piezo_bouc_wen, sine_input
     u, y = piezo_record(n)
     _, uv = sine_input()
@@ -43,8 +44,7 @@ def run(n=50_000, population=500, generations=200, jobs=2, seed=0, window=100,
                         generations=generations, max_terms=max_terms, max_height=max_height,
                         constraints="steady-state", random_state=seed, n_jobs=jobs,
                         backend=backend, callbacks=[on_generation], use_phi=True,
-                        screen=None, select="fitness", size="search",
-                        local_search=False, constant=False)
+                        screen=None, select="fitness", **AS_SEARCHED)
     load0 = load_note()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -87,6 +87,7 @@ def _registry():
 
 def run_damper(args, log):
     from mggp import MGGPRegressor
+    from mggp.choices import AS_SEARCHED
     path = damper_path()
     if path is None:
         log("  MR damper: data file not found (set MGGP_SHARED_DATA)")
@@ -102,8 +103,7 @@ def run_damper(args, log):
                             inputs=("E", "v"), output="f", random_state=seed,
                             n_jobs=getattr(args, "jobs", 1), registry=_registry(),
                             # the published study's setting: Φ primitives, searched size
-                            use_phi=True, screen=None, select="fitness", size="search",
-                            local_search=False, constant=False)
+                            use_phi=True, screen=None, select="fitness", **AS_SEARCHED)
         est.fit(Data(tr[:, :2], tr[:, 2], inputs=("E", "v"), output="f"))
         fit_time = time.perf_counter() - t0
         dte = Data(te[:, :2], te[:, 2], inputs=("E", "v"), output="f")

@@ -35,6 +35,7 @@ import time
 import numpy as np
 
 from mggp import MGGPRegressor
+from mggp.choices import AS_SEARCHED
 from narx import Model
 
 from .study_report import fmt as _fmt
@@ -54,7 +55,7 @@ def _search(fitness, cs, args, seed, constraints=None):
               # the published setup: primitives with Φ and the structure the search
               # finds (no automatic Φ, size or constant choice, no local search),
               # so the fitness modes compare
-              use_phi=True, size="search", local_search=False, constant=False)
+              use_phi=True, **AS_SEARCHED)
     if fitness == "ms":
         kw["window"] = args.window
         if not args.no_screen:

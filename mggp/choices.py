@@ -46,7 +46,7 @@ from narx.data import Data
 from narx.model import ignore_rank_warnings
 from narx.terms import Term
 
-__all__ = ["Choice", "CLASS_GAIN", "CONSTANT", "GAIN", "HOLDOUT", "PILOT",
+__all__ = ["AS_SEARCHED", "Choice", "CLASS_GAIN", "CONSTANT", "GAIN", "HOLDOUT", "PILOT",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
            "class_choice", "constant_choice",
            "constant_off", "constant_searched", "front_rows_heldout",
@@ -73,6 +73,11 @@ PILOT = 0.2
 
 #: the constant term ``1`` (the empty product)
 CONSTANT = Term(())
+
+#: ``MGGPRegressor`` keywords that keep the structure as the search built it:
+#: no size choice, no local search, no constant term (the published studies'
+#: setting, and the diagnosis's searches, whose fitness modes are compared)
+AS_SEARCHED = dict(size="search", local_search=False, constant=False)
 
 
 @dataclass(frozen=True)

@@ -40,13 +40,14 @@ def _estimator(est):
 
 def recovery():
     from mggp import MGGPRegressor
+    from mggp.choices import AS_SEARCHED
     from benchmarks.recovery import SETTINGS
     from narx.testsystems import SYSTEMS, system_by_name
     out = {}
     for name in SYSTEMS:
         d = system_by_name(name, n=500, seed=0)
         kw = dict(SETTINGS, population=40, generations=6, screen=None, select="fitness",
-                  size="search", local_search=False, constant=False)
+                  **AS_SEARCHED)
         est = MGGPRegressor(random_state=1, **kw).fit(d.u, d.y)
         out[name] = _estimator(est)
     return out
@@ -54,13 +55,13 @@ def recovery():
 
 def case_study():
     from mggp import MGGPRegressor
+    from mggp.choices import AS_SEARCHED
     from benchmarks.casestudy import case_data
     cs = case_data(n=3000)
     out = {}
     pem = MGGPRegressor(fitness="pem", population=24, generations=4, random_state=1,
                         screen="freerun", use_phi=True, select="fitness",
-                        size="search", local_search=False,
-                        constant=False).fit(cs.u, cs.y)
+                        **AS_SEARCHED).fit(cs.u, cs.y)
     out["pem"] = _estimator(pem)
     ms = MGGPRegressor(fitness="ms", window=200, population=24, generations=4,
                        random_state=1, screen="freerun", constraints="steady-state",

@@ -161,6 +161,7 @@ class Extension:
 
 
 def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data, callbacks=None):
+    from ..choices import AS_SEARCHED
     from ..estimator import MGGPRegressor
     return MGGPRegressor(fitness=setting.fitness or "ms", window=setting.window,
                          use_phi=setting.use_phi, constraints=setting.constraints,
@@ -168,8 +169,7 @@ def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data, callbac
                          population=budget.population, generations=budget.generations,
                          max_terms=setting.max_terms, max_height=setting.max_height,
                          max_degree=setting.max_degree, random_state=int(seed),
-                         screen=None, select="fitness", size="search", local_search=False,
-                         constant=False,
+                         screen=None, select="fitness", **AS_SEARCHED,
                          n_jobs=jobs, inputs=list(data.inputs), output=data.output,
                          operators=list(setting.operators) or None,
                          operator_entry="search",
