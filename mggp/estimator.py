@@ -87,7 +87,8 @@ class MGGPRegressor:
     structure (not with the steady-state constraints, which it would break)
     and keeps it in the result only when it lowers the held-out free-run
     RMSE by over 5 %; ``size`` takes the fewest terms of the run's
-    Pareto front within 5 % of the least held-out free-run RMSE. An
+    Pareto front within 5 % of the least held-out free-run RMSE (2/√n on
+    n held-out samples when larger: :func:`mggp.choices.size_tolerance`). An
     explicit value of a parameter disables its choice.
 
     ``select``: ``'freerun'`` takes, among the ``select_candidates`` best

@@ -272,16 +272,13 @@ def independent_terms(base, extra, data: Data, sig, start: int,
 def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed):
     reg = model.registry
     start = max(model.max_lag, 2)
+    blocks = []
     try:
         ctrl1, drop1 = independent_terms(model.term_texts, control, data, sig, start)
         ctrl2, drop2 = independent_terms(inc, control, data, sig, start)
-    except (EstimationError, ValueError):
-        return None
-    base1 = model.term_texts + ctrl1
-    forms = [("baseline + direction terms", base1, [t for t in D if t not in set(base1)]),
-             ("Bouc–Wen increment", inc + ctrl2, D)]
-    blocks = []
-    try:
+        base1 = model.term_texts + ctrl1
+        forms = [("baseline + direction terms", base1, [t for t in D if t not in set(base1)]),
+                 ("Bouc–Wen increment", inc + ctrl2, D)]
         for label, base, add in forms:
             if not add:
                 continue
