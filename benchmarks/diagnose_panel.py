@@ -32,7 +32,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Optional, Tuple
 
 import numpy as np
@@ -152,7 +152,10 @@ def main(argv=None):
     p.add_argument("--jobs", type=int, default=2)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", default="", help="write every record's checks and gain here")
+    p.add_argument("--population", type=int, default=BUDGET.population)
+    p.add_argument("--generations", type=int, default=BUDGET.generations)
     a = p.parse_args(argv)
+    budget = replace(BUDGET, population=a.population, generations=a.generations)
     err = shared_data_error(SHARED_FILES)
     if err:
         print(err, file=sys.stderr)
@@ -167,7 +170,7 @@ def main(argv=None):
             continue
         train, val = rec.make()
         t0 = time.perf_counter()
-        dx = diagnose(train, val, budget=BUDGET, seed=a.seed, jobs=a.jobs)
+        dx = diagnose(train, val, budget=budget, seed=a.seed, jobs=a.jobs)
         secs = time.perf_counter() - t0
         hyst = "hysteresis" in dx.effects
         rows.append((rec, hyst, dx.gain.ratio, secs))

@@ -389,3 +389,32 @@ def test_augmentation_leaves_out_only_the_control_terms_in_the_span_of_the_other
     b = phi_augmentation_test(one, d, shifts=9, seed=0)
     assert b.dropped_controls == () and len(b.controls) == 6
     assert "left out" not in augmentation_check(b, 0.01, 0.0, "y").detail
+
+
+# ------------------------------------------------------------------ pruning
+def _linear_record(seed=0, n=1500):
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1, 1, n)
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.8 * y[k - 1] + 0.5 * u[k - 1]
+    return Data(u, y + 0.02 * rng.standard_normal(n))
+
+
+def test_pruning_drops_the_spurious_terms_and_keeps_a_true_structure():
+    from mggp.diagnose.extend import _pruned
+    d = _linear_record()
+    reg = narx.Model(["y[k-1]"]).registry
+    spurious = ["y[k-1]", "u[k-1]", "u[k-2]*u[k-2]", "y[k-3]*u[k-1]", "u[k-4]"]
+    assert _pruned(spurious, d, None, reg) == ["y[k-1]", "u[k-1]"]
+    # control: nothing to drop from the true structure
+    assert _pruned(["y[k-1]", "u[k-1]"], d, None, reg) == ["y[k-1]", "u[k-1]"]
+
+
+def test_a_pruned_candidate_says_it_was_pruned():
+    from mggp.diagnose.extend import PRUNED, Setting, ExtensionPlan, candidate_changes
+    plan = ExtensionPlan(Setting("ms", 100, True, None, 3, 5, 15), False, False, True,
+                         ("hysteresis: ...",))
+    built = candidate_changes("operator dynamics", plan)
+    pruned = candidate_changes("operator dynamics" + PRUNED, plan)
+    assert pruned[:-1] == built and "pruned" in pruned[-1] and "BIC" in pruned[-1]

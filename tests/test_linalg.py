@@ -177,3 +177,12 @@ def test_divergence_bound():
     assert L.divergence_bound(np.array([-3.0, 2.0])) == 3.0e4
     assert L.divergence_bound(np.zeros(4)) == 1e4
     assert L.divergence_bound(np.zeros(0)) == 1e4
+
+
+def test_solves_run_on_one_blas_thread_and_restore_the_setting():
+    from threadpoolctl import threadpool_info
+    from narx.linalg import one_blas_thread
+    before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    with one_blas_thread():
+        assert all(i["num_threads"] == 1 for i in threadpool_info() if i["user_api"] == "blas")
+    assert [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"] == before

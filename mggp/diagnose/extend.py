@@ -34,7 +34,11 @@ The extension changes the search the way each cause calls for
 
 When a search is run, its model and its union with the baseline's terms
 are candidates (with the direction-term candidates for hysteresis). Each
-is ranked by hold-out validation inside the fitting samples: estimated
+candidate is offered as built and pruned (:func:`_pruned`: backward
+elimination by BIC on its free-run error on the fitting samples), as a
+union of term sets or a generic structure such as the operator dynamics
+carries terms that the others make redundant, and those extrapolate
+worst. Each is ranked by hold-out validation inside the fitting samples: estimated
 (LS or CLS) on their first :data:`HOLDOUT_FIT` share and scored by its
 free-run RMSE on the rest, so a candidate is not favoured by fitting the
 samples that rank it; it is also estimated on all the fitting samples
@@ -266,6 +270,15 @@ def plan_extension(effects: Sequence[str], base: Setting, budget: Budget,
 
 
 _DRIFT = "steady-state-drift:"
+#: suffix of a candidate's name when its terms were pruned (:func:`_pruned`)
+PRUNED = ", pruned"
+
+
+def _built_as(name: str) -> str:
+    """The name of the candidate that ``name`` was pruned from (or ``name``)."""
+    return name[:-len(PRUNED)] if name.endswith(PRUNED) else name
+
+
 _OPERATOR_CANDIDATES = ("baseline + operator terms", "operator dynamics")
 _DIRECTION = "the Bouc–Wen direction terms |Δu|, y[k-1]|Δu|, u[k-1]|Δu|"
 
@@ -279,7 +292,8 @@ def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
         The candidate's name (``'search'``, ``'search + baseline terms'``,
         ``'search + direction terms'``, ``'baseline + direction terms'``,
         ``'Bouc–Wen increment'``, ``'baseline + operator terms'``,
-        ``'operator dynamics'``, ``'baseline terms, CLS'``).
+        ``'operator dynamics'``, ``'baseline terms, CLS'``), each possibly
+        followed by :data:`PRUNED`.
     plan : ExtensionPlan
         The plan the candidates were built from.
 
@@ -290,8 +304,12 @@ def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
         the search) and how its terms were made; any other carries its own
         structure, the estimation (CLS when drift was named), the plan's
         remarks that change nothing, and — when a search ran — that its
-        candidates were not chosen.
+        candidates were not chosen; a pruned candidate says so last.
     """
+    if name.endswith(PRUNED):
+        return candidate_changes(_built_as(name), plan) + (
+            "terms pruned: backward elimination by BIC on the free-run error on the "
+            "fitting samples",)
     drift = [c for c in plan.changes if c.startswith(_DRIFT)]
     remarks = [c for c in plan.changes if "no separate change" in c]
     search = [c for c in plan.changes if c not in drift and c not in remarks]
@@ -335,6 +353,39 @@ def _unique(terms, data: Data, registry) -> List[str]:
     """Canonical texts of ``terms``, each once, in order."""
     sig = Signals(data.output, data.inputs)
     return list(dict.fromkeys(str(parse_term(t, sig, registry=registry)) for t in terms))
+
+
+def _pruned(terms: List[str], data: Data, constraints, registry) -> List[str]:
+    r"""``terms`` after backward elimination by BIC on the free-run error.
+
+    The structure is estimated (LS, or CLS under ``constraints``) on
+    ``data`` and simulated in free run; while dropping one term lowers
+    BIC = n ln J + p ln n, with J the free-run mean squared error on the
+    n samples and p the number of terms [1]_, the term whose removal lowers
+    it most is dropped (:func:`mggp.pruning.prune_by_criterion`). A term
+    that only fits the noise of the fitting samples, or an input lag an
+    added memory operator makes redundant, costs more in the simulation
+    beyond them than it gains inside. The criterion is computed on the
+    fitting samples only: the hold-out score that ranks the candidates is
+    left untouched by it.
+
+    References
+    ----------
+    .. [1] Piroddi, L., Spinelli, W., "An identification algorithm for
+       polynomial NARX models based on simulation error minimization",
+       Int. J. Control 76(17), 2003, 1767-1781 (pruning by simulation error).
+    """
+    from ..pruning import prune_by_criterion
+
+    class _FreeRun:
+        @staticmethod
+        def score(ts) -> float:
+            m = _candidate(list(ts), data, constraints, registry)
+            return freerun_rmse(m, data) ** 2
+
+    sig = Signals(data.output, data.inputs)
+    parsed = tuple(parse_term(t, sig, registry=registry) for t in terms)
+    return [str(t) for t in prune_by_criterion(_FreeRun, parsed, data.n, "bic")]
 
 
 def _candidate(terms, data: Data, constraints, registry) -> Optional[Model]:
@@ -431,23 +482,27 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
                  ("operator dynamics", operator_dynamics_terms(data))]
         if plan.search:
             sets.append(("search + direction terms", found + d))
-    seen = set()
+    seen, kept = set(), set()
     for name, terms in sets:
         terms = _unique(terms, data, reg)
-        if frozenset(terms) not in seen:
-            seen.add(frozenset(terms))
-            # memory operators hold their value at a held input by themselves: a
-            # stable model driven by them settles without the continuum constraints
-            own = None if name in _OPERATOR_CANDIDATES else cons
-            structures.append((name, terms, own))
-            cands.append((name, _candidate(terms, data, own, reg)))
+        if frozenset(terms) in seen:
+            continue
+        seen.add(frozenset(terms))
+        # memory operators hold their value at a held input by themselves: a
+        # stable model driven by them settles without the continuum constraints
+        own = None if name in _OPERATOR_CANDIDATES else cons
+        for label, ts in ((name, terms), (name + PRUNED, _pruned(terms, data, own, reg))):
+            if (frozenset(ts), own) not in kept:
+                kept.add((frozenset(ts), own))
+                structures.append((label, ts, own))
+                cands.append((label, _candidate(ts, data, own, reg)))
     if not cands:
         return Extension(baseline, "baseline (no change)", (), plan,
                          ("no candidate could be built: the baseline is kept",))
     scores = _holdout_scores(structures, data, reg)
     scored = [(name, m, max(scores.get(name, 0.0), freerun_rmse(m, data)),
                probe_holds(m, data) if cons and m is not None
-               and name not in _OPERATOR_CANDIDATES else float("nan"))
+               and _built_as(name) not in _OPERATOR_CANDIDATES else float("nan"))
               for name, m in cands]
     ok = [c for c in scored if c[1] is not None]
     if not ok:
@@ -459,7 +514,7 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
     changes = candidate_changes(name, plan)
     best.meta.update({"source": "mggp diagnose extension", "fitness": plan.setting.fitness,
                       "window": plan.setting.window, "use_phi": plan.setting.use_phi,
-                      "estimation": "cls" if cons and name not in _OPERATOR_CANDIDATES
+                      "estimation": "cls" if cons and _built_as(name) not in _OPERATOR_CANDIDATES
                       else "ls", "changes": list(changes)})
     table = tuple((n, (m.n_terms if m is not None else 0), s, h) for n, m, s, h in scored)
     return Extension(best, name, table, plan, changes)
