@@ -27,7 +27,10 @@ The extension changes the search the way each cause calls for
   constraints derived from the terms (:mod:`narx.steady`), in the search
   and in the final fit; with no other cause the baseline's own terms are
   refitted by CLS, and a CLS search is run only if that refit is impossible
-  or diverges on the fitting record;
+  or diverges on the fitting record; with hysteresis too, a second search
+  with the memory operators runs under LS (:data:`LS_SEARCH`: the
+  operators hold by themselves, and the continuum constraints would set
+  their clusters to 0);
 * ``unmodelled-nonlinearity`` / ``unmodelled-dynamics`` — one more degree /
   taller trees (longer lags) and five more terms, applied only when no
   specific cause above was named (they are then its symptoms).
@@ -279,7 +282,12 @@ def _built_as(name: str) -> str:
     return name[:-len(PRUNED)] if name.endswith(PRUNED) else name
 
 
-_OPERATOR_CANDIDATES = ("baseline + operator terms", "operator dynamics")
+#: the search with memory operators under LS when the plan's search is under CLS
+LS_SEARCH = "operator search, LS"
+#: candidates estimated by LS even when drift is named: their memory operators
+#: hold at a held input by themselves, and the continuum constraints (Σ_y = 1,
+#: every other cluster 0) would set the operators' clusters to 0
+_LS_CANDIDATES = ("baseline + operator terms", "operator dynamics", LS_SEARCH)
 _DIRECTION = "the Bouc–Wen direction terms |Δu|, y[k-1]|Δu|, u[k-1]|Δu|"
 
 
@@ -304,12 +312,16 @@ def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
         the search) and how its terms were made; any other carries its own
         structure, the estimation (CLS when drift was named), the plan's
         remarks that change nothing, and — when a search ran — that its
-        candidates were not chosen; a pruned candidate says so last.
+        candidates were not chosen; a pruned candidate says so where its
+        structure is named.
     """
     if name.endswith(PRUNED):
-        return candidate_changes(_built_as(name), plan) + (
-            "terms pruned: backward elimination by BIC on the free-run error on the "
-            "fitting samples",)
+        # the line that names the structure says it was pruned
+        built = list(candidate_changes(_built_as(name), plan))
+        i = next((j for j, c in enumerate(built) if c.startswith("chosen candidate:")), 0)
+        built[i] += ("; its terms then pruned by backward elimination (BIC on the free-run "
+                     "error on the fitting samples)")
+        return tuple(built)
     drift = [c for c in plan.changes if c.startswith(_DRIFT)]
     remarks = [c for c in plan.changes if "no separate change" in c]
     search = [c for c in plan.changes if c not in drift and c not in remarks]
@@ -332,9 +344,11 @@ def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
            "operator dynamics": "hysteresis: linear dynamics of order up to 3 driven by the "
                                 "input and its memory operators (y[k-1..3], u[k-1..2], "
                                 "Play(u[k-1..2],r), DengTan(u[k-1..2])) in place of the "
-                                "baseline (no search)"}
+                                "baseline (no search)",
+           LS_SEARCH: "hysteresis and steady-state-drift: a second search with the "
+                      "Φ-functions and the memory operators Play, DengTan, estimated by LS"}
     out = [own.get(name, name)]
-    if name in _OPERATOR_CANDIDATES:
+    if name in _LS_CANDIDATES:
         if drift or plan.setting.constraints:
             out.append("estimated by LS: the memory operators hold at a held input by "
                        "themselves (no continuum constraints)")
@@ -448,9 +462,12 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
     With CLS (drift named: the system holds) a candidate must also keep
     still in holds inserted into the fitting input (:func:`probe_holds`,
     movement at most ``floor``); those that do not rank after those that
-    do, by how far they move. The memory-operator candidates are fitted by
-    LS even then and not probed: their operators hold at a held input, and
-    the continuum constraints (Σ_y = 1) would force an integrator on them.
+    do, by how far they move. The memory-operator candidates (and, with
+    operators in the plan, a second search with them under LS) are
+    estimated by LS even then: their operators hold at a held input, and
+    the continuum constraints (Σ_y = 1) would force an integrator on them;
+    they are probed like the others (a stable model settles in the first
+    half of a probe hold, which the probe does not measure).
     A candidate whose free run diverges on the fitting samples ranks last.
     """
     reg = baseline.registry
@@ -474,6 +491,12 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
             est = _regressor(setting, budget, int(seed) + 1, jobs, data, callbacks).fit(data)
         found = [str(t) for t in est.model_.terms]
         sets += [("search", found), ("search + baseline terms", base + found)]
+        if cons and setting.operators:
+            ls = replace(setting, constraints=None)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", CLSRejectedWarning)
+                est = _regressor(ls, budget, int(seed) + 2, jobs, data, callbacks).fit(data)
+            sets.append((LS_SEARCH, [str(t) for t in est.model_.terms]))
     if plan.direction:
         d = [t for n in data.inputs for t in direction_terms(n, data.output)]
         inc = [f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n in data.inputs]
@@ -490,7 +513,7 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
         seen.add(frozenset(terms))
         # memory operators hold their value at a held input by themselves: a
         # stable model driven by them settles without the continuum constraints
-        own = None if name in _OPERATOR_CANDIDATES else cons
+        own = None if name in _LS_CANDIDATES else cons
         for label, ts in ((name, terms), (name + PRUNED, _pruned(terms, data, own, reg))):
             if (frozenset(ts), own) not in kept:
                 kept.add((frozenset(ts), own))
@@ -501,8 +524,7 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
                          ("no candidate could be built: the baseline is kept",))
     scores = _holdout_scores(structures, data, reg)
     scored = [(name, m, max(scores.get(name, 0.0), freerun_rmse(m, data)),
-               probe_holds(m, data) if cons and m is not None
-               and _built_as(name) not in _OPERATOR_CANDIDATES else float("nan"))
+               probe_holds(m, data) if cons and m is not None else float("nan"))
               for name, m in cands]
     ok = [c for c in scored if c[1] is not None]
     if not ok:
@@ -514,7 +536,7 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
     changes = candidate_changes(name, plan)
     best.meta.update({"source": "mggp diagnose extension", "fitness": plan.setting.fitness,
                       "window": plan.setting.window, "use_phi": plan.setting.use_phi,
-                      "estimation": "cls" if cons and _built_as(name) not in _OPERATOR_CANDIDATES
+                      "estimation": "cls" if cons and _built_as(name) not in _LS_CANDIDATES
                       else "ls", "changes": list(changes)})
     table = tuple((n, (m.n_terms if m is not None else 0), s, h) for n, m, s, h in scored)
     return Extension(best, name, table, plan, changes)
