@@ -27,10 +27,7 @@ The extension changes the search the way each cause calls for
   constraints derived from the terms (:mod:`narx.steady`), in the search
   and in the final fit; with no other cause the baseline's own terms are
   refitted by CLS, and a CLS search is run only if that refit is impossible
-  or diverges on the fitting record; with hysteresis too, a second search
-  with the memory operators runs under LS (:data:`LS_SEARCH`: the
-  operators hold by themselves, and the continuum constraints would set
-  their clusters to 0);
+  or diverges on the fitting record;
 * ``unmodelled-nonlinearity`` / ``unmodelled-dynamics`` — one more degree /
   taller trees (longer lags) and five more terms, applied only when no
   specific cause above was named (they are then its symptoms).
@@ -282,12 +279,10 @@ def _built_as(name: str) -> str:
     return name[:-len(PRUNED)] if name.endswith(PRUNED) else name
 
 
-#: the search with memory operators under LS when the plan's search is under CLS
-LS_SEARCH = "operator search, LS"
 #: candidates estimated by LS even when drift is named: their memory operators
 #: hold at a held input by themselves, and the continuum constraints (Σ_y = 1,
 #: every other cluster 0) would set the operators' clusters to 0
-_LS_CANDIDATES = ("baseline + operator terms", "operator dynamics", LS_SEARCH)
+_LS_CANDIDATES = ("baseline + operator terms", "operator dynamics")
 _DIRECTION = "the Bouc–Wen direction terms |Δu|, y[k-1]|Δu|, u[k-1]|Δu|"
 
 
@@ -344,9 +339,7 @@ def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
            "operator dynamics": "hysteresis: linear dynamics of order up to 3 driven by the "
                                 "input and its memory operators (y[k-1..3], u[k-1..2], "
                                 "Play(u[k-1..2],r), DengTan(u[k-1..2])) in place of the "
-                                "baseline (no search)",
-           LS_SEARCH: "hysteresis and steady-state-drift: a second search with the "
-                      "Φ-functions and the memory operators Play, DengTan, estimated by LS"}
+                                "baseline (no search)"}
     out = [own.get(name, name)]
     if name in _LS_CANDIDATES:
         if drift or plan.setting.constraints:
@@ -462,8 +455,7 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
     With CLS (drift named: the system holds) a candidate must also keep
     still in holds inserted into the fitting input (:func:`probe_holds`,
     movement at most ``floor``); those that do not rank after those that
-    do, by how far they move. The memory-operator candidates (and, with
-    operators in the plan, a second search with them under LS) are
+    do, by how far they move. The memory-operator candidates are
     estimated by LS even then: their operators hold at a held input, and
     the continuum constraints (Σ_y = 1) would force an integrator on them;
     they are probed like the others (a stable model settles in the first
@@ -491,12 +483,6 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
             est = _regressor(setting, budget, int(seed) + 1, jobs, data, callbacks).fit(data)
         found = [str(t) for t in est.model_.terms]
         sets += [("search", found), ("search + baseline terms", base + found)]
-        if cons and setting.operators:
-            ls = replace(setting, constraints=None)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", CLSRejectedWarning)
-                est = _regressor(ls, budget, int(seed) + 2, jobs, data, callbacks).fit(data)
-            sets.append((LS_SEARCH, [str(t) for t in est.model_.terms]))
     if plan.direction:
         d = [t for n in data.inputs for t in direction_terms(n, data.output)]
         inc = [f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n in data.inputs]
