@@ -4,6 +4,7 @@ Typical use::
 
     python -m benchmarks.ablation "cascaded tanks" --seeds 1 2 3 4 5 6 --jsonl tanks.jsonl
     python -m benchmarks.ablation "piezo (simulated)" --settings default "screen none"
+    python -m benchmarks.ablation "piezo (simulated)" --settings default --seeds 3 6 --pilot 0.4
 
 For one record of :data:`benchmarks.panel.RECORDS`, :class:`mggp.MGGPRegressor`
 with its defaults and with each setting of :data:`SETTINGS` (one automatic
@@ -80,10 +81,15 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     p.add_argument("--population", type=int)
     p.add_argument("--generations", type=int)
+    p.add_argument("--pilot", type=float, help="mggp.choices.PILOT for these fits (a trial "
+                   "of a longer or shorter class pilot; default: the module's)")
     p.add_argument("--jsonl", help="append one JSON line per fit here")
     a = p.parse_args(argv)
     budget = {k: v for k, v in (("population", a.population),
                                 ("generations", a.generations)) if v is not None}
+    if a.pilot is not None:
+        import mggp.choices
+        mggp.choices.PILOT = a.pilot
     tr, va = RECORDS[a.record]()
     rows = {}
     for label in a.settings:
