@@ -4,9 +4,11 @@ Run::
 
     python -m benchmarks.diagnose_panel                 # every record, jobs 2
     python -m benchmarks.diagnose_panel --only play     # records whose name has 'play'
+    python -m benchmarks.diagnose_panel --population 100 --generations 15   # a smaller search
 
 Each record is diagnosed by :func:`mggp.diagnose.diagnose` with the budget
-:data:`BUDGET` (MGGP baseline, evidence, extension, gain) and the table
+:data:`BUDGET`, ``mggp diagnose``'s default (MGGP baseline, evidence,
+extension, gain) and the table
 lists the effects named against the truth, the gain (baseline / extended
 free-run RMSE on the measuring samples), the share of the measuring
 samples whose input lies outside the fitting samples' range (there the
@@ -47,7 +49,7 @@ from mggp.diagnose.controls import CONTROL_KINDS, control_record
 
 from .mr_damper import data_path, shared_data_error
 
-BUDGET = Budget(population=100, generations=15)
+BUDGET = Budget()
 POLES = (0.9, 0.85, 0.8)
 N = 4000
 #: shared data files the panel reads (found by :func:`benchmarks.mr_damper.data_path`)
