@@ -34,11 +34,12 @@ The extension changes the search the way each cause calls for
 
 When a search is run, its model and its union with the baseline's terms
 are candidates (with the direction-term candidates for hysteresis). Each
-candidate is offered as built and pruned (:func:`_pruned`: backward
-elimination by BIC on its free-run error on the fitting samples), as a
-union of term sets or a generic structure such as the operator dynamics
-carries terms that the others make redundant, and those extrapolate
-worst. Each is ranked by hold-out validation inside the fitting samples: estimated
+candidate not taken from the search is offered as built and pruned
+(:func:`_pruned`: backward elimination by BIC on its free-run error on the
+fitting samples), as a union of term sets or a generic structure such as
+the operator dynamics carries terms that the others make redundant, and
+those extrapolate worst; the search's candidates are not pruned again
+(their terms were already selected on the fitting samples). Each is ranked by hold-out validation inside the fitting samples: estimated
 (LS or CLS) on their first :data:`HOLDOUT_FIT` share and scored by its
 free-run RMSE on the rest, so a candidate is not favoured by fitting the
 samples that rank it; it is also estimated on all the fitting samples
@@ -455,11 +456,9 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
     With CLS (drift named: the system holds) a candidate must also keep
     still in holds inserted into the fitting input (:func:`probe_holds`,
     movement at most ``floor``); those that do not rank after those that
-    do, by how far they move. The memory-operator candidates are
-    estimated by LS even then: their operators hold at a held input, and
-    the continuum constraints (Σ_y = 1) would force an integrator on them;
-    they are probed like the others (a stable model settles in the first
-    half of a probe hold, which the probe does not measure).
+    do, by how far they move. The memory-operator candidates are fitted by
+    LS even then and not probed: their operators hold at a held input, and
+    the continuum constraints (Σ_y = 1) would force an integrator on them.
     A candidate whose free run diverges on the fitting samples ranks last.
     """
     reg = baseline.registry
@@ -500,7 +499,10 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
         # memory operators hold their value at a held input by themselves: a
         # stable model driven by them settles without the continuum constraints
         own = None if name in _LS_CANDIDATES else cons
-        for label, ts in ((name, terms), (name + PRUNED, _pruned(terms, data, own, reg))):
+        built = [(name, terms)]
+        if not name.startswith("search"):
+            built.append((name + PRUNED, _pruned(terms, data, own, reg)))
+        for label, ts in built:
             if (frozenset(ts), own) not in kept:
                 kept.add((frozenset(ts), own))
                 structures.append((label, ts, own))
@@ -510,7 +512,8 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
                          ("no candidate could be built: the baseline is kept",))
     scores = _holdout_scores(structures, data, reg)
     scored = [(name, m, max(scores.get(name, 0.0), freerun_rmse(m, data)),
-               probe_holds(m, data) if cons and m is not None else float("nan"))
+               probe_holds(m, data) if cons and m is not None
+               and _built_as(name) not in _LS_CANDIDATES else float("nan"))
               for name, m in cands]
     ok = [c for c in scored if c[1] is not None]
     if not ok:

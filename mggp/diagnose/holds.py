@@ -361,10 +361,8 @@ def probe_holds(model: Model, data: Data, n_holds: int = 4, length: Optional[int
     record's input with ``n_holds`` holds of ``length`` samples (default
     max(200, 10 L)) inserted at evenly spaced samples. The model runs free
     on it from the record's first L outputs; the result is the largest
-    max − min of its output over the second half of a hold (at least L + 1
-    samples after its start), ``inf`` if it diverges: a model with stable
-    dynamics settles in the first half, as the system behind them does, and
-    what is measured is whether it then keeps still. Used to reject extensions that, once
+    max − min of its output over a hold, after the first L + 1 samples of
+    the hold (``inf`` if it diverges). Used to reject extensions that, once
     the input stops, do not keep still (e.g. a continuum of steady states
     whose other roots are unstable) — a property the fitting record,
     without holds, cannot show.
@@ -377,7 +375,7 @@ def probe_holds(model: Model, data: Data, n_holds: int = 4, length: Optional[int
     for a in at:
         pieces += [data.U[:, prev:a], np.repeat(data.U[:, a - 1:a], length, axis=1)]
         pos += a - prev
-        spans.append((pos + max(L + 1, length // 2), pos + length))
+        spans.append((pos + L + 1, pos + length))
         pos += length
         prev = a
     pieces.append(data.U[:, prev:])
