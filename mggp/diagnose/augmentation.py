@@ -80,6 +80,10 @@ def direction_terms(inp: str, out: str, lag: int = 1) -> List[str]:
     return [d, f"{out}[k-1]*{d}", f"{inp}[k-1]*{d}"]
 
 
+#: the increment form without the output-lag control term (:func:`control_terms`)
+NO_LAG_CONTROL = "Bouc–Wen increment, no output-lag control"
+
+
 @dataclass(frozen=True)
 class AugmentationTest:
     """Drop of the simulation RMSE that direction terms bring.
@@ -277,9 +281,17 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed)
         ctrl1, drop1 = independent_terms(model.term_texts, control, data, sig, start)
         ctrl2, drop2 = independent_terms(inc, control, data, sig, start)
         base1 = model.term_texts + ctrl1
-        forms = [("baseline + direction terms", base1, [t for t in D if t not in set(base1)]),
-                 ("Bouc–Wen increment", inc + ctrl2, D)]
-        for label, base, add in forms:
+        forms = [("baseline + direction terms", base1, [t for t in D if t not in set(base1)],
+                  base1),
+                 ("Bouc–Wen increment", inc + ctrl2, D, base1)]
+        # on an oversampled record the LS fit of a second output lag simulates
+        # with drifting dynamics: the increment form is also tried without that
+        # control term, against the baseline's terms without it
+        lag2 = Model([f"{data.output}[k-2]"], **sig).term_texts[0]
+        if lag2 in ctrl2:
+            forms.append((NO_LAG_CONTROL, inc + [t for t in ctrl2 if t != lag2], D,
+                          model.term_texts + [t for t in ctrl1 if t != lag2]))
+        for label, base, add, against in forms:
             if not add:
                 continue
             Psi0, target, _ = regressor_matrix(Model(base, **sig).terms, data, start=start,
@@ -288,24 +300,28 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed)
             placebo = add
             for n, v in pairs:
                 placebo = _placebo(placebo, n, v)
-            blocks.append((label, base, add, placebo, _BlockLS(Psi0, target), F))
-        ls0 = blocks[0][4] if blocks and blocks[0][1] is base1 else _BlockLS(
-            *regressor_matrix(Model(base1, **sig).terms, data, start=start,
-                              registry=reg)[:2])
+            blocks.append((label, base, add, placebo, _BlockLS(Psi0, target), F, against))
+        refs = {tuple(a): _BlockLS(*regressor_matrix(Model(a, **sig).terms, data, start=start,
+                                                      registry=reg)[:2])
+                for a in dict.fromkeys(tuple(b[6]) for b in blocks)}
     except (EstimationError, ValueError):
         return None
-    ref = _model(base1, ls0.theta(), data, reg)
-    if ref is None or not blocks:
+    ref = _model(base1, refs[tuple(base1)].theta(), data, reg) if tuple(base1) in refs else None
+    if ref is None:
         return None
     kw, r0, text = bounded_mode(ref, data)
-    r_ref = float("inf") if r0.diverged else r0.rmse
-    if not np.isfinite(r_ref):
+    r_refs = {a: (float("inf") if r0.diverged else r0.rmse) if a == tuple(base1) else
+              freerun_rmse(_model(list(a), ls.theta(), data, reg), data, **kw)
+              for a, ls in refs.items()}
+    r_ref = r_refs[tuple(base1)]
+    blocks = [b[:6] + (r_refs[tuple(b[6])],) for b in blocks if np.isfinite(r_refs[tuple(b[6])])]
+    if not np.isfinite(r_ref) or not blocks:
         return None
     real = []
-    for label, base, add, _, ls, F in blocks:
+    for label, base, add, _, ls, F, r in blocks:
         m = _model(base + add, ls.theta(F), data, reg)
-        real.append((r_ref - freerun_rmse(m, data, **kw), label, tuple(base + add)))
-    drop, form, terms = max(real, key=lambda r: r[0])
+        real.append((r - freerun_rmse(m, data, **kw), label, tuple(base + add), r))
+    drop, form, terms, r_form = max(real, key=lambda x: x[0])
     rng = np.random.default_rng(seed)
     n = data.n
     lo = max(1, n // 10)
@@ -315,15 +331,15 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed)
         cols = [np.roll(data.input(name), int(c)) for name, _ in pairs]
         d2 = Data(np.column_stack([data.U.T] + cols), data.y, inputs=pin, output=data.output)
         best = -np.inf
-        for label, base, add, placebo, ls, F in blocks:
+        for label, base, add, placebo, ls, F, r in blocks:
             m2 = Model(base + placebo, inputs=pin, output=data.output, registry=reg)
             Fp = regressor_matrix(m2.terms[len(base):], d2, start=start, registry=reg)[0]
             m2 = _model(m2.term_texts, ls.theta(Fp), d2, reg, inputs=pin)
-            best = max(best, r_ref - freerun_rmse(m2, d2, **kw))
+            best = max(best, r - freerun_rmse(m2, d2, **kw))
         null.append(best)
     null = np.asarray(null)
     q = float(np.quantile(null, 1.0 - alpha, method="higher")) if null.size else np.inf
-    return AugmentationTest(float(drop), q, r_ref, float(r_ref - drop), form, terms,
+    return AugmentationTest(float(drop), q, r_form, float(r_form - drop), form, terms,
                             int(null.size), text, tuple(ctrl1),
                             tuple(dict.fromkeys(drop1 + drop2)))
 
@@ -369,8 +385,9 @@ def _run_operators(ctx) -> Outcome:
         return Outcome(missing="operator augmentation (its fits could not be made or "
                                "simulated)")
     a = replace(a, form={"baseline + direction terms": "baseline + operator terms",
-                         "Bouc–Wen increment": "y[k-1] + u[k-1] + operator terms"
-                         }.get(a.form, a.form))
+                         "Bouc–Wen increment": "y[k-1] + u[k-1] + operator terms",
+                         NO_LAG_CONTROL: "y[k-1] + u[k-1] + operator terms, no output-lag "
+                                         "control"}.get(a.form, a.form))
     c = augmentation_check(a, ctx.alpha, ctx.floor, ctx.output)
     detail = c.detail.replace(
         f"the Bouc–Wen direction terms |Δu|, {ctx.output}[k-1]·|Δu|, u[k-1]·|Δu| "
