@@ -34,10 +34,9 @@ deficient [1]_ §5.5. Never an explicit inverse.
 (:func:`one_blas_thread`): NARX regressor matrices are tall and narrow
 (N × 15), where a second BLAS thread gains little on an idle machine and,
 on a machine already busy (the evaluator's worker processes, other jobs),
-makes each small solve wait for a core: measured 2,800 × 20 ``gelsy`` at
-2.1 ms with the default threads against 0.39 ms on one, 50,000 × 15 at
-43 ms against 5.4 ms, with one other process running on a 2-core machine.
-Parallelism belongs to the population (joblib), not to one solve.
+makes each solve wait for a core (``python -m benchmarks.blas_threads``
+measures both cases). Parallelism belongs to the population (joblib), not
+to one solve.
 
 *Constrained least squares.* Subject to :math:`S\\theta = c` the solution
 is [2]_

@@ -39,7 +39,8 @@ candidate not taken from the search is offered as built and pruned
 fitting samples), as a union of term sets or a generic structure such as
 the operator dynamics carries terms that the others make redundant, and
 those extrapolate worst; the search's candidates are not pruned again
-(their terms were already selected on the fitting samples). Each is ranked by hold-out validation inside the fitting samples: estimated
+(their terms were already selected on the fitting samples). Each is
+ranked by hold-out validation inside the fitting samples: estimated
 (LS or CLS) on their first :data:`HOLDOUT_FIT` share and scored by its
 free-run RMSE on the rest, so a candidate is not favoured by fitting the
 samples that rank it; it is also estimated on all the fitting samples
