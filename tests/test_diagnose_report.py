@@ -49,3 +49,23 @@ def test_every_input_is_tested_plotted_and_captioned(dx, tmp_path):
     with pytest.raises(ValueError, match=r"inputs: the data's inputs are \['uEst', 'v'\], "
                                          r"got \['w'\]"):
         write_report(tmp_path / "w", dx, inputs=["w"])
+
+
+def test_summary_names_the_closest_miss_and_what_the_floor_hides():
+    from types import SimpleNamespace
+    from mggp.diagnose.findings import Check
+    from mggp.diagnose.report import closest_misses
+    ev = SimpleNamespace(floor=0.852, resolution=0.005)
+    checks = [Check("Φ-augmentation", "hysteresis", 0.379, 0.852, ""),
+              Check("free-run excess", "prediction-bias", 1.588, 1.67, ""),
+              Check("loop gap (u)", "hysteresis", 0.1, 1.136, ""),         # far below
+              Check("φ_ue", "unmodelled-dynamics", 0.5, 0.3, "")]           # beats
+    out = closest_misses(SimpleNamespace(checks=checks, evidence=ev))
+    assert len(out) == 2
+    assert out[0].startswith("free-run excess (prediction-bias) 1.588") and "floor" not in out[0]
+    assert out[1].startswith("Φ-augmentation (hysteresis) 0.379 against its threshold 0.852, "
+                             "the resolution floor (0.005 of the output range)")
+    assert "--resolution" in out[1]
+    # control: nothing close to its threshold, nothing said
+    far = [Check("loop gap (u)", "hysteresis", 0.1, 1.136, "")]
+    assert closest_misses(SimpleNamespace(checks=far, evidence=ev)) == []

@@ -97,6 +97,9 @@ def terminal_summary(dx) -> str:
     missing = untested(dx.evidence, dx.checks)
     if missing:
         lines.append("not tested: " + "; ".join(missing))
+    if not dx.findings:
+        lines += [f"{'closest' if k == 0 else 'also below'}: {t}"
+                  for k, t in enumerate(closest_misses(dx))]
     if dx.findings:
         lines.append(f"extension ({dx.extension.chosen}, {e.model.n_terms} terms):")
         lines += [f"  {c}" for c in dx.changes]
@@ -113,6 +116,31 @@ def terminal_summary(dx) -> str:
                  f"(extended), ratio {_g(g.ratio)}; MAPE {_rm(b.mape)} % -> {_rm(e.mape)} %")
     lines.append(f"recommended: {verdict(dx)}")
     return "\n".join(lines)
+
+
+def closest_misses(dx, least: float = 0.25) -> List[str]:
+    """In words, the check closest to its threshold that did not beat it, and
+    every other such check whose threshold the resolution floor set (what
+    the floor hides, and the option that moves it); only checks whose
+    statistic reaches ``least`` of their threshold."""
+    from .thresholds import CALIBRATION, check_family
+    miss = sorted((c for c in dx.checks if c.power and not c.beats
+                   and np.isfinite(c.threshold) and c.threshold > 0
+                   and c.statistic >= least * c.threshold),
+                  key=lambda c: -c.statistic / c.threshold)
+    floor, out = dx.evidence.floor, []
+    for k, c in enumerate(miss):
+        f = max(CALIBRATION.get(check_family(c.test), 1.0), 1.0)
+        at_floor = floor > 0 and abs(c.threshold - f * floor) <= 1e-9 * c.threshold
+        if k and not at_floor:
+            continue
+        text = f"{c.test} ({c.effect}) {_g(c.statistic)} against its threshold {_g(c.threshold)}"
+        if at_floor:
+            text += (f", the resolution floor ({dx.evidence.resolution:g} of the output range"
+                     f"{f' × the calibration factor {f:.3g}' if f > 1 else ''}): an effect "
+                     f"this small is not named; --resolution sets the floor")
+        out.append(text)
+    return out
 
 
 def _rmse(v) -> str:
