@@ -15,8 +15,8 @@ from mggp.diagnose import (Budget, Check, DiagnosticTest, Outcome, diagnose, reg
 from mggp.diagnose.report import write_report
 
 TINY = Budget(population=20, generations=2, shifts=19, bootstrap=39)
-BUILTIN = ["loop gap", "Φ-augmentation", "operator augmentation", "rest levels",
-           "prediction bias", "holds", "correlation"]
+BUILTIN = ["loop gap", "Φ-augmentation", "held-out Φ-augmentation", "operator augmentation",
+           "rest levels", "prediction bias", "holds", "correlation"]
 
 
 @pytest.fixture(scope="module")

@@ -445,3 +445,30 @@ def test_augmentation_has_power_on_a_slow_noise_free_piezo_record():
                        f"u[k-1]*{P1}*{P2}"]).fit(d)
     c = phi_augmentation_test(full, d, shifts=19, seed=0)
     assert c is None or c.statistic < 0.005 * np.ptp(d.y)
+
+
+def test_held_out_augmentation_sees_a_baseline_that_only_fits_its_own_loops():
+    """Input seed 3 of the same record: the searched baseline simulates the
+    fitting samples well, so the direction terms gain little in sample (below
+    the floor), but fitted on the first 70 % it misses the loops of the rest,
+    which the Bouc–Wen increment form reproduces: the held-out test fires.
+    Control: the Bouc–Wen increment model itself gains nothing held out."""
+    from mggp.diagnose.augmentation import HELD_OUT, augmentation_check, phi_augmentation_test
+    from mggp.diagnose.thresholds import calibrated
+    u = training_input(20_000, seed=3)
+    d = Data(u[:14_000], piezo_bouc_wen(u)[:14_000])      # the fitting samples
+    floor = 0.005 * np.ptp(d.y)
+    base = narx.Model(["y[k-7]*y[k-8]", "u[k-2]*u[k-2]*u[k-5]", "y[k-5]*u[k-6]", "u[k-5]",
+                       "u[k-16]", "y[k-4]", "y[k-3]*u[k-3]", "y[k-5]", "y[k-7]*u[k-9]",
+                       "u[k-3]*u[k-9]", "u[k-9]", "y[k-1]*y[k-1]", "u[k-1]", "u[k-13]",
+                       "y[k-1]"]).fit(d)
+    inside = augmentation_check(phi_augmentation_test(base, d, shifts=19, seed=0),
+                                0.01, floor, "y")
+    held = calibrated(augmentation_check(phi_augmentation_test(base, d, shifts=19, seed=0,
+                                                               holdout=0.7), 0.01, floor, "y"))
+    assert held.test == HELD_OUT and "on the last 30 % of the fitting samples" in held.detail
+    assert not inside.beats and held.beats
+    full = narx.Model(["y[k-1]", P1, f"{P1}*{P2}", f"y[k-1]*{P1}*{P2}",
+                       f"u[k-1]*{P1}*{P2}"]).fit(d)
+    c = phi_augmentation_test(full, d, shifts=19, seed=0, holdout=0.7)
+    assert c is None or c.statistic < floor

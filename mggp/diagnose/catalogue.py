@@ -11,6 +11,7 @@ from .registry import register
 
 register(loopgap.LOOP_GAP)
 register(augmentation.AUGMENTATION)
+register(augmentation.HELD_OUT_AUGMENTATION)
 register(augmentation.OPERATOR_AUGMENTATION)
 register(restlevels.REST_LEVELS)
 register(bias.PREDICTION_BIAS)
