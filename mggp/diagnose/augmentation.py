@@ -373,11 +373,11 @@ def augmentation_check(a: AugmentationTest, alpha: float, floor: float, output: 
     """``a``'s drop against max(the placebo quantile, the resolution floor)."""
     pct = f"{100 * (1 - alpha):g} %"
     where = ("" if a.holdout is None else
-             f" on the last {100 * (1 - a.holdout):.0f} % of the fitting samples, every fit "
-             f"on the first {100 * a.holdout:.0f} %")
+             f" on the last {100 * (1 - a.holdout):.0f} % of the fitting samples (every fit "
+             f"on the first {100 * a.holdout:.0f} %)")
     if np.isfinite(a.augmented_rmse):
-        effect = (f"lower the {a.mode} RMSE of the baseline's terms (refitted by LS){where} "
-                  f"from {_g(a.reference_rmse)} to {_g(a.augmented_rmse)} ({a.form}, "
+        effect = (f"lower the {a.mode} RMSE of the baseline's terms (refitted by LS) "
+                  f"from {_g(a.reference_rmse)} to {_g(a.augmented_rmse)}{where} ({a.form}, "
                   f"{len(a.terms)} terms), a drop of {_g(a.statistic)}")
     else:
         effect = (f"make the {a.mode} simulation of the baseline's terms (refitted by "
