@@ -16,7 +16,8 @@ Steps (:func:`diagnose`): the baseline (the user's model, or MGGP with
 multiple-shooting fitness and no Φ-functions); evidence from the
 registered diagnose tests (:mod:`.registry`, the built-in ones listed in
 :mod:`.catalogue`), each returning its checks: loop gap (:mod:`.loopgap`),
-Φ-augmentation (:mod:`.augmentation`), rest levels (:mod:`.restlevels`),
+Φ-augmentation in sample and held out, and operator augmentation
+(:mod:`.augmentation`), rest levels (:mod:`.restlevels`),
 prediction-bias bootstrap (:mod:`.bias`), drift in held-input segments
 (:mod:`.drift`, segments found by :mod:`.holds`) and the Billings–Voon
 correlation tests of one-step residuals (:mod:`.correlation`); findings

@@ -20,8 +20,10 @@ effect                       meaning, and the evidence that names it            
                              express: at equal input the residual differs       Bouc–Wen direction
                              between falling and rising input (loop-gap         terms as candidates
                              test), or direction terms remove simulation
-                             error that placebo terms do not
-                             (Φ-augmentation test), or the data rest at
+                             error that placebo terms do not, in sample
+                             or held out (Φ-augmentation tests), or the
+                             memory-operator terms do (operator
+                             augmentation), or the data rest at
                              different levels in two holds at the same
                              input and the model does not (rest levels)
 ``steady-state-drift``       the model does not hold its output at a constant   CLS with the derived
@@ -60,7 +62,8 @@ statistic is strictly above its threshold. A correlation test whose
 threshold is 1 or more has *no power* (:attr:`Check.power` is False): no
 correlation can beat it, so it measured nothing, and reports say so. An
 effect with several checks (``hysteresis``: loop gap per input,
-Φ-augmentation, rest levels; the correlation effects: one per function and
+Φ-augmentation in sample and held out, operator augmentation, rest levels;
+the correlation effects: one per function and
 input) is named when any of them beats its threshold, so its false-alarm
 probability is at most α times the number of its checks.
 """
