@@ -472,3 +472,26 @@ def test_held_out_augmentation_sees_a_baseline_that_only_fits_its_own_loops():
                        f"u[k-1]*{P1}*{P2}"]).fit(d)
     c = phi_augmentation_test(full, d, shifts=19, seed=0, holdout=0.7)
     assert c is None or c.statistic < floor
+
+
+def test_augmentation_tests_run_on_a_two_input_record():
+    """Each input's control terms hold the same output lag y[k-2]: listed
+    twice, the fits could not be built and every augmentation test was
+    skipped on records with several inputs (the MR damper's v, E)."""
+    from mggp.diagnose.augmentation import operator_augmentation_test, phi_augmentation_test
+    rng = np.random.default_rng(0)
+    n = 2000
+    U = rng.uniform(-1, 1, (n, 2))
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.8 * y[k - 1] + 0.3 * U[k - 1, 0] + 0.2 * U[k - 1, 1]
+    d = Data(U, y + 0.01 * rng.standard_normal(n), inputs=["u1", "u2"])
+    model = narx.Model(["y[k-1]", "u1[k-1]", "u2[k-1]"], inputs=["u1", "u2"]).fit(d)
+    floor = 0.005 * np.ptp(d.y)
+    for test in (phi_augmentation_test, operator_augmentation_test):
+        a = test(model, d, shifts=19, seed=0)
+        assert a is not None
+        # control: a linear system fitted with its own terms gains nothing
+        assert a.statistic <= max(a.null_quantile, floor)
+    held = phi_augmentation_test(model, d, shifts=19, seed=0, holdout=0.7)
+    assert held is not None and held.statistic <= max(held.null_quantile, floor)

@@ -207,7 +207,9 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
              for t in Model(direction_terms(n, data.output), **sig).term_texts]
         inc = Model([f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n, _ in pairs],
                     **sig).term_texts
-    ctrl = [t for n, _ in pairs for t in Model(control_terms(n, data.output), **sig).term_texts]
+    # each term once: every input's controls hold the same output lag
+    ctrl = list(dict.fromkeys(t for n, _ in pairs
+                              for t in Model(control_terms(n, data.output), **sig).term_texts))
     return _augmentation(model, data, sig, pairs, D, inc, ctrl, shifts, alpha, seed, holdout)
 
 
