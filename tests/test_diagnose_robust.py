@@ -495,3 +495,17 @@ def test_augmentation_tests_run_on_a_two_input_record():
         assert a.statistic <= max(a.null_quantile, floor)
     held = phi_augmentation_test(model, d, shifts=19, seed=0, holdout=0.7)
     assert held is not None and held.statistic <= max(held.null_quantile, floor)
+
+
+def test_a_skipped_augmentation_test_says_why_with_numbers():
+    from mggp.diagnose.augmentation import phi_augmentation_test
+    u = training_input(300, bandwidth=4.0, seed=0)
+    d = Data(u, piezo_bouc_wen(u))
+    model = narx.Model(["y[k-1]", "u[k-1]"]).fit(d)
+    why = []
+    assert phi_augmentation_test(model, d, shifts=3, holdout=0.9, why=why) is None
+    assert why == ["300 fitting samples are too few to fit on 90 % and score on the rest "
+                   "(at least 50 rows each)"]
+    # control: the same record in sample runs, and says nothing
+    why = []
+    assert phi_augmentation_test(model, d, shifts=3, why=why) is not None and why == []

@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import List, Optional, Tuple
 
 import numpy as np
@@ -82,6 +83,8 @@ def direction_terms(inp: str, out: str, lag: int = 1) -> List[str]:
 
 #: the increment form without the output-lag control term (:func:`control_terms`)
 NO_LAG_CONTROL = "Bouc–Wen increment, no output-lag control"
+#: share of the fitting samples that fits the held-out test's forms
+HOLDOUT = 0.7
 
 
 @dataclass(frozen=True)
@@ -170,7 +173,8 @@ def operator_terms(data: Data, lags=(1,), dengtan: bool = True) -> List[str]:
 
 
 def operator_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
-                               alpha: float = 0.01, seed=0) -> Optional[AugmentationTest]:
+                               alpha: float = 0.01, seed=0,
+                               why: Optional[list] = None) -> Optional[AugmentationTest]:
     """The augmentation test with memory-operator terms (:func:`operator_terms`)
     in place of the direction terms: the baseline's terms + the operator
     terms, and y[k-1] + u[k-1] + the operator terms; placebo operators of
@@ -179,19 +183,22 @@ def operator_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
     the test does not depend on the input's units (Deng–Tan's
     :math:`|\\arctan z|\\, z` does)."""
     return phi_augmentation_test(model, data, shifts=shifts, alpha=alpha, seed=seed,
-                                 operators=True)
+                                 operators=True, why=why)
 
 
 def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
                           alpha: float = 0.01, seed=0, operators: bool = False,
-                          holdout: Optional[float] = None) -> Optional[AugmentationTest]:
+                          holdout: Optional[float] = None,
+                          why: Optional[list] = None) -> Optional[AugmentationTest]:
     """Φ-augmentation test (forms: the baseline's terms + the direction
     terms it lacks, and the Bouc–Wen increment y[k-1] + Phi1 + direction
     terms, with and without the output-lag control); the statistic and each
     placebo draw take the best form.
     ``operators``: memory-operator terms instead (:func:`operator_augmentation_test`).
     ``holdout``: every fit (reference, forms, placebos) on the first
-    ``holdout`` of ``data`` and every RMSE on the rest (:data:`HELD_OUT_AUGMENTATION`)."""
+    ``holdout`` of ``data`` and every RMSE on the rest (:data:`HELD_OUT_AUGMENTATION`).
+    ``why``: a list that gets one line saying why, when the test cannot run
+    (None is returned)."""
     reg = model.registry
     sig = dict(inputs=data.inputs, output=data.output, registry=reg)
     taken = {data.output, *data.inputs, model.signals.noise}
@@ -210,7 +217,12 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
     # each term once: every input's controls hold the same output lag
     ctrl = list(dict.fromkeys(t for n, _ in pairs
                               for t in Model(control_terms(n, data.output), **sig).term_texts))
-    return _augmentation(model, data, sig, pairs, D, inc, ctrl, shifts, alpha, seed, holdout)
+    out = _augmentation(model, data, sig, pairs, D, inc, ctrl, shifts, alpha, seed, holdout)
+    if isinstance(out, str):
+        if why is not None:
+            why.append(out)
+        return None
+    return out
 
 
 def control_terms(inp: str, out: str) -> List[str]:
@@ -289,7 +301,8 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed,
         first = int(holdout * data.n)
         rows = first - start
         if rows < 50 or data.n - first < 50:
-            return None
+            return (f"{data.n} fitting samples are too few to fit on {100 * holdout:.0f} % "
+                    f"and score on the rest (at least 50 rows each)")
     blocks = []
     try:
         ctrl1, drop1 = independent_terms(model.term_texts, control, data, sig, start)
@@ -320,11 +333,13 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed,
         for a in dict.fromkeys(tuple(b[6]) for b in blocks):
             A, b = regressor_matrix(Model(a, **sig).terms, data, start=start, registry=reg)[:2]
             refs[a] = _BlockLS(A[:rows], b[:rows])
-    except (EstimationError, ValueError):
-        return None
+    except (EstimationError, ValueError) as exc:
+        return f"its LS fits could not be built: {exc}"
     ref = _model(base1, refs[tuple(base1)].theta(), data, reg) if tuple(base1) in refs else None
     if ref is None:
-        return None
+        return ("the LS refit of the baseline's terms with the control terms has no "
+                "unique solution on this record" if blocks else
+                "the baseline already holds every term the test would add")
     kw, r0, text = bounded_mode(ref, data)
 
     def score(m, d):
@@ -343,7 +358,10 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed,
     r_ref = r_refs[tuple(base1)]
     blocks = [b[:6] + (r_refs[tuple(b[6])],) for b in blocks if np.isfinite(r_refs[tuple(b[6])])]
     if not np.isfinite(r_ref) or not blocks:
-        return None
+        return (f"the LS refit of the baseline's {len(model.term_texts)} terms with the "
+                f"{len(ctrl1)} control terms leaves the data's range in free run and in "
+                f"multiple shooting down to windows of {max(10 * ref.max_lag, 20)} samples, "
+                f"so there is no simulation error to lower")
     real = []
     for label, base, add, _, ls, F, r in blocks:
         m = _model(base + add, ls.theta(F), data, reg)
@@ -396,11 +414,17 @@ def augmentation_check(a: AugmentationTest, alpha: float, floor: float, output: 
     return Check(name, "hysteresis", a.statistic, max(a.null_quantile, floor), detail)
 
 
-def _run(ctx) -> Outcome:
+def _missing(name: str, why: List[str]) -> Outcome:
+    return Outcome(missing=f"{name} ({'; '.join(why) or 'its fits could not be made'})")
+
+
+def _run(ctx, holdout: Optional[float] = None) -> Outcome:
+    why: List[str] = []
     a = phi_augmentation_test(ctx.model, ctx.fit, shifts=ctx.budget.shifts, alpha=ctx.alpha,
-                              seed=ctx.seed + 11)
+                              seed=ctx.seed + (11 if holdout is None else 17),
+                              holdout=holdout, why=why)
     if a is None:
-        return Outcome(missing="Φ-augmentation (its fits could not be made or simulated)")
+        return _missing("Φ-augmentation" if holdout is None else HELD_OUT, why)
     return Outcome([augmentation_check(a, ctx.alpha, ctx.floor, ctx.output)], a)
 
 
@@ -411,15 +435,6 @@ AUGMENTATION = DiagnosticTest("Φ-augmentation", ("hysteresis",), _run)
 HELD_OUT = "held-out Φ-augmentation"
 
 
-def _run_held_out(ctx) -> Outcome:
-    a = phi_augmentation_test(ctx.model, ctx.fit, shifts=ctx.budget.shifts, alpha=ctx.alpha,
-                              seed=ctx.seed + 17, holdout=0.7)
-    if a is None:
-        return Outcome(missing=f"{HELD_OUT} (its fits could not be made or simulated, or "
-                               f"the record is too short to hold out 30 %)")
-    return Outcome([augmentation_check(a, ctx.alpha, ctx.floor, ctx.output)], a)
-
-
 #: The Φ-augmentation test out of sample (placebo seed: the diagnosis's seed +
 #: 17): every fit on the first 70 % of the fitting samples, every RMSE on the
 #: rest. A baseline that reproduces the loops it was fitted on but not the
@@ -427,15 +442,16 @@ def _run_held_out(ctx) -> Outcome:
 #: placebo null and calibration factor, as a test of its own (a form scored
 #: out of sample inside :data:`AUGMENTATION` widened that test's null and
 #: cost it its power).
-HELD_OUT_AUGMENTATION = DiagnosticTest(HELD_OUT, ("hysteresis",), _run_held_out)
+HELD_OUT_AUGMENTATION = DiagnosticTest(HELD_OUT, ("hysteresis",),
+                                       partial(_run, holdout=HOLDOUT))
 
 
 def _run_operators(ctx) -> Outcome:
+    why: List[str] = []
     a = operator_augmentation_test(ctx.model, ctx.fit, shifts=ctx.budget.shifts,
-                                   alpha=ctx.alpha, seed=ctx.seed + 13)
+                                   alpha=ctx.alpha, seed=ctx.seed + 13, why=why)
     if a is None:
-        return Outcome(missing="operator augmentation (its fits could not be made or "
-                               "simulated)")
+        return _missing("operator augmentation", why)
     a = replace(a, form={"baseline + direction terms": "baseline + operator terms",
                          "Bouc–Wen increment": "y[k-1] + u[k-1] + operator terms",
                          NO_LAG_CONTROL: "y[k-1] + u[k-1] + operator terms, no output-lag "
