@@ -40,13 +40,11 @@ def _spin(stop):
         np.linalg.lstsq(A, b, rcond=None)
 
 
-def _median_ms(fn, repeats: int) -> float:
-    ts = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t)
-    return 1e3 * float(np.median(ts))
+def _ms(fn) -> float:
+    """Milliseconds one call of ``fn`` takes."""
+    t = time.perf_counter()
+    fn()
+    return 1e3 * (time.perf_counter() - t)
 
 
 def measure(repeats: int, seed: int = 0) -> list:
@@ -64,7 +62,7 @@ def measure(repeats: int, seed: int = 0) -> list:
                 def solve():
                     with ctx():
                         _gelsy(A, b, max(m, n) * np.finfo(float).eps)
-                runs[key].append(_median_ms(solve, 1))
+                runs[key].append(_ms(solve))
         d, o = float(np.median(runs["default"])), float(np.median(runs["one"]))
         out.append({"rows": m, "cols": n, "default_ms": d, "one_thread_ms": o,
                     "ratio": d / o})

@@ -428,20 +428,8 @@ def _holdout_scores(structures, data: Data, registry) -> dict:
     if cut < 50 or data.n - cut < 50:
         return {}
     head = data.slice(0, cut)
-    return {name: _tail_rmse(_candidate(terms, head, cons, registry), data, cut)
+    return {name: freerun_rmse(_candidate(terms, head, cons, registry), data, cut)
             for name, terms, cons in structures}
-
-
-def _tail_rmse(model: Optional[Model], data: Data, cut: int) -> float:
-    """Free-run RMSE of ``model`` on ``data`` from sample ``cut`` on."""
-    if model is None:
-        return float("inf")
-    with np.errstate(all="ignore"):
-        r = model.simulate(data, mode="freerun")
-        e = data.y[cut:] - r.y_hat[cut:]
-    if r.diverged or not np.all(np.isfinite(e)):
-        return float("inf")
-    return float(np.sqrt(np.mean(e ** 2)))
 
 
 def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budget,

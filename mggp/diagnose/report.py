@@ -123,14 +123,14 @@ def closest_misses(dx, least: float = 0.25) -> List[str]:
     every other such check whose threshold the resolution floor set (what
     the floor hides, and the option that moves it); only checks whose
     statistic reaches ``least`` of their threshold."""
-    from .thresholds import CALIBRATION, check_family
+    from .thresholds import applied_factor
     miss = sorted((c for c in dx.checks if c.power and not c.beats
                    and np.isfinite(c.threshold) and c.threshold > 0
                    and c.statistic >= least * c.threshold),
                   key=lambda c: -c.statistic / c.threshold)
     floor, out = dx.evidence.floor, []
     for k, c in enumerate(miss):
-        f = max(CALIBRATION.get(check_family(c.test), 1.0), 1.0)
+        f = applied_factor(c.test)
         at_floor = floor > 0 and abs(c.threshold - f * floor) <= 1e-9 * c.threshold
         if k and not at_floor:
             continue

@@ -63,13 +63,21 @@ def simulation_residual(model: Model, data: Data) -> Tuple[np.ndarray, str]:
     return e, text
 
 
-def freerun_rmse(model: Optional[Model], data: Data, **simulate) -> float:
-    """RMSE of ``model.simulate(data, **simulate)`` (default: the free run);
-    ``inf`` when the simulation diverges or there is no model."""
+def freerun_rmse(model: Optional[Model], data: Data, first: int = 0, **simulate) -> float:
+    """RMSE of ``model.simulate(data, **simulate)`` (default: the free run)
+    over its samples from ``first`` on (a hold-out block after the samples
+    that fitted the model); ``inf`` when the simulation diverges, leaves a
+    non-finite value there, or there is no model."""
     if model is None:
         return float("inf")
-    r = model.simulate(data, **(simulate or {"mode": "freerun"}))
-    return float("inf") if r.diverged else r.rmse
+    with np.errstate(all="ignore"):
+        r = model.simulate(data, **(simulate or {"mode": "freerun"}))
+    if not first:
+        return float("inf") if r.diverged else r.rmse
+    e = (r.y - r.y_hat)[first:][r.valid[first:]]
+    if r.diverged or not e.size or not np.all(np.isfinite(e)):
+        return float("inf")
+    return float(np.sqrt(np.mean(e * e)))
 
 
 def freerun_after(model: Model, data: Data, first: int):

@@ -37,7 +37,7 @@ from typing import Dict
 from scipy.stats import norm
 
 __all__ = ["bonferroni_z", "CALIBRATION", "CALIBRATION_RATE", "CALIBRATION_REALISATIONS",
-           "check_family", "calibrated"]
+           "check_family", "applied_factor", "calibrated"]
 
 #: the stated false-alarm rate of each test (an effect with c tests, e.g.
 #: hysteresis: loop gap, Φ-augmentation in and out of sample, operator
@@ -60,10 +60,17 @@ def check_family(name: str) -> str:
     return m[1] if m else re.sub(r" \(.*\)$", "", name)
 
 
+def applied_factor(name: str) -> float:
+    """The factor that multiplies the raw threshold of the check ``name``:
+    its family's factor in :data:`CALIBRATION` when that is above 1, else 1
+    (the statistical bound stays the minimum)."""
+    return max(CALIBRATION.get(check_family(name), 1.0), 1.0)
+
+
 def calibrated(check):
-    """``check`` with its threshold multiplied by its family's factor in
-    :data:`CALIBRATION` when that is above 1 (else unchanged)."""
-    f = CALIBRATION.get(check_family(check.test), 1.0)
+    """``check`` with its threshold multiplied by :func:`applied_factor`
+    (unchanged when that is 1)."""
+    f = applied_factor(check.test)
     if not f > 1.0 or check.threshold <= 0:
         return check
     return replace(check, threshold=check.threshold * f,
