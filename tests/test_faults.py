@@ -200,16 +200,20 @@ def test_torn_checkpoint_write_keeps_previous_and_resume_matches(piezo, tmp_path
 _SLOW_WRITER = """
 import os, sys, time, types
 import mggp.checkpoint as ck
-class Slow:
-    def __init__(self, fh): self.fh = fh
+opened = []
+class Stalling:
+    # the first checkpoint is written whole; every later one stalls after its
+    # first kilobyte, so the parent's SIGKILL always lands mid-write
+    def __init__(self, fh): self.fh = fh; opened.append(self)
     def write(self, text):
-        for i in range(0, len(text), 1024):
-            self.fh.write(text[i:i + 1024]); self.fh.flush(); time.sleep(0.002)
+        if len(opened) == 1:
+            return self.fh.write(text)
+        self.fh.write(text[:1024]); self.fh.flush(); time.sleep(600)
     def __getattr__(self, n): return getattr(self.fh, n)
     def __enter__(self): return self
     def __exit__(self, *e): return self.fh.__exit__(*e)
 proxy = types.SimpleNamespace(**{n: getattr(os, n) for n in dir(os) if not n.startswith("__")})
-proxy.fdopen = lambda *a, **k: Slow(os.fdopen(*a, **k))
+proxy.fdopen = lambda *a, **k: Stalling(os.fdopen(*a, **k))
 ck.os = proxy
 from mggp.cli import main
 sys.exit(main(sys.argv[1:]))
