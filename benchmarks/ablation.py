@@ -40,6 +40,10 @@ SETTINGS = {
                          size="search"),
     "best(phi)": dict(use_phi=True, constant=False, screen=None, select="fitness",
                       size="search"),
+    "phi, size search": dict(use_phi=True, size="search"),
+    "phi, no constant": dict(use_phi=True, constant=False),
+    "phi, screen none": dict(use_phi=True, screen=None),
+    "phi, no constant, size search": dict(use_phi=True, constant=False, size="search"),
 }
 
 
