@@ -52,6 +52,22 @@ above the origin; when a push would exceed it, the two oldest (the largest
 open loop) are forgotten. The plain-Python reference keeps them all; the
 two agree whenever the depth is not reached.
 
+**Bouc-Wen** hysteretic variable of parameters :math:`\beta > 0`,
+:math:`-\beta < \gamma \le \beta`, driven by :math:`x` with unit gain
+(the Bouc-Wen law of Rakotondrabe [3]_ with :math:`A = 1`):
+
+.. math::  \frac{dh}{dx} = 1 - \beta\,\operatorname{sign}(\dot x)\,h
+           - \gamma\,|h|,
+
+integrated over each sample with :math:`x` taken linear between samples
+(one classic RK4 step of :math:`\Delta x_k = x_k - x_{k-1}`, the
+integration of :func:`narx.systems.piezo_bouc_wen`). Its state is
+:math:`(x_{k-1}, h_{k-1})`, from :math:`(x_0, 0)` (``init`` sets
+:math:`h`). The law is homogeneous in :math:`(h, A)`: the Bouc-Wen
+variable of gain :math:`A` is :math:`A` times this one, so a model is
+linear in :math:`A` and only :math:`\beta, \gamma` are operator
+parameters. :math:`|h|` stays below :math:`1/(\beta + \gamma)`.
+
 Plug-ins
 --------
 :func:`register_operator` adds a named operator with an initial state, a
@@ -67,7 +83,9 @@ rule* of an operator gives the interval of values it can rest at:
 approaching :math:`\bar x` from below rests at :math:`\bar x - r`, from
 above at :math:`\bar x + r`, after a reversal in between);
 :math:`(-\infty, \infty)` for Deng-Tan (its value at rest depends on the
-extremum history, without a bound set by :math:`\bar x`).
+extremum history, without a bound set by :math:`\bar x`);
+:math:`(-1/(\beta+\gamma), 1/(\beta+\gamma))` for Bouc-Wen (any value
+of its range, whatever :math:`\bar x`).
 
 Typical use::
 
@@ -84,6 +102,9 @@ References
    Springer, 1996, ch. 2.
 .. [2] L. Deng and Y. Tan, "Modeling hysteresis in piezoelectric actuators
    using NARMAX models", Sensors and Actuators A 149 (2009) 106-112.
+.. [3] M. Rakotondrabe, "Bouc-Wen modeling and inverse multiplicative
+   structure to compensate hysteresis nonlinearity in piezoelectric
+   actuators", IEEE Trans. Autom. Sci. Eng. 8 (2011) 428-431.
 """
 from __future__ import annotations
 
@@ -99,15 +120,15 @@ from .registry import NamedRegistry
 
 __all__ = ["MemoryOperator", "OperatorRegistry", "register_operator",
            "unregister_operator", "get_operator", "default_operators",
-           "play", "deng_tan", "play_step", "deng_tan_step",
-           "deng_tan_state", "play_reference", "deng_tan_reference",
+           "play", "deng_tan", "bouc_wen", "play_step", "deng_tan_step", "bouc_wen_step",
+           "deng_tan_state", "play_reference", "deng_tan_reference", "bouc_wen_reference",
            "DENG_TAN_DEPTH", "OPERATOR_BUILTINS", "BUILTIN_OPERATOR_CODES",
            "operator_step"]
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
 #: kernel codes of the built-in operators (rows of OPERATOR_BUILTINS)
-_PLAY, _DENG_TAN = 1, 2
+_PLAY, _DENG_TAN, _BOUC_WEN = 1, 2, 3
 
 #: reversal points kept by the compiled Deng-Tan step above the origin
 DENG_TAN_DEPTH = 256
@@ -192,6 +213,47 @@ def deng_tan_step(state, x, params):  # pragma: no cover - compiled
     return h
 
 
+# -------------------------------------------------------------- Bouc-Wen
+@njit(cache=True)
+def bouc_wen_step(state, x, params):  # pragma: no cover - compiled
+    """One Bouc-Wen step: ``state`` = [x_{k-1}, h_{k-1}] becomes [x_k, h_k]
+    by one RK4 step of dh = Δx − β|Δx|h − γΔx|h| (see module doc)."""
+    b = params[0]
+    g = params[1]
+    dx = x - state[0]
+    h = state[1]
+    if dx != 0.0:
+        a = abs(dx)
+        k1 = dx - b * a * h - g * dx * abs(h)
+        h2 = h + 0.5 * k1
+        k2 = dx - b * a * h2 - g * dx * abs(h2)
+        h3 = h + 0.5 * k2
+        k3 = dx - b * a * h3 - g * dx * abs(h3)
+        h4 = h + k3
+        k4 = dx - b * a * h4 - g * dx * abs(h4)
+        h = h + (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+    state[0] = x
+    state[1] = h
+    return h
+
+
+def _bouc_wen_init(x0, params, init=None):
+    """Bouc-Wen state (x_{-1}, h_{-1}) = (x_0, ``init`` or 0)."""
+    return np.array([float(x0), 0.0 if init is None else float(init)])
+
+
+def _bouc_wen_steady(xbar, params):
+    bound = 1.0 / (params[0] + params[1])
+    return (-bound, bound)
+
+
+def _bouc_wen_check(params):
+    b, g = params
+    if not (b > 0 and -b < g <= b):
+        raise ValueError(f"Bouc-Wen parameters need beta > 0 and -beta < gamma <= beta "
+                         f"(a bounded loop), got beta={b!r}, gamma={g!r}")
+
+
 @njit(cache=True, nogil=True)
 def operator_step(code, state, x, params):  # pragma: no cover - compiled
     """One step of the built-in operator of kernel ``code``
@@ -200,6 +262,8 @@ def operator_step(code, state, x, params):  # pragma: no cover - compiled
         return play_step(state, x, params)
     if code == _DENG_TAN:
         return deng_tan_step(state, x, params)
+    if code == _BOUC_WEN:
+        return bouc_wen_step(state, x, params)
     raise ValueError("unknown memory-operator kernel code")
 
 
@@ -232,6 +296,14 @@ def _run_deng_tan(x, state):  # pragma: no cover - compiled
     p = np.empty(0)
     for k in range(x.shape[0]):
         out[k] = deng_tan_step(state, x[k], p)
+    return out
+
+
+@njit(cache=True)
+def _run_bouc_wen(x, params, state):  # pragma: no cover - compiled
+    out = np.empty(x.shape[0])
+    for k in range(x.shape[0]):
+        out[k] = bouc_wen_step(state, x[k], params)
     return out
 
 
@@ -271,10 +343,30 @@ def deng_tan(x, init=None):
     return get_operator("DengTan").sequence(x, (), init)
 
 
+def bouc_wen(x, beta, gamma, init=None):
+    """Bouc-Wen variable of unit gain driven by the sequence ``x``
+    (compiled; see module doc).
+
+    Parameters
+    ----------
+    x : array_like, shape (N,)
+    beta, gamma : float
+        Shape parameters (1/units of ``x``), beta > 0, -beta < gamma <= beta.
+    init : float, optional
+        :math:`h` before the first sample (default 0); ``h[0] == init``.
+
+    Returns
+    -------
+    h : ndarray, shape (N,)
+    """
+    return get_operator("BoucWen").sequence(x, (beta, gamma), init)
+
+
 #: compiled whole-sequence runs of the built-ins: (x, params, init) -> values
 _COMPILED_RUN = {
     "Play": lambda x, p, init: _run_play(x, p[0], float(x[0]) if init is None else float(init)),
     "DengTan": lambda x, p, init: _run_deng_tan(x, _deng_tan_init(0.0, (), init)),
+    "BoucWen": lambda x, p, init: _run_bouc_wen(x, p, _bouc_wen_init(x[0], p, init)),
 }
 
 
@@ -306,6 +398,23 @@ def deng_tan_reference(x, init=None):
         hp = abs(math.atan(xk - e)) * (xk - e) + g
         xp = xk
         out.append(hp)
+    return np.array(out, dtype=float)
+
+
+def bouc_wen_reference(x, beta, gamma, init=None):
+    """Plain-Python Bouc-Wen variable: RK4 over each sample, written as a loop."""
+    def rate(h, dx):
+        return dx - beta * abs(dx) * h - gamma * dx * abs(h)
+    out, h, xp = [], 0.0 if init is None else float(init), None
+    for xk in map(float, x):
+        dx = 0.0 if xp is None else xk - xp
+        k1 = rate(h, dx)
+        k2 = rate(h + k1 / 2, dx)
+        k3 = rate(h + k2 / 2, dx)
+        k4 = rate(h + k3, dx)
+        h += (k1 + 2 * k2 + 2 * k3 + k4) / 6
+        xp = xk
+        out.append(h)
     return np.array(out, dtype=float)
 
 
@@ -426,6 +535,10 @@ OPERATOR_BUILTINS = (
                    "play (backlash) operator of radius r", code=_PLAY),
     MemoryOperator("DengTan", (), _deng_tan_init, deng_tan_step, _unbounded, _no_params,
                    "Deng-Tan operator (dominant-extremum memory)", code=_DENG_TAN),
+    MemoryOperator("BoucWen", ("beta", "gamma"), _bouc_wen_init, bouc_wen_step,
+                   _bouc_wen_steady, _bouc_wen_check,
+                   "Bouc-Wen hysteretic variable of unit gain (shape beta, gamma)",
+                   code=_BOUC_WEN),
 )
 
 #: built-in operator name -> kernel code
@@ -433,7 +546,7 @@ BUILTIN_OPERATOR_CODES = {op.name: op.code for op in OPERATOR_BUILTINS}
 
 
 class OperatorRegistry(NamedRegistry):
-    """Mapping name -> :class:`MemoryOperator`; Play and DengTan always there."""
+    """Mapping name -> :class:`MemoryOperator`; the built-ins always there."""
 
     what = "memory operator"
 

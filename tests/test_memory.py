@@ -4,8 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from narx.memory import (DENG_TAN_DEPTH, OperatorRegistry, deng_tan,
-                         deng_tan_reference, deng_tan_state, deng_tan_step,
+from narx.memory import (DENG_TAN_DEPTH, OperatorRegistry, bouc_wen, bouc_wen_reference,
+                         deng_tan, deng_tan_reference, deng_tan_state, deng_tan_step,
                          get_operator, play, play_reference)
 from narx.systems import (backlash_second_order, held_sine, operator_record,
                           pi_first_order)
@@ -79,6 +79,45 @@ def test_deng_tan_depth_limit_forgets_oldest_loops_only():
 
 
 # ------------------------------------------------------------ registry
+# -------------------------------------------------------------- Bouc-Wen
+def test_bouc_wen_is_the_piezo_law_of_unit_gain_and_equals_its_reference():
+    """The operator is h/A of narx.systems.piezo_bouc_wen (same RK4 step);
+    control: other shape parameters give another loop."""
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(3000, seed=2)
+    h = 1.6 * u - piezo_bouc_wen(u, A=0.9, beta=0.008, gamma=0.005)
+    bw = bouc_wen(u, 0.008, 0.005)
+    np.testing.assert_allclose(bw, h / 0.9, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(bw, bouc_wen_reference(u, 0.008, 0.005))
+    np.testing.assert_array_equal(bouc_wen(u, 0.01, 0.0, init=2.0),
+                                  bouc_wen_reference(u, 0.01, 0.0, init=2.0))
+    assert np.max(np.abs(bouc_wen(u, 0.02, 0.005) - bw)) > 1.0
+
+
+def test_bouc_wen_holds_stays_bounded_and_rejects_unbounded_shapes():
+    x = np.r_[np.linspace(0, 400, 200), np.full(50, 400.0), np.linspace(400, -400, 300)]
+    h = bouc_wen(x, 0.01, 0.01)
+    assert np.all(h[200:250] == h[199])                 # held input, held value
+    assert np.max(np.abs(h)) < 1 / 0.02                 # |h| < 1/(beta + gamma)
+    assert np.max(np.abs(h)) > 0.95 / 0.02              # and it gets there
+    assert get_operator("BoucWen").steady_set(3.0, (0.01, 0.01)) == (-50.0, 50.0)
+    for beta, gamma in ((0.0, 0.0), (-0.01, 0.0), (0.01, -0.01), (0.01, 0.02)):
+        with pytest.raises(ValueError, match="beta > 0 and -beta < gamma <= beta"):
+            bouc_wen(x, beta, gamma)
+
+
+def test_ls_recovers_the_piezo_model_from_its_bouc_wen_term():
+    """y = d_p u − A h is linear in (d_p, A) given the operator: LS on the
+    two regressors returns (1.6, −0.9) and simulates the record exactly."""
+    from narx import Data, Model
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(4000, seed=3)
+    data = Data(u, piezo_bouc_wen(u))
+    m = Model(("u[k]", "BoucWen(u[k],0.008,0.008)")).fit(data)
+    np.testing.assert_allclose(m.theta, [1.6, -0.9], atol=1e-9)
+    assert m.simulate(data, mode="freerun").rmse < 1e-8
+
+
 def test_plugin_operator_registration_and_sequence():
     """A stop operator (elastic-plastic element) as a plug-in."""
     reg = OperatorRegistry()
@@ -553,7 +592,7 @@ def test_every_builtin_operator_row_steps_by_its_code():
     from narx.memory import OPERATOR_BUILTINS, operator_step
     x = _walk(500, seed=9)
     for op in OPERATOR_BUILTINS:
-        params = (0.3,) if op.params else ()
+        params = (0.3,) * len(op.params)
         p = np.asarray(params, dtype=np.float64)
         s1 = op.init(float(x[0]), params)
         s2 = op.init(float(x[0]), params)
