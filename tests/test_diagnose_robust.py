@@ -509,3 +509,23 @@ def test_a_skipped_augmentation_test_says_why_with_numbers():
     # control: the same record in sample runs, and says nothing
     why = []
     assert phi_augmentation_test(model, d, shifts=3, why=why) is not None and why == []
+
+
+def test_bouc_wen_dynamics_candidate_fits_bouc_wen_not_play_records():
+    """A Bouc–Wen hysteresis off the shape grid (γ < 0) behind second-order
+    dynamics: the Bouc–Wen dynamics candidate, fitted on the head, simulates
+    the tail 5 times better than the play-operator dynamics; control: on a
+    play record the play-operator dynamics is the better one."""
+    from benchmarks.diagnose_panel import behind_dynamics, play
+    from mggp.diagnose.extend import bouc_wen_dynamics_terms, operator_dynamics_terms
+    from mggp.diagnose.simulation import freerun_rmse
+    u = training_input(3000, amplitude=80, bandwidth=4.0, seed=11)
+    err = {}
+    for kind, y in (("bouc-wen", behind_dynamics(piezo_bouc_wen(u, beta=0.02, gamma=-0.005), 2)),
+                    ("play", behind_dynamics(80 * play(u / 80, 0.3), 2))):
+        d = Data(u, y)
+        for name, terms in (("bw", bouc_wen_dynamics_terms), ("op", operator_dynamics_terms)):
+            m = narx.Model(terms(d)).fit(d.slice(0, 2100))
+            err[kind, name] = freerun_rmse(m, d, first=2100)
+    assert err["bouc-wen", "bw"] < 0.2 * err["bouc-wen", "op"]
+    assert err["play", "op"] < err["play", "bw"]

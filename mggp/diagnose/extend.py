@@ -20,7 +20,10 @@ The extension changes the search the way each cause calls for
   baseline's terms, to the search's, and as a discrete Bouc–Wen
   increment model of their own, and memory-operator terms
   (:func:`operator_terms`) added to the baseline's terms and as linear
-  dynamics of order up to 3 driven by them (:func:`operator_dynamics_terms`);
+  dynamics of order up to 3 driven by them (:func:`operator_dynamics_terms`),
+  and linear dynamics of order up to 3 driven by Bouc–Wen variables of the
+  input on a grid of shapes (:func:`bouc_wen_dynamics_terms`; the Bouc–Wen
+  gain is a coefficient, so LS fits it);
 * ``prediction-bias`` — multiple-shooting fitness (if the baseline already
   used it: windows four times longer, closer to a free run);
 * ``steady-state-drift`` — CLS under the continuum-of-steady-states
@@ -69,17 +72,25 @@ from narx.model import ignore_rank_warnings
 from narx.terms import Signals, parse_term
 
 from ..selection import CLSRejectedWarning
-from .augmentation import direction_terms, operator_terms
+from .augmentation import bouc_wen_terms, direction_terms, operator_terms
 from .holds import probe_holds
 from .simulation import freerun_rmse
 
 __all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search",
            "user_setting", "plan_extension", "fit_extension", "candidate_changes",
-           "operator_terms", "operator_dynamics_terms", "OPERATORS"]
+           "operator_terms", "operator_dynamics_terms", "bouc_wen_dynamics_terms",
+           "OPERATORS"]
 
 _SPECIFIC = ("hysteresis", "prediction-bias", "steady-state-drift")
 #: memory operators of the hysteresis search (:mod:`narx.memory`)
 OPERATORS = ("play", "dengtan")
+
+
+def _linear_dynamics(data: Data) -> List[str]:
+    """y[k-1..3] and u[k-1..2] of every input: the linear part of the
+    operator-driven candidates."""
+    return ([f"{data.output}[k-{j}]" for j in (1, 2, 3)]
+            + [f"{n}[k-{j}]" for n in data.inputs for j in (1, 2)])
 
 
 def operator_dynamics_terms(data: Data) -> List[str]:
@@ -87,10 +98,16 @@ def operator_dynamics_terms(data: Data) -> List[str]:
     memory operators: y[k-1..3], u[k-1..2] and :func:`operator_terms` at
     lags 1 and 2 (a play or Prandtl–Ishlinskii operator behind a linear
     filter of order up to 3 is such a model)."""
-    y = data.output
-    lin = [f"{y}[k-{j}]" for j in (1, 2, 3)]
-    lin += [f"{n}[k-{j}]" for n in data.inputs for j in (1, 2)]
-    return lin + operator_terms(data, (1, 2))
+    return _linear_dynamics(data) + operator_terms(data, (1, 2))
+
+
+def bouc_wen_dynamics_terms(data: Data) -> List[str]:
+    """Linear dynamics of order up to 3 driven by the inputs and their
+    Bouc–Wen variables: y[k-1..3], u[k-1..2] and :func:`bouc_wen_terms` at
+    lags 1 and 2 (a Bouc–Wen hysteresis y = d·u − A·h behind a linear
+    filter of order up to 3 is such a model when a shape of the grid is
+    near its own)."""
+    return _linear_dynamics(data) + bouc_wen_terms(data, (1, 2))
 
 
 @dataclass(frozen=True)
@@ -284,7 +301,7 @@ def _built_as(name: str) -> str:
 #: candidates estimated by LS even when drift is named: their memory operators
 #: hold at a held input by themselves, and the continuum constraints (Σ_y = 1,
 #: every other cluster 0) would set the operators' clusters to 0
-_LS_CANDIDATES = ("baseline + operator terms", "operator dynamics")
+_LS_CANDIDATES = ("baseline + operator terms", "operator dynamics", "Bouc–Wen dynamics")
 _DIRECTION = "the Bouc–Wen direction terms |Δu|, y[k-1]|Δu|, u[k-1]|Δu|"
 
 
@@ -297,8 +314,8 @@ def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
         The candidate's name (``'search'``, ``'search + baseline terms'``,
         ``'search + direction terms'``, ``'baseline + direction terms'``,
         ``'Bouc–Wen increment'``, ``'baseline + operator terms'``,
-        ``'operator dynamics'``, ``'baseline terms, CLS'``), each possibly
-        followed by :data:`PRUNED`.
+        ``'operator dynamics'``, ``'Bouc–Wen dynamics'``, ``'baseline terms,
+        CLS'``), each possibly followed by :data:`PRUNED`.
     plan : ExtensionPlan
         The plan the candidates were built from.
 
@@ -341,6 +358,10 @@ def candidate_changes(name: str, plan: ExtensionPlan) -> Tuple[str, ...]:
            "operator dynamics": "hysteresis: linear dynamics of order up to 3 driven by the "
                                 "input and its memory operators (y[k-1..3], u[k-1..2], "
                                 "Play(u[k-1..2],r), DengTan(u[k-1..2])) in place of the "
+                                "baseline (no search)",
+           "Bouc–Wen dynamics": "hysteresis: linear dynamics of order up to 3 driven by the "
+                                "input and Bouc–Wen variables of it (y[k-1..3], u[k-1..2], "
+                                "BoucWen(u[k-1..2],β,γ) on a grid of shapes) in place of the "
                                 "baseline (no search)"}
     out = [own.get(name, name)]
     if name in _LS_CANDIDATES:
@@ -476,7 +497,8 @@ def fit_extension(plan: ExtensionPlan, baseline: Model, data: Data, budget: Budg
         inc = [f"{data.output}[k-1]"] + [f"Phi1({n}[k-1],{n}[k-2])" for n in data.inputs]
         sets += [("baseline + direction terms", base + d), ("Bouc–Wen increment", inc + d),
                  ("baseline + operator terms", base + operator_terms(data)),
-                 ("operator dynamics", operator_dynamics_terms(data))]
+                 ("operator dynamics", operator_dynamics_terms(data)),
+                 ("Bouc–Wen dynamics", bouc_wen_dynamics_terms(data))]
         if plan.search:
             sets.append(("search + direction terms", found + d))
     seen, kept = set(), set()
