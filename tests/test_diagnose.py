@@ -509,7 +509,8 @@ def test_operator_augmentation_sees_a_play_behind_dynamics_not_a_linear_control(
     hyst = Data(u, y + 0.01 * np.std(y) * rng.standard_normal(y.size))
     lin = ["y[k-1]", "y[k-2]", "u[k-1]", "u[k-2]"]
     a = operator_augmentation_test(narx.Model(lin).fit(hyst), hyst, shifts=19, seed=0)
-    assert a.statistic > 3 * a.null_quantile, (a.statistic, a.null_quantile)
+    threshold = max(a.null_quantile, 0.005 * np.ptp(hyst.y))     # as the check applies it
+    assert a.statistic > 2 * threshold, (a.statistic, a.null_quantile)
     ctl = control_record("linear", seed=0, n=3000, snr_db=40.0).data
     c = operator_augmentation_test(narx.Model(lin).fit(ctl), ctl, shifts=19, seed=0)
     assert c.statistic < a.statistic / 10

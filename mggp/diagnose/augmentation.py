@@ -198,15 +198,25 @@ def bouc_wen_terms(data: Data, lags=(1,)) -> List[str]:
     return out
 
 
+def augmentation_operator_terms(data: Data) -> List[str]:
+    """The operator terms of :func:`operator_augmentation_test`: the plays
+    of :func:`operator_terms` and the Bouc–Wen variables of
+    :func:`bouc_wen_terms`, at lag 1 (no Deng–Tan: its shape depends on
+    the input's units)."""
+    return operator_terms(data, dengtan=False) + bouc_wen_terms(data)
+
+
 def operator_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
                                alpha: float = 0.01, seed=0,
                                why: Optional[list] = None) -> Optional[AugmentationTest]:
-    """The augmentation test with memory-operator terms (:func:`operator_terms`)
-    in place of the direction terms: the baseline's terms + the operator
-    terms, and y[k-1] + u[k-1] + the operator terms; placebo operators of
-    the shifted input give the null, as in :func:`phi_augmentation_test`.
-    Only plays are used: their radii are fractions of the input's range, so
-    the test does not depend on the input's units (Deng–Tan's
+    """The augmentation test with memory-operator terms in place of the
+    direction terms (:func:`augmentation_operator_terms`: plays and
+    Bouc–Wen variables of each input); the baseline's terms + the
+    operator terms, and y[k-1] + u[k-1] + the operator terms; placebo
+    operators of the shifted input give the null, as in
+    :func:`phi_augmentation_test`. Deng–Tan is left out: the play radii and
+    the Bouc–Wen shapes are set from the input's range, so the test does
+    not depend on the input's units (Deng–Tan's
     :math:`|\\arctan z|\\, z` does)."""
     return phi_augmentation_test(model, data, shifts=shifts, alpha=alpha, seed=seed,
                                  operators=True, why=why)
@@ -233,7 +243,7 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
         pairs.append((name, fresh_name(taken, "v")))
         taken.add(pairs[-1][1])
     if operators:
-        D = Model(operator_terms(data, dengtan=False), **sig).term_texts
+        D = Model(augmentation_operator_terms(data), **sig).term_texts
         inc = Model([f"{data.output}[k-1]"] + [f"{n}[k-1]" for n, _ in pairs], **sig).term_texts
     else:
         D = [t for n, _ in pairs
@@ -478,7 +488,7 @@ def _run_operators(ctx) -> Outcome:
     detail = c.detail.replace(
         f"the Bouc–Wen direction terms |Δu|, {ctx.output}[k-1]·|Δu|, u[k-1]·|Δu| "
         f"(|Δu| = Phi1·Phi2 of u[k-1], u[k-2])",
-        "the memory-operator terms " + ", ".join(operator_terms(ctx.fit, dengtan=False)))
+        "the memory-operator terms " + ", ".join(augmentation_operator_terms(ctx.fit)))
     return Outcome([replace(c, test="operator augmentation", detail=detail)], a)
 
 
