@@ -266,12 +266,13 @@ def _explicit_operators(v) -> tuple:
 
 def search_classes(est) -> list:
     """The model classes searched, simplest first. ``use_phi='auto'``: no Φ,
-    Φ and, with ``operators='auto'``, the memory operators without Φ in the
+    Φ and, with ``operators='auto'``, the memory operators
+    :data:`mggp.primitives.AUTO_OPERATORS` (play, Deng–Tan) without Φ in the
     primitive set (each class with the operators ``operators`` names, which
     enter as ``operator_entry`` says);
     otherwise the one class asked for (``operators='auto'``: none). Φ of
     outputs and a checkpointed run are one search with Φ."""
-    from .primitives import OPERATOR_CHOICES
+    from .primitives import AUTO_OPERATORS
     ops = _explicit_operators(est.operators)
     entry = est.operator_entry == "search"
     if est.use_phi != "auto" or est.phi_outputs or est.checkpoint is not None:
@@ -279,7 +280,7 @@ def search_classes(est) -> list:
         return [SearchClass("Φ" if phi else "no Φ", phi, ops, entry)]
     out = [SearchClass("no Φ", False, ops, entry), SearchClass("Φ", True, ops, entry)]
     if est.operators == "auto":
-        out.append(SearchClass("operators", False, tuple(OPERATOR_CHOICES), True))
+        out.append(SearchClass("operators", False, AUTO_OPERATORS, True))
     return out
 
 

@@ -14,9 +14,11 @@ With ``operator_entry='stage'`` (the default) the memory operators of
 runs on the set it would have without them, and this stage then offers the
 operator columns to the structure it chose.
 
-1. *Forward*: among the candidates (a play of each radius of
-   :func:`mggp.primitives.play_radii` and the Deng-Tan operator, of each
-   input at :math:`k-1`), the one that lowers the search fitness :math:`J`
+1. *Forward*: among the candidates (:func:`operator_candidates`: a play of
+   each radius of :func:`mggp.primitives.play_radii`, the Deng-Tan operator
+   and a Bouc-Wen variable of each shape of
+   :func:`mggp.primitives.bouc_wen_shapes`, as named, of each input at
+   :math:`k-1`), the one that lowers the search fitness :math:`J`
    most is added while it lowers it by at least :data:`OPERATOR_GAIN`
    (:math:`J_{new} \le (1 - 0.05) J`).
 2. *Backward*, only if an operator was added: the term whose removal raises
@@ -46,7 +48,7 @@ from __future__ import annotations
 
 from typing import List, Sequence, Tuple
 
-from narx.terms import Term, parse_term
+from narx.terms import Term, format_param, parse_term
 
 __all__ = ["OPERATOR_GAIN", "OPERATOR_KEEP", "operator_candidates", "add_operators"]
 
@@ -58,18 +60,18 @@ OPERATOR_KEEP = 0.01
 
 def operator_candidates(data, names) -> List[Term]:
     """Operator terms offered to a structure: for each input ``n`` of
-    ``data``, ``Play(n[k-1],r)`` for each radius of
-    :func:`mggp.primitives.play_radii` of that input (``play``) and
-    ``DengTan(n[k-1])`` (``dengtan``), in that order."""
-    from .primitives import OPERATOR_CHOICES, operator_names, play_radii
+    ``data``, the operators of the search on that input alone
+    (:func:`mggp.primitives.search_operators`) at lag 1, in the order of
+    ``names``: ``Play(n[k-1],r)`` for each radius of
+    :func:`mggp.primitives.play_radii` (``play``), ``DengTan(n[k-1])``
+    (``dengtan``), ``BoucWen(n[k-1],β,γ)`` for each shape of
+    :func:`mggp.primitives.bouc_wen_shapes` (``boucwen``)."""
+    from .primitives import search_operators
     out = []
     for n in data.inputs:
-        for name in operator_names(names):
-            if name == "play":
-                out += [parse_term(f"Play({n}[k-1],{r:g})", data.signals)
-                        for r in play_radii(data.input(n))]
-            else:
-                out.append(parse_term(f"{OPERATOR_CHOICES[name]}({n}[k-1])", data.signals))
+        for op, params in search_operators(names, data.input(n)).items():
+            out += [parse_term(f"{op}({n}[k-1]" + "".join("," + format_param(x) for x in p)
+                               + ")", data.signals) for p in params]
     return out
 
 

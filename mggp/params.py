@@ -179,7 +179,7 @@ def _operators(v) -> bool:
 
 
 ANY = Kind("anything", lambda v: True)
-OPERATORS = Kind("'auto', None, 'none' or names among play, dengtan (a list, or "
+OPERATORS = Kind("'auto', None, 'none' or names among play, dengtan, boucwen (a list, or "
                  "comma-separated text)",
                  _operators)
 NAMES = Kind("None or a list of names", _names)
@@ -311,8 +311,9 @@ _ROWS = (
           "--phi-outputs", context="if set", meta=True, const=True,
           default_text="inputs only"),
     Param("operators", "auto", OPERATORS, "memory operators of the inputs, "
-          "comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range) "
-          "and dengtan (Deng–Tan operator), entering as --operator-entry says; none: no "
+          "comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range), "
+          "dengtan (Deng–Tan operator) and boucwen (Bouc–Wen variables, β = 0.5, 1.5, 4.5 / "
+          "the input range, γ = β or 0), entering as --operator-entry says; none: no "
           "operators; auto: a model class of the automatic choice of --phi/--no-phi (a "
           "search with the operators in its primitive set, without Φ), none when --phi or "
           "--no-phi is given", "model class", "--operators", context="if set",

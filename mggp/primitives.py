@@ -89,11 +89,19 @@ from narx.terms import Lag, OpCall, PhiCall, Signals, Term, format_param
 __all__ = ["Expr", "InputLag", "input_lag_type", "LagSymbol", "SHIFTS", "make_pset",
            "tree_from_tokens", "tree_to_tokens", "decode", "Decoder",
            "decode_individual", "max_lag_for_height", "play_radii", "OPERATOR_CHOICES",
-           "operator_node_name", "search_operators", "operator_names",
+           "operator_node_name", "search_operators", "operator_names", "bouc_wen_shapes",
+           "BOUC_WEN_SHAPES", "AUTO_OPERATORS",
            "operator_arg_type"]
 
 #: operators ``make_pset(operators=...)`` accepts, by their command-line name
-OPERATOR_CHOICES = {"play": "Play", "dengtan": "DengTan"}
+OPERATOR_CHOICES = {"play": "Play", "dengtan": "DengTan", "boucwen": "BoucWen"}
+
+#: operators of the model class "operators" that ``operators='auto'`` pilots:
+#: the rate-independent ones. With the Bouc–Wen variables too the class won
+#: the pilots on Prandtl–Ishlinskii, MR damper and Bouc–Wen oscillator
+#: records whose validation it then simulated worse (``benchmarks/results/defaults.md``); they are
+#: offered by name (``operators='boucwen'``)
+AUTO_OPERATORS = ("play", "dengtan")
 
 #: play radii as fractions of the input's range (max - min)
 PLAY_RADIUS_FRACTIONS = (0.05, 0.1, 0.2, 0.35)
@@ -109,6 +117,28 @@ def play_radii(u) -> Tuple[float, ...]:
     if not span > 0:
         return ()
     return tuple(float(f"{f * span:.2g}") for f in PLAY_RADIUS_FRACTIONS)
+
+
+#: shapes (β·range of the input, γ/β) of the Bouc–Wen variables
+#: :func:`bouc_wen_shapes` offers: a geometric grid of how far a sweep over
+#: the whole range drives the variable into its saturation at 1/(β + γ),
+#: each with the loop shapes γ = β (the piezo law's) and γ = 0
+BOUC_WEN_SHAPES = tuple((s, g) for s in (0.5, 1.5, 4.5) for g in (1.0, 0.0))
+
+
+def bouc_wen_shapes(u) -> Tuple[Tuple[float, float], ...]:
+    """Bouc–Wen parameters (β, γ) for an input ``u``, one pair per shape of
+    :data:`BOUC_WEN_SHAPES`: β = s / (max(u) − min(u)) and γ = (γ/β)·β,
+    β rounded to two significant digits; empty for a constant input."""
+    import numpy as np
+    span = float(np.max(u) - np.min(u))
+    if not span > 0:
+        return ()
+    out = []
+    for s, ratio in BOUC_WEN_SHAPES:
+        beta = float(f"{s / span:.2g}")
+        out.append((beta, ratio * beta))
+    return tuple(out)
 
 
 def operator_names(names) -> Tuple[str, ...]:
@@ -152,6 +182,10 @@ def search_operators(names, U):
             U = np.atleast_2d(U)
             widest = U[int(np.argmax(np.ptp(U, axis=1)))]
             out["Play"] = [(r,) for r in play_radii(widest)]
+        elif n == "boucwen":
+            U = np.atleast_2d(U)
+            widest = U[int(np.argmax(np.ptp(U, axis=1)))]
+            out["BoucWen"] = list(bouc_wen_shapes(widest))
         else:
             out[OPERATOR_CHOICES[n]] = [()]
     return out

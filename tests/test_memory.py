@@ -616,3 +616,27 @@ def test_benchmark_operators_runs_and_tabulates(capsys):
                  "--generations", "1", "--max-terms", "4", "--max-height", "3"]) == 0
     out = capsys.readouterr().out
     assert "| pi | RMSE |" in out and "ops/Φ" in out
+
+
+def test_search_with_bouc_wen_operators_finds_them_on_a_piezo_record():
+    """``operators='boucwen'`` in the search's primitive set: on a piezo
+    Bouc–Wen record the search keeps Bouc–Wen terms and simulates the tail
+    far better than the same search without operators (control); the
+    automatic operators class does not offer them."""
+    from mggp import MGGPRegressor
+    from mggp.choices import search_classes
+    from mggp.primitives import bouc_wen_shapes, search_operators
+    from narx import Data
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(2000, seed=4)
+    data = Data(u, piezo_bouc_wen(u))
+    assert search_operators("boucwen", u[None, :])["BoucWen"] == list(bouc_wen_shapes(u))
+    kw = dict(population=40, generations=5, random_state=1, use_phi=False, max_height=2)
+    bw = MGGPRegressor(operators="boucwen", operator_entry="search", **kw).fit(data)
+    plain = MGGPRegressor(operators="none", **kw).fit(data)
+    assert any("BoucWen(" in t for t in bw.model_.term_texts)
+    e_bw = bw.model_.simulate(data, mode="freerun").rmse
+    e_plain = plain.model_.simulate(data, mode="freerun").rmse
+    assert e_bw < 0.2 * e_plain, (e_bw, e_plain)
+    auto = search_classes(MGGPRegressor())
+    assert all("boucwen" not in c.operators for c in auto)

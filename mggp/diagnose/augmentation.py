@@ -72,7 +72,7 @@ from .simulation import bounded_mode, freerun_rmse, fresh_name
 
 __all__ = ["AugmentationTest", "phi_augmentation_test", "direction_terms", "control_terms",
            "augmentation_check", "AUGMENTATION", "operator_terms", "bouc_wen_terms",
-           "BOUC_WEN_SHAPES", "independent_terms",
+           "independent_terms",
            "operator_augmentation_test", "OPERATOR_AUGMENTATION"]
 
 
@@ -173,29 +173,15 @@ def operator_terms(data: Data, lags=(1,), dengtan: bool = True) -> List[str]:
     return out
 
 
-#: shapes (β·range of the input, γ/β) of :func:`bouc_wen_terms`: a geometric
-#: grid of how far a sweep over the whole range drives the variable into its
-#: saturation at 1/(β + γ), each with the two loop shapes γ = β (the piezo
-#: law's) and γ = 0
-BOUC_WEN_SHAPES = tuple((s, g) for s in (0.5, 1.5, 4.5) for g in (1.0, 0.0))
-
-
 def bouc_wen_terms(data: Data, lags=(1,)) -> List[str]:
     """Bouc–Wen operator terms of each input (:func:`narx.memory.bouc_wen`)
-    at each lag, one per shape of :data:`BOUC_WEN_SHAPES`: β = s / range of
-    the input and γ = (γ/β)·β, each rounded to two significant digits. The
-    Bouc–Wen gain is the term's coefficient, so a weighted sum of them is
-    found by least squares."""
-    out = []
-    for n in data.inputs:
-        span = float(np.ptp(data.input(n)))
-        if not span > 0:
-            continue
-        for j in lags:
-            for s, ratio in BOUC_WEN_SHAPES:
-                beta = float(f"{s / span:.2g}")
-                out.append(f"BoucWen({n}[k-{j}],{beta:g},{ratio * beta:g})")
-    return out
+    at each lag, one per shape of the search's grid
+    (:func:`mggp.primitives.bouc_wen_shapes`: β from the input's range).
+    The Bouc–Wen gain is the term's coefficient, so a weighted sum of them
+    is found by least squares."""
+    from ..primitives import bouc_wen_shapes
+    return [f"BoucWen({n}[k-{j}],{beta:g},{gamma:g})" for n in data.inputs
+            for j in lags for beta, gamma in bouc_wen_shapes(data.input(n))]
 
 
 def augmentation_operator_terms(data: Data) -> List[str]:
