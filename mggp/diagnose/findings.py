@@ -15,14 +15,15 @@ Vocabulary (the causes a diagnosis can name, and the extension each calls for):
 ===========================  =================================================  ========================
 effect                       meaning, and the evidence that names it            extension
 ===========================  =================================================  ========================
-``hysteresis``               the output depends on the direction or history     Φ-functions in the
-                             of the input beyond what the model's terms         search, and the
-                             express: at equal input the residual differs       Bouc–Wen direction
-                             between falling and rising input (loop-gap         terms as candidates
-                             test), or direction terms remove simulation
-                             error that placebo terms do not, in sample
-                             or held out (Φ-augmentation tests), or the
-                             memory-operator terms do (operator
+``hysteresis``               the output depends on the direction or history     Φ-functions and
+                             of the input beyond what the model's terms         plays, Deng–Tan in the
+                             express: at equal input the residual differs       search; Bouc–Wen
+                             between falling and rising input (loop-gap         direction terms,
+                             test), or direction terms remove simulation        play and Bouc–Wen
+                             error that placebo terms do not, in sample         operator dynamics as
+                             or held out (Φ-augmentation tests), or the         candidates
+                             memory-operator terms (plays, Bouc–Wen
+                             variables) do (operator
                              augmentation), or the data rest at
                              different levels in two holds at the same
                              input and the model does not (rest levels)
