@@ -7,7 +7,7 @@ Typical use (``fit`` does this)::
     select, why = resolve_select(est)               # 'hold' with constraints, else 'fitness'
 
 The model class (``use_phi='auto'``): :func:`search_classes` lists the
-classes (no Φ, Φ, memory operators), each is searched for
+classes (no Φ, Φ, memory operators, Bouc–Wen variables), each is searched for
 :func:`pilot_generations` at full population, :func:`class_choice` takes
 the one whose structure has the least held-out free-run error (a richer
 class only when over :data:`CLASS_GAIN` lower) and its pilot continues to the
@@ -268,7 +268,7 @@ def search_classes(est) -> list:
     """The model classes searched, simplest first. ``use_phi='auto'``: no Φ,
     Φ and, with ``operators='auto'``, the memory operators
     :data:`mggp.primitives.AUTO_OPERATORS` (play, Deng–Tan) without Φ in the
-    primitive set (each class with the operators ``operators`` names, which
+    primitive set, then the Bouc–Wen variables without Φ (each class with the operators ``operators`` names, which
     enter as ``operator_entry`` says);
     otherwise the one class asked for (``operators='auto'``: none). Φ of
     outputs and a checkpointed run are one search with Φ."""
@@ -281,6 +281,7 @@ def search_classes(est) -> list:
     out = [SearchClass("no Φ", False, ops, entry), SearchClass("Φ", True, ops, entry)]
     if est.operators == "auto":
         out.append(SearchClass("operators", False, AUTO_OPERATORS, True))
+        out.append(SearchClass("Bouc–Wen", False, ("boucwen",), True))
     return out
 
 
@@ -290,7 +291,8 @@ def pilot_generations(generations: int) -> int:
     return min(generations, max(1, int(round(PILOT * generations))))
 
 
-_WITH = {"no Φ": "without Φ", "Φ": "with Φ", "operators": "with operators"}
+_WITH = {"no Φ": "without Φ", "Φ": "with Φ", "operators": "with operators",
+         "Bouc–Wen": "with Bouc–Wen variables"}
 
 
 def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
@@ -314,7 +316,7 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     c = classes[best]
     figs = {"class": c.label, "operators": list(c.operators), "holdout": HOLDOUT}
     for cl, e in zip(classes, errors):
-        key = {"no Φ": "no_phi", "Φ": "phi"}.get(cl.label, cl.label)
+        key = {"no Φ": "no_phi", "Φ": "phi", "Bouc–Wen": "bouc_wen"}.get(cl.label, cl.label)
         figs[f"heldout_rmse_{key}"] = e
     others = ", ".join(f"{errors[i]:.4g} {_WITH.get(classes[i].label, classes[i].label)}"
                        for i in range(n) if i != best)

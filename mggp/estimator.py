@@ -77,7 +77,8 @@ class MGGPRegressor:
     each with the figures it was taken on): ``screen`` and ``select`` are
     'hold' with ``constraints='steady-state'``, else 'freerun' and
     'fitness'; ``use_phi`` runs a pilot search of each model class (no Φ,
-    Φ, and with ``operators='auto'`` the memory operators without Φ) at the
+    Φ, and with ``operators='auto'`` plays with Deng–Tan, then Bouc–Wen
+    variables, each without Φ) at the
     full population for a fifth of the generations, takes the class whose
     pilot's structure has the least held-out free-run RMSE (θ by LS on the
     first 70 % of the record, error on the last 30 %; a richer class only

@@ -295,13 +295,15 @@ _ROWS = (
     Param("use_phi", "auto", OneOf((True, False, "auto")), "terms may hold Φ-functions "
           "of lagged inputs (input increments and their signs, which model hysteresis); "
           "'auto': a pilot search of each model class (no Φ, Φ, and with operators='auto' "
-          "the memory operators) at full population for a fifth of the generations; the "
+          "plays with Deng–Tan, then Bouc–Wen variables) at full population for a fifth of "
+          "the generations; the "
           "class whose structure has the least held-out free-run error (θ on the first "
           "70 % of the record, error on the last 30 %; a richer class only when over 15 % "
           "lower) continues to the full generations", "model class", "--no-phi",
           context=True, meta=True, const=False,
           flag_help="plain polynomial terms only: no Φ-functions (--phi: Φ-functions "
-          "allowed; neither: pilots of the classes no Φ, Φ and memory operators, the one "
+          "allowed; neither: pilots of the classes no Φ, Φ, plays with Deng–Tan, and Bouc–Wen "
+          "variables, the one "
           "with the lowest held-out free-run error continued)",
           default_text="chosen by held-out free-run error"),
     Param("phi_names", None, NAMES, "Φ-functions the search uses (default: all "
@@ -314,8 +316,9 @@ _ROWS = (
           "comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range), "
           "dengtan (Deng–Tan operator) and boucwen (Bouc–Wen variables, β = 0.5, 1.5, 4.5 / "
           "the input range, γ = β or 0), entering as --operator-entry says; none: no "
-          "operators; auto: a model class of the automatic choice of --phi/--no-phi (a "
-          "search with the operators in its primitive set, without Φ), none when --phi or "
+          "operators; auto: two model classes of the automatic choice of --phi/--no-phi "
+          "(searches with play and dengtan, or with boucwen, in the primitive set, without "
+          "Φ), none when --phi or "
           "--no-phi is given", "model class", "--operators", context="if set",
           metavar="NAMES", default_text="a class of the automatic choice"),
     Param("operator_entry", "stage", OneOf(("stage", "search")),

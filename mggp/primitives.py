@@ -97,10 +97,10 @@ __all__ = ["Expr", "InputLag", "input_lag_type", "LagSymbol", "SHIFTS", "make_ps
 OPERATOR_CHOICES = {"play": "Play", "dengtan": "DengTan", "boucwen": "BoucWen"}
 
 #: operators of the model class "operators" that ``operators='auto'`` pilots:
-#: the rate-independent ones. With the Bouc–Wen variables too the class won
-#: the pilots on Prandtl–Ishlinskii, MR damper and Bouc–Wen oscillator
-#: records whose validation it then simulated worse (``benchmarks/results/defaults.md``); they are
-#: offered by name (``operators='boucwen'``)
+#: the rate-independent ones. The Bouc–Wen variables are a class of their
+#: own (:func:`mggp.choices.search_classes`): in this one they won the pilots
+#: on Prandtl–Ishlinskii, MR damper and Bouc–Wen oscillator records whose
+#: validation they then simulated worse (``benchmarks/results/defaults.md``)
 AUTO_OPERATORS = ("play", "dengtan")
 
 #: play radii as fractions of the input's range (max - min)

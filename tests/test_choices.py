@@ -200,7 +200,8 @@ def test_size_tolerance_widens_on_a_short_held_out_part():
 def test_search_classes_follow_the_overrides():
     from mggp.choices import search_classes
     labels = lambda **kw: [(c.label, c.operators) for c in search_classes(MGGPRegressor(**kw))]
-    assert labels() == [("no Φ", ()), ("Φ", ()), ("operators", ("play", "dengtan"))]
+    assert labels() == [("no Φ", ()), ("Φ", ()), ("operators", ("play", "dengtan")),
+                        ("Bouc–Wen", ("boucwen",))]
     assert labels(operators="none") == [("no Φ", ()), ("Φ", ())]
     assert labels(operators="play") == [("no Φ", ("play",)), ("Φ", ("play",))]
     assert labels(use_phi=False) == [("no Φ", ())]                 # operators 'auto': none
