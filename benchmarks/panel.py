@@ -51,6 +51,9 @@ GRID = {
     "--no-phi --constant": dict(use_phi=False, constant=True),
     "--no-phi --operators play,dengtan --no-constant": dict(
         use_phi=False, operators="play,dengtan", constant=False),
+    "--no-phi --operators play,dengtan,boucwen --operator-entry search --no-constant": dict(
+        use_phi=False, operators="play,dengtan,boucwen", operator_entry="search",
+        constant=False),
 }
 
 
