@@ -95,6 +95,9 @@ Typical use::
     [0.0, 0.5, 0.5, -0.5]
     >>> get_operator("Play").steady_set(2.0, (0.5,))
     (1.5, 2.5)
+    >>> from narx.memory import bouc_wen
+    >>> bouc_wen(np.array([0.0, 10.0, 20.0, 20.0, 10.0]), 0.05, 0.0).round(4).tolist()
+    [0.0, 7.8646, 12.6366, 12.6366, -0.1971]
 
 References
 ----------
