@@ -207,3 +207,24 @@ def test_search_classes_follow_the_overrides():
     assert labels(use_phi=False) == [("no Φ", ())]                 # operators 'auto': none
     assert labels(use_phi=True, operators="dengtan") == [("Φ", ("dengtan",))]
     assert labels(checkpoint="ck.json") == [("Φ", ())]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_bouc_wen_class_chosen_for_a_piezo_record_not_for_a_linear_one(seed):
+    """The automatic model class: a piezo Bouc–Wen record takes the
+    Bouc–Wen class (its held-out error far below every other class's);
+    control: a first-order linear record stays without Φ or operators."""
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(2000, seed=5)
+    kw = dict(population=60, generations=10, random_state=seed)
+    est = MGGPRegressor(**kw).fit(Data(u, piezo_bouc_wen(u)))
+    fig = est.choices_["use_phi"]["figures"]
+    assert fig["class"] == "Bouc–Wen" and fig["operators"] == ["boucwen"]
+    others = [fig[k] for k in ("heldout_rmse_no_phi", "heldout_rmse_phi",
+                               "heldout_rmse_operators")]
+    assert fig["heldout_rmse_bouc_wen"] < 0.2 * min(others)
+    assert any("BoucWen(" in t for t in est.model_.term_texts)
+    assert est.model_.meta["use_phi"] is False and est.model_.meta["operators"] == ["boucwen"]
+    ctl = MGGPRegressor(**kw).fit(*first_order_record(1000, seed, noise=0.01))
+    assert ctl.choices_["use_phi"]["figures"]["class"] == "no Φ"
+    assert not any("(" in t for t in ctl.model_.term_texts)
