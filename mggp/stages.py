@@ -346,6 +346,7 @@ def record(terms, data, ctx):
         ctx.meta["choices"] = {name: c.to_dict() for name, c in ctx.choices.items()}
     if ctx.search_class is not None and ctx.search_class.operators:
         ctx.meta["operators"] = list(ctx.search_class.operators)
+        ctx.meta["operator_entry"] = "search" if ctx.search_class.in_search else "stage"
     return terms
 
 

@@ -225,6 +225,7 @@ def test_bouc_wen_class_chosen_for_a_piezo_record_not_for_a_linear_one(seed):
     assert fig["heldout_rmse_bouc_wen"] < 0.2 * min(others)
     assert any("BoucWen(" in t for t in est.model_.term_texts)
     assert est.model_.meta["use_phi"] is False and est.model_.meta["operators"] == ["boucwen"]
+    assert est.model_.meta["operator_entry"] == "search"       # how the class used them
     ctl = MGGPRegressor(**kw).fit(*first_order_record(1000, seed, noise=0.01))
     assert ctl.choices_["use_phi"]["figures"]["class"] == "no Φ"
     assert not any("(" in t for t in ctl.model_.term_texts)
