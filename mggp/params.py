@@ -299,7 +299,7 @@ _ROWS = (
           "the generations; the "
           "class whose structure has the least held-out free-run error (θ on the first "
           "70 % of the record, error on the last 30 %; a richer class only when over 15 % "
-          "lower) continues to the full generations", "model class", "--no-phi",
+          "lower, the Bouc–Wen class over 50 %) continues to the full generations", "model class", "--no-phi",
           context=True, meta=True, const=False,
           flag_help="plain polynomial terms only: no Φ-functions (--phi: Φ-functions "
           "allowed; neither: pilots of the classes no Φ, Φ, plays with Deng–Tan, and Bouc–Wen "

@@ -229,3 +229,17 @@ def test_bouc_wen_class_chosen_for_a_piezo_record_not_for_a_linear_one(seed):
     ctl = MGGPRegressor(**kw).fit(*first_order_record(1000, seed, noise=0.01))
     assert ctl.choices_["use_phi"]["figures"]["class"] == "no Φ"
     assert not any("(" in t for t in ctl.model_.term_texts)
+
+
+def test_bouc_wen_class_needs_half_the_error_of_the_class_before():
+    """The Bouc–Wen class's own margin (BOUC_WEN_CLASS_GAIN): 40 % lower is
+    not enough, 60 % lower is; control: the plays' class with the same
+    40 % takes over under the common 15 % margin."""
+    from mggp.choices import BOUC_WEN_CLASS_GAIN, search_classes
+    classes = search_classes(MGGPRegressor())
+    assert [c.label for c in classes] == ["no Φ", "Φ", "operators", "Bouc–Wen"]
+    assert classes[-1].gain == BOUC_WEN_CLASS_GAIN == 0.5 and classes[2].gain == CLASS_GAIN
+    pick = lambda errors: class_choice(classes, errors).figures["class"]
+    assert pick([1.0, 1.0, 1.0, 0.6]) == "no Φ"
+    assert pick([1.0, 1.0, 1.0, 0.4]) == "Bouc–Wen"
+    assert pick([1.0, 1.0, 0.6, 1.0]) == "operators"
