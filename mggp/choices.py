@@ -281,8 +281,9 @@ def search_classes(est) -> list:
     """The model classes searched, simplest first. ``use_phi='auto'``: no Φ,
     Φ and, with ``operators='auto'``, the memory operators
     :data:`mggp.primitives.AUTO_OPERATORS` (play, Deng–Tan) without Φ in the
-    primitive set, then the Bouc–Wen variables without Φ (each class with the operators ``operators`` names, which
-    enter as ``operator_entry`` says);
+    primitive set, then the Bouc–Wen variables without Φ (each class with
+    the operators ``operators`` names, which enter as ``operator_entry``
+    says);
     otherwise the one class asked for (``operators='auto'``: none). Φ of
     outputs and a checkpointed run are one search with Φ."""
     from .primitives import AUTO_OPERATORS
@@ -304,8 +305,10 @@ def pilot_generations(generations: int) -> int:
     return min(generations, max(1, int(round(PILOT * generations))))
 
 
+#: class label -> its words in a choice line, and its key in the figures
 _WITH = {"no Φ": "without Φ", "Φ": "with Φ", "operators": "with operators",
          "Bouc–Wen": "with Bouc–Wen variables"}
+_KEY = {"no Φ": "no_phi", "Φ": "phi", "Bouc–Wen": "bouc_wen"}
 
 
 def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
@@ -330,8 +333,7 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     c = classes[best]
     figs = {"class": c.label, "operators": list(c.operators), "holdout": HOLDOUT}
     for cl, e in zip(classes, errors):
-        key = {"no Φ": "no_phi", "Φ": "phi", "Bouc–Wen": "bouc_wen"}.get(cl.label, cl.label)
-        figs[f"heldout_rmse_{key}"] = e
+        figs[f"heldout_rmse_{_KEY.get(cl.label, cl.label)}"] = e
     others = ", ".join(f"{errors[i]:.4g} {_WITH.get(classes[i].label, classes[i].label)}"
                        for i in range(n) if i != best)
     why = f"{c.label}: held-out free-run RMSE {errors[best]:.4g} against {others}"

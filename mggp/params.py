@@ -299,12 +299,12 @@ _ROWS = (
           "the generations; the "
           "class whose structure has the least held-out free-run error (θ on the first "
           "70 % of the record, error on the last 30 %; a richer class only when over 15 % "
-          "lower, the Bouc–Wen class over 50 %) continues to the full generations", "model class", "--no-phi",
+          "lower, the Bouc–Wen class over 50 %) continues to the full generations",
+          "model class", "--no-phi",
           context=True, meta=True, const=False,
           flag_help="plain polynomial terms only: no Φ-functions (--phi: Φ-functions "
-          "allowed; neither: pilots of the classes no Φ, Φ, plays with Deng–Tan, and Bouc–Wen "
-          "variables, the one "
-          "with the lowest held-out free-run error continued)",
+          "allowed; neither: pilots of the classes no Φ, Φ, plays with Deng–Tan, and "
+          "Bouc–Wen variables, the one with the lowest held-out free-run error continued)",
           default_text="chosen by held-out free-run error"),
     Param("phi_names", None, NAMES, "Φ-functions the search uses (default: all "
           "registered)", "model class", context=True, meta=True),

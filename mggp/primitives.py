@@ -168,7 +168,8 @@ def operator_names(names) -> Tuple[str, ...]:
 def search_operators(names, U):
     """The ``operators`` argument of :func:`make_pset` for operator names
     (:func:`operator_names`) and the inputs ``U`` (rows): plays of
-    :func:`play_radii` of the widest input range, Deng-Tan once.
+    :func:`play_radii` and Bouc-Wen variables of :func:`bouc_wen_shapes` of
+    the widest input range, Deng-Tan once.
 
     Raises
     ------
@@ -176,15 +177,13 @@ def search_operators(names, U):
         An unknown name.
     """
     import numpy as np
+    U = np.atleast_2d(U)
+    widest = U[int(np.argmax(np.ptp(U, axis=1)))]
     out = {}
     for n in operator_names(names):
         if n == "play":
-            U = np.atleast_2d(U)
-            widest = U[int(np.argmax(np.ptp(U, axis=1)))]
             out["Play"] = [(r,) for r in play_radii(widest)]
         elif n == "boucwen":
-            U = np.atleast_2d(U)
-            widest = U[int(np.argmax(np.ptp(U, axis=1)))]
             out["BoucWen"] = list(bouc_wen_shapes(widest))
         else:
             out[OPERATOR_CHOICES[n]] = [()]

@@ -218,22 +218,24 @@ def deng_tan_step(state, x, params):  # pragma: no cover - compiled
 
 # -------------------------------------------------------------- Bouc-Wen
 @njit(cache=True)
+def _bouc_wen_rate(h, dx, b, g):  # pragma: no cover - compiled
+    """dh over a sample of input change ``dx``: Δx − β|Δx|h − γΔx|h|."""
+    return dx - b * abs(dx) * h - g * dx * abs(h)
+
+
+@njit(cache=True)
 def bouc_wen_step(state, x, params):  # pragma: no cover - compiled
     """One Bouc-Wen step: ``state`` = [x_{k-1}, h_{k-1}] becomes [x_k, h_k]
-    by one RK4 step of dh = Δx − β|Δx|h − γΔx|h| (see module doc)."""
+    by one RK4 step of :func:`_bouc_wen_rate` (see module doc)."""
     b = params[0]
     g = params[1]
     dx = x - state[0]
     h = state[1]
     if dx != 0.0:
-        a = abs(dx)
-        k1 = dx - b * a * h - g * dx * abs(h)
-        h2 = h + 0.5 * k1
-        k2 = dx - b * a * h2 - g * dx * abs(h2)
-        h3 = h + 0.5 * k2
-        k3 = dx - b * a * h3 - g * dx * abs(h3)
-        h4 = h + k3
-        k4 = dx - b * a * h4 - g * dx * abs(h4)
+        k1 = _bouc_wen_rate(h, dx, b, g)
+        k2 = _bouc_wen_rate(h + 0.5 * k1, dx, b, g)
+        k3 = _bouc_wen_rate(h + 0.5 * k2, dx, b, g)
+        k4 = _bouc_wen_rate(h + k3, dx, b, g)
         h = h + (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
     state[0] = x
     state[1] = h
@@ -602,7 +604,9 @@ def register_operator(name, params, init, step, steady, *, check=None, doc="",
                       ) -> MemoryOperator:
     """Register a user memory operator in ``registry`` (default: process-wide).
 
-    Example, a Bouc-Wen hysteretic variable driven by its argument,
+    Example, a Bouc-Wen hysteretic variable with its gain as a parameter
+    and one Euler step per sample (the built-in ``BoucWen`` has unit gain
+    and one RK4 step),
     :math:`h_k = h_{k-1} + A\\Delta x_k - \\beta|\\Delta x_k|h_{k-1}
     - \\gamma\\Delta x_k|h_{k-1}|`, state ``[x_prev, h]``::
 
@@ -613,7 +617,7 @@ def register_operator(name, params, init, step, steady, *, check=None, doc="",
             s[1] += p[0]*dx - p[1]*abs(dx)*s[1] - p[2]*dx*abs(s[1])
             s[0] = x
             return s[1]
-        register_operator("BoucWen", ("A", "beta", "gamma"), init, step,
+        register_operator("BoucWenEuler", ("A", "beta", "gamma"), init, step,
                           steady=lambda xbar, p: (-np.inf, np.inf))
     """
     return (registry or _DEFAULT).register(name, params, init, step, steady,
