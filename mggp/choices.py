@@ -47,7 +47,7 @@ from narx.model import ignore_rank_warnings
 from narx.terms import Term
 
 __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTANT", "GAIN",
-           "HOLDOUT", "PILOT",
+           "HOLDOUT", "PILOT", "RESOLUTION", "error_floor",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
            "class_choice", "constant_choice",
            "constant_off", "constant_searched", "front_rows_heldout",
@@ -56,6 +56,12 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
 
 #: share of the record (its tail) on which the held-out free-run error is measured
 HOLDOUT = 0.3
+
+#: held-out errors below this share of the output's range are rounding, not
+#: fit: :func:`heldout_rmse` reports them as this floor, so that on a
+#: noise-free record the comparisons of the automatic choices (each with
+#: its margin) find them equal and take the simpler option
+RESOLUTION = 1e-8
 
 #: the constant term is kept only when it lowers the held-out free-run
 #: error by more than this share (the simpler model wins what the split
@@ -105,10 +111,25 @@ class Choice:
         return {"value": self.value, "why": self.why, "figures": self.figures}
 
 
+def error_floor(data: Data) -> float:
+    """The RMSE below which two fits on ``data`` count as equal,
+
+    .. math:: e_0 = r \\,(\\max_k y_k - \\min_k y_k), \\qquad r = 10^{-8}
+
+    (:data:`RESOLUTION`). On a noise-free record the exact structure and
+    every structure that contains it simulate with errors of 1e-16 to
+    1e-13 of the range, rounding of double-precision least squares and
+    recursion (Higham, *Accuracy and Stability of Numerical Algorithms*,
+    2nd ed., SIAM 2002, ch. 20); ranking them by those digits chose
+    spurious terms, a constant and a richer model class. A measured record
+    has noise many decades above the floor, so it does not bind there."""
+    return RESOLUTION * float(np.ptp(data.y))
+
+
 def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT) -> float:
     """Free-run RMSE on the last ``holdout`` of ``data`` of the structure
     ``terms`` with θ by least squares on the rest (``inf``: diverges or
-    cannot be fitted)."""
+    cannot be fitted), at least :func:`error_floor` (below it: rounding)."""
     n_head = data.n - heldout_samples(data.n, holdout)
     try:
         with ignore_rank_warnings():
@@ -120,7 +141,7 @@ def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT) -> 
     err = np.asarray(sim.y_hat[n_head:], dtype=float) - data.y[n_head:]
     if sim.diverged or not np.all(np.isfinite(err)):
         return float("inf")
-    return float(np.sqrt(np.mean(err ** 2)))
+    return max(float(np.sqrt(np.mean(err ** 2))), error_floor(data))
 
 
 def heldout_samples(n: int, holdout: float = HOLDOUT) -> int:

@@ -22,8 +22,9 @@ that differs in one term: the term dropped, one of its lagged-signal
 factors replaced by another lagged signal, dropped or joined by one more
 (new factors: any signal at a lag within :data:`LAG_STEP` samples of the
 term's own lags, which keeps a step's cost linear in the number of lags).
-When dropping a term improves :math:`J`, the best such drop is taken
-before any replacement, so that a spurious term leaves the model instead
+When dropping a term improves :math:`J` (or leaves it equal, as on a
+noise-free record whose errors the caller floors at rounding), the best
+such drop is taken before any replacement, so that a spurious term leaves the model instead
 of being traded for the one that fits the noise best.
 Φ-calls and memory operators stay as the search built them: their term may
 be dropped or joined by a lagged signal, the call itself is not changed. This is the hybrid of evolutionary and local
@@ -155,13 +156,20 @@ def improve(terms: Sequence[Term], score: Callable[[Tuple[Term, ...]], float],
     steps: List[LocalStep] = []
     evals = 1
     while len(steps) < max_steps and (max_evals is None or evals < max_evals):
-        trials = sorted((score(ts), len(ts) >= len(terms), k, ts)
-                        for k, ts in enumerate(moves(terms)))
-        evals += len(trials)
-        better = [(v, ts) for v, _, _, ts in trials if v < cur]
-        # a removal that improves comes first: a spurious term is dropped,
-        # not traded for the spurious term that fits the noise best
-        better = ([b for b in better if len(b[1]) < len(terms)] or better)[:CHECKED]
+        cands = list(moves(terms))
+        # drops are scored first: one that keeps or improves J is taken before
+        # any replacement, so a spurious term leaves the model instead of being
+        # traded for the spurious term that fits the noise best (and the many
+        # replacements are scored only when no drop will do)
+        better = []
+        for is_drop in (True, False):
+            trials = sorted((score(ts), k, ts) for k, ts in enumerate(cands)
+                            if (len(ts) < len(terms)) == is_drop)
+            evals += len(trials)
+            better = [(v, ts) for v, _, ts in trials
+                      if v < cur or (is_drop and v == cur)][:CHECKED]
+            if better:
+                break
         nxt = next(((v, ts) for v, ts in better if passes is None or passes(ts)), None)
         if nxt is None:
             break

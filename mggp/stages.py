@@ -74,7 +74,7 @@ from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
 from narx.output_error import OE_ESTIMATORS
 
-from .choices import (Choice, constant_choice, constant_off, front_rows_heldout,
+from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
                       heldout_samples, resolve_select, size_choice, steady)
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
@@ -214,7 +214,9 @@ def local_search(terms, data, ctx):
     """``local_search``: best-improvement one-term moves from the chosen
     structure while the measure that chose it falls: the search's fitness
     (criterion included), or with ``select`` 'freerun' the free-run error
-    over the record; each accepted move passes the search's stability
+    over the record, each at least the square of
+    :func:`mggp.choices.error_floor` (below it rounding, where dropping a
+    term keeps the measure and is taken); each accepted move passes the search's stability
     screen (:func:`mggp.local_search.improve`), within
     :data:`LOCAL_EVALS_SHARE` of the search's evaluations; a moved structure is pruned
     again (``prune``). A structure chosen for its holding (``select``
@@ -233,9 +235,10 @@ def local_search(terms, data, ctx):
     n = data.n - ctx.start
 
     sc = ctx.scorer_for("freerun") if how == "freerun" else ctx.scorer
+    floor = error_floor(data) ** 2                  # MSE below it: rounding
 
     def score(ts):
-        return criterion_value(sc.score(ts), len(ts), n, est.criterion)
+        return criterion_value(max(sc.score(ts), floor), len(ts), n, est.criterion)
 
     scr = ctx.screen
     passes = None

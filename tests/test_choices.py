@@ -243,3 +243,55 @@ def test_bouc_wen_class_needs_half_the_error_of_the_class_before():
     assert pick([1.0, 1.0, 1.0, 0.6]) == "no Φ"
     assert pick([1.0, 1.0, 1.0, 0.4]) == "Bouc–Wen"
     assert pick([1.0, 1.0, 0.6, 1.0]) == "operators"
+
+
+def _piroddi_noise_free(n=500, seed=0, noise=0.0):
+    """y = 0.75 y[k-2] + 0.25 u[k-1] - 0.2 y[k-2] u[k-1] (Piroddi and Spinelli's
+    S1 without its noise), white output noise of ``noise`` × std(y)."""
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1.0, 1.0, n)
+    y = np.zeros(n)
+    for k in range(2, n):
+        y[k] = 0.75 * y[k - 2] + 0.25 * u[k - 1] - 0.2 * y[k - 2] * u[k - 1]
+    return Data(u, y + noise * np.std(y) * rng.standard_normal(n))
+
+
+PIRODDI = {"y[k-2]", "u[k-1]", "y[k-2]*u[k-1]"}
+
+
+def test_heldout_errors_below_rounding_count_as_equal():
+    """error_floor: on a noise-free record the exact structure and its
+    supersets (a constant, a spurious lag) score the same floor, so no
+    comparison ranks their rounding digits; control: with 1 % output noise
+    heldout_rmse is the RMSE itself, decades above the floor."""
+    from mggp.choices import RESOLUTION, error_floor
+    data = _piroddi_noise_free()
+    floor = error_floor(data)
+    assert floor == RESOLUTION * np.ptp(data.y)
+    exact = sorted(PIRODDI)
+    for ts in (exact, exact + ["1"], exact + ["y[k-3]"]):
+        assert heldout_rmse(ts, data) == floor
+    assert heldout_rmse(["y[k-2]", "u[k-1]"], data) > 1e3 * floor
+    noisy = _piroddi_noise_free(noise=0.01)
+    e = heldout_rmse(exact, noisy)
+    assert e > 1e4 * error_floor(noisy)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_defaults_return_the_exact_structure_of_a_noise_free_record(seed):
+    """With every choice automatic, a noise-free Piroddi record gives its
+    three terms: no constant with θ of 1e-17, no operator class won by
+    rounding (both happened when the held-out errors of 1e-16 were
+    ranked); control: with 1 % output noise the choices' figures are the
+    measured errors, above the floor."""
+    from mggp.choices import error_floor
+    kw = dict(population=100, generations=15, random_state=seed)
+    est = MGGPRegressor(**kw).fit(_piroddi_noise_free())
+    assert set(est.model_.term_texts) == PIRODDI
+    assert est.choices_["use_phi"]["figures"]["class"] == "no Φ"
+    assert est.choices_["constant"]["value"] is False
+    noisy = _piroddi_noise_free(noise=0.01)
+    ctl = MGGPRegressor(**kw).fit(noisy)
+    figs = ctl.choices_["use_phi"]["figures"]
+    errs = [v for k, v in figs.items() if k.startswith("heldout_rmse_")]
+    assert min(errs) > 100 * error_floor(noisy)

@@ -108,3 +108,26 @@ def test_cli_says_the_moves_and_the_flag_turns_them_off(tmp_path, capsys):
     assert main(args + ["--no-local-search", "--out", str(tmp_path / "b.json")]) == 0
     assert "local search" not in capsys.readouterr().err
     assert Model.load(tmp_path / "b.json").meta["local_search"] is False
+
+
+def test_a_drop_that_keeps_the_fitness_is_taken_not_a_swap():
+    """On a floored measure (a noise-free record: every superset of the
+    truth scores the rounding floor) the spurious terms are dropped one by
+    one; control: a drop that raises the measure is not taken, and a swap
+    with the same measure is not taken either."""
+    true = tuple(parse_terms(["y[k-1]", "u[k-1]"]))
+    spurious = tuple(parse_terms(["y[k-3]", "u[k-2]*u[k-2]"]))
+
+    def score(ts):
+        return 1.0 if set(true) <= set(ts) else 2.0
+
+    def moves(ts):
+        for i in range(len(ts)):
+            yield ts[:i] + ts[i + 1:]                                  # drops
+        yield tuple(t for t in ts if t != spurious[0]) + tuple(parse_terms(["y[k-4]"]))
+
+    terms, steps = improve(true + spurious, score, moves)
+    assert set(terms) == set(true) and len(steps) == 2
+    assert all(s[1] is None for s in steps)                            # drops only
+    terms, steps = improve(true, score, moves)
+    assert terms == true and steps == []
