@@ -148,6 +148,9 @@ def test_a_correlation_test_that_cannot_fire_is_reported_as_without_power(tmp_pa
     assert "not tested: " in text
     assert "φ_ee, φ_ue: no power (the residual tested, carried to the free-run scale" in text
     assert "φ_u²'e, φ_u²'e²: no power (" in text and "could not fire" in text
+    # its residual is rounding, and the line says so (at 60 dB the same line
+    # names the resolution that would give the tests power instead: below)
+    assert "is rounding (below 1e-08 of the output's range)" in text
     report = open(write_report(tmp_path / "r", dx)).read()
     assert "| φ_ue | unmodelled-dynamics |" in report and "| no power |" in report
     # control: with 20 dB of output noise the free-run error exceeds the

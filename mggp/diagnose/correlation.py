@@ -81,6 +81,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
+from ..choices import RESOLUTION as ROUNDING
 from .findings import Check, number_text as _g
 from .registry import DiagnosticTest, Outcome
 from .thresholds import bonferroni_z
@@ -363,7 +364,9 @@ def no_power_reason(t: CorrelationTest, scale: float, floor: float,
     Either the free-run counterpart ``scale`` (r s) of the residual tested
     is no larger than the resolution floor (then floor / scale >= 1 and no
     correlation can explain the floor; the resolution below which it could
-    is resolution × scale / floor), or its Bonferroni band z/√N is 1 or
+    is resolution × scale / floor; below :data:`mggp.choices.RESOLUTION` of
+    the output's range the residual is rounding, and the reason says so),
+    or its Bonferroni band z/√N is 1 or
     more (then more than z² samples are needed).
     """
     if floor >= scale:
@@ -371,6 +374,10 @@ def no_power_reason(t: CorrelationTest, scale: float, floor: float,
                 f"is no larger than the resolution floor ")
         if scale <= 0:
             return text + f"{_g(floor)}: it is zero, there is nothing to correlate"
+        if resolution and scale <= ROUNDING * floor / resolution:
+            return (f"the residual tested, carried to the free-run scale (RMS {_g(scale)}), "
+                    f"is rounding (below {ROUNDING:g} of the output's range): the model "
+                    f"reproduces these samples and there is nothing to correlate")
         text += f"{_g(floor)}, {_g(floor / scale)} times that RMS"
         if resolution:
             text += (f" (a correlation could reach the floor only with a resolution below "
