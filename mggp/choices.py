@@ -29,7 +29,9 @@ Held-out free-run error
     .. math:: e = \\sqrt{\\tfrac{1}{|T|}\\sum_{k \\in T} (y_k - \\hat y_k)^2},
               \\qquad T = \\{\\lceil (1-h) N \\rceil, \\dots, N-1\\}
 
-    a model whose free run diverges scores ``inf``. The structure saw the
+    a model whose free run diverges scores ``inf``, and an error below
+    :func:`error_floor` (1e-8 of the output's range: rounding) scores the
+    floor. The structure saw the
     whole record in the search; its parameters did not see the tail. This
     is the simulation-error check of validation on fresh data used by
     Billings (Nonlinear System Identification, Wiley 2013, ch. 5).
