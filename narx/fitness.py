@@ -351,6 +351,12 @@ class StructureScorer:
                              f"the terms' largest lag {ml} (start {s})")
         slots = np.array([self._reg_slot(t) for t in terms], dtype=np.int64)
         G, b = self._gram(slots, s)
+        if not (np.all(np.isfinite(G)) and np.all(np.isfinite(b))):
+            # an operator or Φ-column overflowed on this record: no LS fit
+            # (and no numpy warning from scaling by an infinite norm)
+            raise EstimationError("a regressor column is not finite: "
+                                  + ", ".join(str(terms[i]) for i in
+                                              np.flatnonzero(~np.isfinite(np.diag(G)))))
         if constraints is None:
             theta = gram_lstsq(G, b)[0]
             if self.estimator in OE_ESTIMATORS and any(t.output_factors for t in terms) \

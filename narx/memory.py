@@ -61,7 +61,11 @@ two agree whenever the depth is not reached.
 
 integrated over each sample with :math:`x` taken linear between samples
 (one classic RK4 step of :math:`\Delta x_k = x_k - x_{k-1}`, the
-integration of :func:`narx.systems.piezo_bouc_wen`). Its state is
+integration of :func:`narx.systems.piezo_bouc_wen`; accurate while
+:math:`(\beta + |\gamma|)|\Delta x_k|` is well below 1: on an input that
+steps across its range in one sample, a stiff shape's step grows without
+bound, and a structure holding that column is refused by the least-squares
+fit, :class:`narx.fitness.StructureScorer`). Its state is
 :math:`(x_{k-1}, h_{k-1})`, from :math:`(x_0, 0)` (``init`` sets
 :math:`h`). The law is homogeneous in :math:`(h, A)`: the Bouc-Wen
 variable of gain :math:`A` is :math:`A` times this one, so a model is

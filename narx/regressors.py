@@ -105,8 +105,9 @@ def _product(cols, n):
     if not cols:
         return np.ones(n)
     out = cols[0].copy() if len(cols) > 1 else cols[0]
-    for c in cols[1:]:
-        out *= c
+    with np.errstate(over="ignore", invalid="ignore"):   # non-finite: refused at the fit
+        for c in cols[1:]:
+            out *= c
     return out
 
 
@@ -155,9 +156,10 @@ def input_part_into(term: Term, data: Data, out: np.ndarray,
     elif len(cols) == 1:
         out[:] = cols[0]
     else:
-        np.multiply(cols[0], cols[1], out=out)
-        for c in cols[2:]:
-            out *= c
+        with np.errstate(over="ignore", invalid="ignore"):   # as _product
+            np.multiply(cols[0], cols[1], out=out)
+            for c in cols[2:]:
+                out *= c
     return out
 
 

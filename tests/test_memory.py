@@ -640,3 +640,27 @@ def test_search_with_bouc_wen_operators_finds_them_on_a_piezo_record():
     assert e_bw < 0.2 * e_plain, (e_bw, e_plain)
     auto = {c.label: c.operators for c in search_classes(MGGPRegressor())}
     assert auto["operators"] == ("play", "dengtan") and auto["Bouc–Wen"] == ("boucwen",)
+
+
+def test_an_overflowing_operator_column_scores_inf_without_numpy_warnings():
+    """A binary input steps its whole range in one sample; one RK4 step of a
+    stiff Bouc–Wen shape (β = γ = 4.5 per unit of range) then grows without
+    bound. The structure is refused (fitness inf) without numpy warnings on
+    the user's terminal; control: a gentle shape on the same record fits."""
+    import warnings
+
+    from narx.data import Data
+    from narx.fitness import StructureScorer
+    from narx.terms import parse_terms
+    rng = np.random.default_rng(3)
+    u = (rng.random(1000) > 0.5).astype(float)
+    y = np.convolve(u, [0.0, 0.5, 0.25])[:u.size]
+    sc = StructureScorer(Data(u, y), "ms", start=4)
+    stiff = parse_terms(["y[k-1]", "BoucWen(u[k-1],4.5,4.5)",
+                         "u[k-1]*BoucWen(u[k-1],4.5,4.5)"])
+    gentle = parse_terms(["y[k-1]", "BoucWen(u[k-1],0.1,0.1)"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.max(np.abs(bouc_wen(u, 4.5, 4.5))) > 1e100       # the known limit
+        assert sc.score(stiff) == np.inf
+        assert np.isfinite(sc.score(gentle))
