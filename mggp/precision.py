@@ -32,6 +32,7 @@ from typing import Optional
 
 import numpy as np
 
+from .choices import error_floor
 from .exceptions import SearchPrecisionWarning
 
 __all__ = ["SearchPrecisionWarning", "PrecisionCheck", "search_precision", "offsets",
@@ -55,7 +56,8 @@ class PrecisionCheck:
     """
     search_mse: float
     refit_mse: float
-    #: errors below this are rounding (exact data), never compared
+    #: MSEs below this are rounding (exact data), never compared: the square
+    #: of :func:`mggp.choices.error_floor`
     floor: float = 0.0
     #: the search's θ of the structure (None if its fit failed)
     search_theta: Optional[np.ndarray] = None
@@ -107,7 +109,7 @@ def search_precision(scorer, terms, theta) -> PrecisionCheck:
         refit = scorer.simulated_mse(terms, np.asarray(theta, dtype=float), s)
     except (ValueError, np.linalg.LinAlgError):
         refit = float("inf")
-    floor = (1e-10 * float(np.ptp(scorer.y))) ** 2     # rounding of noise-free data
+    floor = error_floor(scorer.data) ** 2            # rounding of noise-free data
     return PrecisionCheck(float(search), float(refit), floor, theta_s)
 
 
