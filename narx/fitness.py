@@ -354,9 +354,9 @@ class StructureScorer:
         if not (np.all(np.isfinite(G)) and np.all(np.isfinite(b))):
             # an operator or Φ-column overflowed on this record: no LS fit
             # (and no numpy warning from scaling by an infinite norm)
-            raise EstimationError("a regressor column is not finite: "
-                                  + ", ".join(str(terms[i]) for i in
-                                              np.flatnonzero(~np.isfinite(np.diag(G)))))
+            bad = [str(terms[i]) for i in np.flatnonzero(~np.isfinite(np.diag(G)))]
+            raise EstimationError("the regressors' cross products are not finite"
+                                  + (f" (columns {', '.join(bad)})" if bad else ""))
         if constraints is None:
             theta = gram_lstsq(G, b)[0]
             if self.estimator in OE_ESTIMATORS and any(t.output_factors for t in terms) \

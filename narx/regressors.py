@@ -104,9 +104,16 @@ def operator_sequence(f: OpCall, x) -> np.ndarray:
 def _product(cols, n):
     if not cols:
         return np.ones(n)
-    out = cols[0].copy() if len(cols) > 1 else cols[0]
-    with np.errstate(over="ignore", invalid="ignore"):   # non-finite: refused at the fit
-        for c in cols[1:]:
+    return cols[0] if len(cols) == 1 else _multiply_into(cols, np.empty(n))
+
+
+def _multiply_into(cols, out: np.ndarray) -> np.ndarray:
+    """The product of two or more ``cols`` written into ``out``; an overflow
+    is left as inf or NaN without a numpy warning (the fit refuses a
+    non-finite column: :meth:`narx.fitness.StructureScorer.fit`)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        np.multiply(cols[0], cols[1], out=out)
+        for c in cols[2:]:
             out *= c
     return out
 
@@ -156,10 +163,7 @@ def input_part_into(term: Term, data: Data, out: np.ndarray,
     elif len(cols) == 1:
         out[:] = cols[0]
     else:
-        with np.errstate(over="ignore", invalid="ignore"):   # as _product
-            np.multiply(cols[0], cols[1], out=out)
-            for c in cols[2:]:
-                out *= c
+        _multiply_into(cols, out)
     return out
 
 
