@@ -328,10 +328,18 @@ def pilot_generations(generations: int) -> int:
     return min(generations, max(1, int(round(PILOT * generations))))
 
 
-#: class label -> its words in a choice line, and its key in the figures
-_WITH = {"no Φ": "without Φ", "Φ": "with Φ", "operators": "with operators",
-         "Bouc–Wen": "with Bouc–Wen variables"}
-_KEY = {"no Φ": "no_phi", "Φ": "phi", "Bouc–Wen": "bouc_wen"}
+#: class label -> (its words in a choice line, its key in the figures)
+_LABELS = {"no Φ": ("without Φ", "no_phi"), "Φ": ("with Φ", "phi"),
+           "operators": ("with operators", "operators"),
+           "Bouc–Wen": ("with Bouc–Wen variables", "bouc_wen")}
+
+
+def _with(label: str) -> str:
+    return _LABELS.get(label, (label, label))[0]
+
+
+def _key(label: str) -> str:
+    return _LABELS.get(label, (label, label))[1]
 
 
 def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
@@ -356,15 +364,15 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     c = classes[best]
     figs = {"class": c.label, "operators": list(c.operators), "holdout": HOLDOUT}
     for cl, e in zip(classes, errors):
-        figs[f"heldout_rmse_{_KEY.get(cl.label, cl.label)}"] = e
-    others = ", ".join(f"{errors[i]:.4g} {_WITH.get(classes[i].label, classes[i].label)}"
+        figs[f"heldout_rmse_{_key(cl.label)}"] = e
+    others = ", ".join(f"{errors[i]:.4g} {_with(classes[i].label)}"
                        for i in range(n) if i != best)
     why = f"{c.label}: held-out free-run RMSE {errors[best]:.4g} against {others}"
     if any(holds):
         figs["holds"] = {cl.label: h for cl, h in zip(classes, holds)}
         if len(pool) < n:
             why += (f"; only {'the search' if len(pool) == 1 else 'the searches'} "
-                    f"{', '.join(_WITH.get(classes[i].label) for i in pool)} "
+                    f"{', '.join(_with(classes[i].label) for i in pool)} "
                     f"{'has' if len(pool) == 1 else 'have'} a structure whose CLS refit "
                     f"holds its output")
     why += (f" (θ on the first {1 - HOLDOUT:.0%}, error on the last {HOLDOUT:.0%} of the "
