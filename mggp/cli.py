@@ -324,7 +324,22 @@ def mode_option(mode: str, uses: dict, args, flag: str = "--mode") -> None:
                            f"{flag} {mode}")
 
 
+def _column_hint(exc, args) -> str:
+    """How to name a column the CSV lacks when its name was the default
+    (``u`` for the inputs, ``y`` for the output): the option that names it."""
+    col = getattr(exc, "column", None)
+    if col is None or args is None:
+        return ""
+    given = getattr(args, "inputs", getattr(args, "input", False))
+    if col == "u" and given is None:
+        return "; name the input columns with --input NAME [NAME ...]"
+    if col == "y" and getattr(args, "output", False) is None:
+        return "; name the output column with --output NAME"
+    return ""
+
+
 def _main(argv: Optional[List[str]]) -> int:
+    args = None
     try:
         args = build_parser().parse_args(argv)
         for mod in args.phi_module:
@@ -349,6 +364,7 @@ def _main(argv: Optional[List[str]]) -> int:
         msg = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
         if isinstance(exc, OSError) and exc.filename:
             msg = f"{exc.filename}: {exc.strerror}"
+        msg += _column_hint(exc, args)
         print("error: " + " ".join(msg.split()), file=sys.stderr)
         return 2
 

@@ -163,7 +163,8 @@ def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
                               for h in header if h)[:200] or "(none)"
             sep_name = {",": "','", ";": "';'", "\t": "tab"}[sep]
             raise DataError(f"{path}: line {line} (header): no column {name!r} "
-                            f"(columns: {shown}; fields separated by {sep_name})")
+                            f"(columns: {shown}; fields separated by {sep_name})",
+                            column=name)
         if len(hits) > 1:
             raise DataError(f"{path}: column {name!r} appears {len(hits)} times in the "
                             f"header (fields {', '.join(str(i + 1) for i in hits)})")

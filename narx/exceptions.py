@@ -26,7 +26,13 @@ class TermError(ValueError):
 
 
 class DataError(ValueError):
-    """Invalid measured data (shape, length, non-finite values, names)."""
+    """Invalid measured data (shape, length, non-finite values, names).
+    ``column``: the name the data has no column of, when that is the
+    problem (None otherwise), so that a caller can say how to name it."""
+
+    def __init__(self, *args, column=None):
+        super().__init__(*args)
+        self.column = column
 
 
 class EstimationError(ValueError):

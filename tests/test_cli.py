@@ -92,6 +92,23 @@ def test_estimate_bad_csv(capsys, tmp_path, content, needle):
     assert needle in line and "bad.csv" in line
 
 
+@pytest.mark.parametrize("cmd", [["fit", "--population", "4", "--generations", "1"],
+                                 ["estimate", "--terms", "y[k-1]"]])
+def test_a_missing_default_column_names_the_option_that_names_it(capsys, tmp_path, cmd):
+    p = write_csv(tmp_path / "rec.csv", ["time", "force", "y"], [(0, 1, 2), (1, 2, 3)])
+    code, _, err = run(capsys, cmd[0], p, *cmd[1:])
+    line = one_error_line(err)
+    assert code == 2 and "no column 'u'" in line
+    assert line.endswith("name the input columns with --input NAME [NAME ...]")
+    q = write_csv(tmp_path / "rec2.csv", ["time", "u", "pos"], [(0, 1, 2), (1, 2, 3)])
+    code, _, err = run(capsys, cmd[0], q, *cmd[1:])
+    assert code == 2 and one_error_line(err).endswith("name the output column with --output NAME")
+    # control: a column named by the user and missing gets no hint (it was named)
+    code, _, err = run(capsys, cmd[0], p, "--input", "forces", *cmd[1:])
+    line = one_error_line(err)
+    assert code == 2 and "no column 'forces'" in line and "--input" not in line
+
+
 def test_estimate_unknown_term(capsys, sine_csv):
     code, _, err = run(capsys, "estimate", sine_csv, "--terms", "y[k-1]", "Phi7(u[k-1])")
     assert code == 2
