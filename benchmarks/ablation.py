@@ -5,6 +5,7 @@ Typical use::
     python -m benchmarks.ablation "cascaded tanks" --seeds 1 2 3 4 5 6 --jsonl tanks.jsonl
     python -m benchmarks.ablation "piezo (simulated)" --settings default "screen none"
     python -m benchmarks.ablation "piezo (simulated)" --settings default --seeds 3 6 --pilot 0.4
+    python -m benchmarks.ablation "buck converter" --settings default --holdout-ends head tail
 
 For one record of :data:`benchmarks.panel.RECORDS`, :class:`mggp.MGGPRegressor`
 with its defaults and with each setting of :data:`SETTINGS` (one automatic
@@ -87,13 +88,18 @@ def main(argv=None) -> int:
     p.add_argument("--generations", type=int)
     p.add_argument("--pilot", type=float, help="mggp.choices.PILOT for these fits (a trial "
                    "of a longer or shorter class pilot; default: the module's)")
+    p.add_argument("--holdout-ends", nargs="+", choices=["head", "tail"],
+                   help="mggp.choices.HOLDOUT_ENDS for these fits (a trial of held-out "
+                   "errors at both ends of the record; default: the module's)")
     p.add_argument("--jsonl", help="append one JSON line per fit here")
     a = p.parse_args(argv)
     budget = {k: v for k, v in (("population", a.population),
                                 ("generations", a.generations)) if v is not None}
+    import mggp.choices
     if a.pilot is not None:
-        import mggp.choices
         mggp.choices.PILOT = a.pilot
+    if a.holdout_ends:
+        mggp.choices.HOLDOUT_ENDS = tuple(a.holdout_ends)
     tr, va = RECORDS[a.record]()
     rows = {}
     for label in a.settings:

@@ -184,6 +184,26 @@ def test_size_takes_the_fewest_terms_within_the_tolerance():
     assert size_choice([(3, 1.0, big), (2, 1.5, small)]).value == big
 
 
+def test_heldout_ends_pool_the_errors_of_each_end(monkeypatch):
+    """Both ends held out (the trial of ``HOLDOUT_ENDS``): the figure pools
+    the head's and the tail's errors, each end with θ fitted on the rest,
+    and the size choice counts the samples of both."""
+    import mggp.choices as ch
+    d = system_by_name("S1", n=500, seed=0)
+    data = Data(d.u, d.y)
+    ts = ["y[k-1]", "u[k-1]"]                   # misses terms: errors well above noise
+    tail = heldout_rmse(ts, data)
+    monkeypatch.setattr(ch, "HOLDOUT_ENDS", ("head",))
+    head = heldout_rmse(ts, data)
+    assert ch.heldout_samples(500) == 150
+    monkeypatch.setattr(ch, "HOLDOUT_ENDS", ("head", "tail"))
+    both = heldout_rmse(ts, data)
+    assert ch.heldout_samples(500) == 300
+    # the head end scores its 150 samples but the initial condition y[0]
+    pooled = np.sqrt((149 * head ** 2 + 150 * tail ** 2) / 299)
+    assert head != tail and both == pytest.approx(pooled, rel=1e-12)
+
+
 def test_size_tolerance_widens_on_a_short_held_out_part():
     from mggp.choices import SIZE_TOLERANCE, heldout_samples, size_choice, size_tolerance
     big, small = ("a", "b", "c", "d"), ("a", "b")
