@@ -45,6 +45,7 @@ SETTINGS = {
     "phi, no constant": dict(use_phi=True, constant=False),
     "phi, screen none": dict(use_phi=True, screen=None),
     "phi, no constant, size search": dict(use_phi=True, constant=False, size="search"),
+    "max degree 3": dict(max_degree=3),
 }
 
 
