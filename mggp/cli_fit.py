@@ -185,6 +185,9 @@ def _cmd_fit(args) -> int:
     if args.out:                              # saved first: a closed pipe loses nothing
         final.save(args.out)
         lines.append(f"model written to {args.out}" + (" (CLS fit)" if final is not m else ""))
+    else:
+        lines.append("model not written: --out MODEL.json writes it (for mggp simulate, "
+                     "diagnose and compensate)")
     print("\n".join(lines))
     if args.report:
         from .report import write_fit_report

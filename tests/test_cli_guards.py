@@ -82,6 +82,17 @@ def test_fit_checks_destinations_before_the_search(capsys, tmp_path):
     assert code == 2 and "--checkpoint" in error_line(err) and out == ""
 
 
+def test_fit_says_whether_the_model_was_written(capsys, tmp_path):
+    data = csv(tmp_path)
+    code, out, _ = run(capsys, "fit", data, "--population", "10", "--generations", "1")
+    assert code == 0 and "model not written: --out MODEL.json writes it" in out
+    m = tmp_path / "m.json"
+    code, out, _ = run(capsys, "fit", data, "--population", "10", "--generations", "1",
+                       "--out", m)
+    assert code == 0 and f"model written to {m}" in out and "not written" not in out
+    assert load_model(m).n_terms >= 1
+
+
 @pytest.mark.parametrize("argv, text", [
     (["--seed", "-5"], "--seed must be >= 0, got -5"),
     (["--population", "1"], "--population must be >= 2, got 1"),
