@@ -46,6 +46,7 @@ SETTINGS = {
     "phi, screen none": dict(use_phi=True, screen=None),
     "phi, no constant, size search": dict(use_phi=True, constant=False, size="search"),
     "max degree 3": dict(max_degree=3),
+    "bic": dict(criterion="bic"),
 }
 
 
