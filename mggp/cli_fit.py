@@ -61,10 +61,20 @@ def register(sub):
 
 
 class _Progress:
+    """The progress line on ``stream``: which search runs (a model class's
+    pilot or the full search, :meth:`phase`), its generation, the best
+    fitness and the time since the start; without a terminal one line every
+    twentieth of the full run's generations."""
+
     def __init__(self, total, stream, quiet):
         self.total, self.stream, self.quiet = total, stream, quiet
+        self.every = max(1, total // 20)
+        self.label = "search"
         self.t0 = time.perf_counter()
         self.tty = hasattr(stream, "isatty") and stream.isatty()
+
+    def phase(self, label: str, generations: int) -> None:
+        self.label, self.total = label, generations
 
     def __call__(self, state):
         if self.quiet:
@@ -75,13 +85,13 @@ class _Progress:
         width = 24
         done = int(width * min(g, self.total) / max(self.total, 1))
         bar = "#" * done + "." * (width - done)
-        msg = (f"gen {g:>4d}/{self.total} [{bar}] best {fmt(best)} "
+        msg = (f"{self.label}: gen {g:>4d}/{self.total} [{bar}] best {fmt(best)} "
                f"terms {rec.get('best_terms', '?')} {time.perf_counter() - self.t0:6.1f}s")
         if self.tty:
             self.stream.write("\r" + msg)
             if g >= self.total:
                 self.stream.write("\n")
-        elif g % max(1, self.total // 20) == 0 or g >= self.total:
+        elif g % self.every == 0 or g >= self.total:
             self.stream.write(msg + "\n")
         self.stream.flush()
 

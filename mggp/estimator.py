@@ -313,6 +313,7 @@ class MGGPRegressor:
         classes = search_classes(self)
         if len(classes) == 1:
             c = classes[0]
+            self._phase(f"search {c.label}", self.generations)
             if self.use_phi == "auto":
                 ctx.choices["use_phi"] = Choice(
                     "use_phi", True, "Φ: a checkpointed run (or one with Φ of outputs) is "
@@ -329,6 +330,7 @@ class MGGPRegressor:
                 scr = ctx.screen if i == 0 else self._make_screen(
                     ctx.data, ctx.start, ctx.registry, ctx)
                 path = os.path.join(tmp, f"pilot{i}.json")
+                self._phase(f"pilot {i + 1}/{len(classes)} {c.label}", pilot)
                 seed, res = self._search(ctx, c, pilot, scr, seed, checkpoint=path,
                                          require_finite=False)
                 if res.best is None or not np.isfinite(res.best.fitness):
@@ -355,12 +357,20 @@ class MGGPRegressor:
             evaluations = sum(r[0].evaluations for i, r in enumerate(runs)
                               if r[0] is not None and i != win)
             if pilot < self.generations:
+                self._phase(f"search {classes[win].label}", self.generations)
                 _, res = self._search(ctx, classes[win], self.generations, scr, seed,
                                       checkpoint=path, resume=True)
         ctx.choices["use_phi"] = choice
         ctx.seed, ctx.result, ctx.screen = seed, res, scr
         ctx.search_class = classes[win]
         return evaluations + res.evaluations
+
+    def _phase(self, label: str, generations: int) -> None:
+        """Tell the callbacks that have a ``phase`` method which search runs
+        next (``label``) and its number of generations."""
+        for cb in self.callbacks or []:
+            if hasattr(cb, "phase"):
+                cb.phase(label, generations)
 
     def _held_candidate(self, ctx: FitContext, res):
         """The structure of ``res`` the hold selection would take (when

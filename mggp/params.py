@@ -416,7 +416,9 @@ _ROWS = (
           "--resume", const=True, default_text="start anew"),
     Param("callbacks", None, Kind("None or a list of callables",
                                   lambda v: v is None or all(callable(c) for c in v)),
-          "functions f(state) called every generation", "output"),
+          "functions f(state) called every generation; one with a method "
+          "phase(label, generations) is told which search runs next (a model class's "
+          "pilot or the full search)", "output"),
     Param("registry", None, ANY, "Φ-functions (default: the registered ones)",
           "model class"),
 )

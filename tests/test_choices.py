@@ -90,6 +90,37 @@ def test_chosen_class_is_the_uninterrupted_search_of_that_class():
     assert est.n_evaluations_ > one.n_evaluations_
 
 
+class _Phases:
+    """A callback that records the searches it is told of and their generations."""
+
+    def __init__(self):
+        self.phases, self.generations = [], []
+
+    def phase(self, label, generations):
+        self.phases.append((label, generations))
+
+    def __call__(self, state):
+        self.generations.append((self.phases[-1][0], state.generation))
+
+
+def test_callbacks_are_told_which_search_runs():
+    d = system_by_name("S1", n=500, seed=0)
+    cb, plain = _Phases(), []
+    kw = dict(_KW, generations=5, size="search", constant=False)
+    est = MGGPRegressor(**dict(kw, callbacks=[cb, plain.append])).fit(d.u, d.y)
+    chosen = est.choices_["use_phi"]["figures"]["class"]
+    assert cb.phases == [("pilot 1/4 no Φ", 1), ("pilot 2/4 Φ", 1), ("pilot 3/4 operators", 1),
+                         ("pilot 4/4 Bouc–Wen", 1), (f"search {chosen}", 5)]
+    # each generation is reported under the search it belongs to; the chosen
+    # pilot's run continues from its last generation
+    assert [g for lab, g in cb.generations if lab == f"search {chosen}"] == [2, 3, 4, 5]
+    assert len(plain) == len(cb.generations)        # a plain callable still runs
+    # control: one class asked for, one search
+    one = _Phases()
+    MGGPRegressor(**dict(kw, use_phi=False, callbacks=[one])).fit(d.u, d.y)
+    assert one.phases == [("search no Φ", 5)]
+
+
 def test_constant_kept_for_an_offset_only():
     """An output resting at an offset (y = 0.5 + 0.6 y[k-1] + 0.4 u[k-1])
     keeps the constant term; control: a record without one drops it."""
