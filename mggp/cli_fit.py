@@ -151,10 +151,9 @@ def _cmd_fit(args) -> int:
     for c in est.choices_.values():
         print(f"auto: {c['why']}", file=sys.stderr)
     if est.local_search_:
-        moves = ", ".join(f"{s['removed']} -> {s['added']}" if s["added"] and s["removed"]
-                          else f"+{s['added']}" if s["added"] else f"-{s['removed']}"
-                          for s in est.local_search_)
-        print(f"local search: {len(est.local_search_)} one-term move(s): {moves} "
+        from .local_search import moves_text
+        print(f"local search: {len(est.local_search_)} one-term move(s): "
+              f"{moves_text(est.local_search_)} "
               f"({est.fitness} fitness {fmt(est.local_search_[-1]['fitness'])} after)",
               file=sys.stderr)
     fr_ls = m.simulate(data, mode="freerun")

@@ -39,7 +39,7 @@ from typing import Callable, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 from narx.terms import Lag, Term
 
-__all__ = ["improve", "term_moves", "LocalStep"]
+__all__ = ["improve", "term_moves", "LocalStep", "moves_text"]
 
 #: neighbours of a step that are checked by ``passes`` (best first) before
 #: the search stops
@@ -113,6 +113,15 @@ def term_moves(signals, lags: Iterable[int], max_degree: int,
                 if v not in present and allowed(v):
                     yield terms[:i] + (v,) + terms[i + 1:]
     return moves
+
+
+def moves_text(steps, term=str) -> str:
+    """The moves of ``steps`` (:meth:`LocalStep.to_dict` rows) in one line:
+    ``old -> new`` for a replacement, ``+new`` for an addition, ``-old``
+    for a drop; ``term`` formats each term's text (e.g. as Markdown code)."""
+    return ", ".join(f"{term(s['removed'])} -> {term(s['added'])}" if s["added"] and s["removed"]
+                     else f"+{term(s['added'])}" if s["added"] else f"-{term(s['removed'])}"
+                     for s in steps)
 
 
 def _change(old: Sequence[Term], new: Sequence[Term]) -> Tuple[Optional[str], Optional[str]]:

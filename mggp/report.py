@@ -170,6 +170,32 @@ def figure_lines(figs) -> list:
     return lines
 
 
+def _conclusion(est, rows, models) -> list:
+    """The report's opening paragraph: the model used, how it simulates the
+    training record, and what the report does not measure."""
+    used = est.get_best()
+    name = next(k for k, m in models.items() if m is used)
+    _, rm, mp, _, div = next(r for r in rows if r[0] == name)
+    fit = ("its free run over the training record **diverges**" if div else
+           f"its free run over the training record has RMSE {rm:.4g} (MAPE {mp:.3g} %)")
+    return [f"**Conclusion.** The model used is the {name} fit of {used.n_terms} terms; "
+            f"{fit}. That is how it fits the record it was searched on, not how it "
+            f"predicts fresh data: `mggp simulate MODEL.json VALIDATION.csv` measures "
+            f"that, and `mggp diagnose` names what a model misses.", ""]
+
+
+def _choice_lines(est) -> list:
+    """The automatic choices (``choices_``) and the local search's moves, one
+    line each, as ``mggp fit`` printed them."""
+    out = [f"- {c['why']}" for c in getattr(est, "choices_", {}).values()]
+    steps = getattr(est, "local_search_", None) or []
+    if steps:
+        from .local_search import moves_text
+        out.append(f"- local search: {len(steps)} one-term move(s): "
+                   + moves_text(steps, lambda t: f"`{t}`"))
+    return ["## Automatic choices", ""] + out + [""] if out else []
+
+
 def write_fit_report(folder, est, data, data_name: str = "data",
                      command: Optional[str] = None) -> str:
     """Write figures and ``summary.md`` for a fitted MGGPRegressor."""
@@ -211,7 +237,7 @@ def write_fit_report(folder, est, data, data_name: str = "data",
                          "the training input's range): its free-run loop between the "
                          "attracting and repelling solutions of the frozen equation under "
                          "loading and unloading (narx.quasistatic)."))
-    lines = [f"# mggp fit: {data_name}", ""]
+    lines = [f"# mggp fit: {data_name}", ""] + _conclusion(est, rows, models)
     if command:
         lines += ["Command:", "", f"    {command}", ""]
     lines += [f"- samples: {data.n}; inputs: {', '.join(data.inputs)}; output: {data.output}",
@@ -237,6 +263,7 @@ def write_fit_report(folder, est, data, data_name: str = "data",
         lines += ["Cluster sums of the LS fit (a continuum of steady states needs "
                   "Σ_y = 1 and the others 0): " +
                   ", ".join(f"Σ_{k} = {v:.4g}" for k, v in sums.items()), ""]
+    lines += _choice_lines(est)
     lines += ["## Pareto front (complexity = number of terms)", "",
               est.pareto_front_.to_markdown(), "", "## Figures", ""]
     lines += figure_lines(figs)

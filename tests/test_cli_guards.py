@@ -341,3 +341,26 @@ def test_fit_refuses_phi_outputs_without_phi(capsys, tmp_path):
                        "--population", "10", "--generations", "1")
     assert code == 2 and "--phi-outputs needs Φ-functions in the search: drop --no-phi" \
         in error_line(err)
+
+
+def test_fit_report_opens_with_its_conclusion_and_lists_the_choices(capsys, tmp_path):
+    rep = tmp_path / "rep"
+    code, out, err = run(capsys, "fit", csv(tmp_path), "--population", "20",
+                         "--generations", "3", "--seed", "0", "--quiet", "--report", rep)
+    assert code == 0, err
+    text = (rep / "summary.md").read_text()
+    first = [ln for ln in text.splitlines() if ln.strip()][1]   # after the title
+    assert first.startswith("**Conclusion.** The model used is the LS fit of ")
+    assert "free run over the training record has RMSE" in first
+    section = text.split("## Automatic choices", 1)[1].split("\n## ", 1)[0]
+    printed = [ln[len("auto: "):] for ln in err.splitlines() if ln.startswith("auto: ")]
+    assert printed and all(f"- {p}" in section for p in printed)
+    # control: with every choice given there is nothing automatic to list
+    rep2 = tmp_path / "rep2"
+    code, _, err = run(capsys, "fit", csv(tmp_path), "--population", "20", "--generations",
+                       "3", "--seed", "0", "--quiet", "--no-phi", "--operators", "none",
+                       "--no-constant", "--size", "search", "--screen", "none", "--select",
+                       "fitness", "--no-local-search", "--report", rep2)
+    assert code == 0, err
+    assert "auto: " not in err
+    assert "## Automatic choices" not in (rep2 / "summary.md").read_text()
