@@ -53,7 +53,8 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
            "class_choice", "constant_choice",
            "constant_off", "constant_searched", "front_rows_heldout",
-           "heldout_rmse", "holdout_words", "pilot_generations", "resolve_screen", "resolve_select",
+           "heldout_rmse", "holdout_words", "pilot_generations", "resolve_screen",
+           "resolve_select",
            "search_classes", "size_choice", "steady"]
 
 #: share of the record (its tail) on which the held-out free-run error is measured
