@@ -222,17 +222,18 @@ def markdown(res: dict) -> str:
     """One table: the default's median RMSE, the best grid setting's, their
     ratio, and how firm that verdict is over the seeds (:func:`verdict_spread`)."""
     md = ["| record | default (median) | diverged | best grid setting | its median | "
-          "default / best | within 10 % | ratio, seeds redrawn (5–95 %) | draws within "
-          "10 % |", "|---|---:|---:|---|---:|---:|---|---|---:|"]
+          "its diverged | default / best | within 10 % | ratio, seeds redrawn (5–95 %) | "
+          "draws within 10 % |", "|---|---:|---:|---|---:|---:|---:|---|---|---:|"]
     for name, rows in res.items():
         med = {k: float(np.median([r["rmse"] for r in v])) for k, v in rows.items()}
         grid = {k: v for k, v in med.items() if k != "default"}
         best = min(grid, key=grid.get)
-        div = sum(not np.isfinite(r["rmse"]) for r in rows["default"])
-        ratio = _ratio(rows, range(len(rows["default"])))
+        div, bdiv = (sum(not np.isfinite(r["rmse"]) for r in rows[k]) for k in ("default", best))
+        n = len(rows["default"])
+        ratio = _ratio(rows, range(n))
         sp = verdict_spread(rows)
-        md.append(f"| {name} | {med['default']:.4g} | {div}/{len(rows['default'])} | "
-                  f"`{best}` | {grid[best]:.4g} | {ratio:.3f} | "
+        md.append(f"| {name} | {med['default']:.4g} | {div}/{n} | "
+                  f"`{best}` | {grid[best]:.4g} | {bdiv}/{n} | {ratio:.3f} | "
                   f"{'yes' if ratio <= GOAL and div == 0 else 'NO'} | "
                   f"{sp['low']:.2f}–{sp['high']:.2f} | {sp['within']:.0%} |")
     return "\n".join(md)

@@ -48,11 +48,19 @@ def test_saved_runs_of_other_seeds_are_pooled_and_tabulated(tmp_path, capsys):
     p2.write_text(json.dumps(r2))
     assert main(["--from-json", str(p1), str(p2)]) == 0
     out = capsys.readouterr().out
-    assert "| rec | 1.1 | 0/3 | `a` | 1 | 1.100 | yes |" in out
+    assert "| rec | 1.1 | 0/3 | `a` | 1 | 0/3 | 1.100 | yes |" in out
     assert main(["--from-json", str(tmp_path / "missing.json")]) == 2
     assert "missing.json" in capsys.readouterr().err
 
 
 def test_markdown_counts_a_diverged_default_as_a_miss():
     rows = _rows([1.0, np.inf, 1.0], a=[1.0, 1.0, 1.0])
-    assert "| 1/3 |" in markdown({"rec": rows}) and "| NO |" in markdown({"rec": rows})
+    assert "| rec | 1 | 1/3 | `a` | 1 | 0/3 |" in markdown({"rec": rows})
+    assert "| NO |" in markdown({"rec": rows})
+
+
+def test_markdown_shows_the_best_settings_divergences():
+    """The median rule lets a best setting win with a diverged seed; the
+    table says so beside it."""
+    rows = _rows([1.05, 1.05, 1.05], a=[1.0, np.inf, 1.0], b=[2.0, 2.0, 2.0])
+    assert "| rec | 1.05 | 0/3 | `a` | 1 | 1/3 | 1.050 | yes |" in markdown({"rec": rows})
