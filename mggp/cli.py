@@ -325,15 +325,16 @@ def mode_option(mode: str, uses: dict, args, flag: str = "--mode") -> None:
 
 
 def _column_hint(exc, args) -> str:
-    """How to name a column the CSV lacks when its name was the default
-    (``u`` for the inputs, ``y`` for the output): the option that names it."""
-    col = getattr(exc, "column", None)
-    if col is None or args is None:
+    """How to name a column the CSV lacks when its name was not given but
+    the default (``u``/``y``, or the model's signal names): the option
+    that names it."""
+    role = getattr(exc, "role", None)
+    if role is None or args is None:
         return ""
     given = getattr(args, "inputs", getattr(args, "input", False))
-    if col == "u" and given is None:
+    if role == "input" and given is None:
         return "; name the input columns with --input NAME [NAME ...]"
-    if col == "y" and getattr(args, "output", False) is None:
+    if role == "output" and getattr(args, "output", False) is None:
         return "; name the output column with --output NAME"
     return ""
 

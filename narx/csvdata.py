@@ -210,7 +210,12 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
     """
     inputs = ["u"] if inputs is None else ([inputs] if isinstance(inputs, str) else list(inputs))
     names = inputs + ([output] if output else [])
-    arr, _ = read_columns(path, names)
+    try:
+        arr, _ = read_columns(path, names)
+    except DataError as exc:
+        if exc.column is not None:                # which signal the missing column holds
+            exc.role = "output" if exc.column == output else "input"
+        raise
     n = arr.shape[0]
     if n < min_samples:
         raise DataError(f"{os.fspath(path)}: {n} data row(s); at least {min_samples} are "

@@ -28,11 +28,13 @@ class TermError(ValueError):
 class DataError(ValueError):
     """Invalid measured data (shape, length, non-finite values, names).
     ``column``: the name the data has no column of, when that is the
-    problem (None otherwise), so that a caller can say how to name it."""
+    problem (None otherwise), and ``role``: 'input' or 'output' when the
+    reader knows which signal that column was to hold, so that a caller
+    can say how to name it."""
 
-    def __init__(self, *args, column=None):
+    def __init__(self, *args, column=None, role=None):
         super().__init__(*args)
-        self.column = column
+        self.column, self.role = column, role
 
 
 class EstimationError(ValueError):

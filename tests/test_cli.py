@@ -109,6 +109,25 @@ def test_a_missing_default_column_names_the_option_that_names_it(capsys, tmp_pat
     assert code == 2 and "no column 'forces'" in line and "--input" not in line
 
 
+def test_a_missing_model_signal_column_names_the_option_too(capsys, tmp_path):
+    """simulate reads the model's signal names by default: a CSV without
+    them gets the same hint, and none when the user named the columns."""
+    rows = [(k, np.sin(k), np.cos(k)) for k in range(40)]
+    rec = write_csv(tmp_path / "rec.csv", ["time", "force", "pos"], rows)
+    m = tmp_path / "m.json"
+    code, _, err = run(capsys, "estimate", rec, "--input", "force", "--output", "pos",
+                       "--terms", "pos[k-1]", "force[k-1]", "--out", m)
+    assert code == 0, err
+    other = write_csv(tmp_path / "other.csv", ["u", "pos"], [(r[1], r[2]) for r in rows])
+    code, _, err = run(capsys, "simulate", m, other)
+    line = one_error_line(err)
+    assert code == 2 and "no column 'force'" in line
+    assert line.endswith("name the input columns with --input NAME [NAME ...]")
+    code, _, err = run(capsys, "simulate", m, other, "--input", "f")     # control
+    line = one_error_line(err)
+    assert code == 2 and "no column 'f'" in line and "--input" not in line
+
+
 def test_estimate_unknown_term(capsys, sine_csv):
     code, _, err = run(capsys, "estimate", sine_csv, "--terms", "y[k-1]", "Phi7(u[k-1])")
     assert code == 2
