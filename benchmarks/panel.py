@@ -186,9 +186,13 @@ def run(records, seeds, budget, jobs, log=print) -> dict:
 GOAL = 1.1
 
 
-def _ratio(rows: dict, idx) -> float:
-    """Default median over the seeds ``idx`` / the least grid median over them."""
-    med = {k: float(np.median([v[i]["rmse"] for i in idx])) for k, v in rows.items()}
+def _medians(rows: dict, idx) -> dict:
+    """Each setting's median validation RMSE over the seeds ``idx``."""
+    return {k: float(np.median([v[i]["rmse"] for i in idx])) for k, v in rows.items()}
+
+
+def _ratio(med: dict) -> float:
+    """The default's median / the least grid median (``med``: :func:`_medians`)."""
     best = min(v for k, v in med.items() if k != "default")
     return med["default"] / best if best > 0 else float("nan")
 
@@ -212,7 +216,7 @@ def verdict_spread(rows: dict, draws: int = 4000, seed: int = 0) -> dict:
         raise ValueError(f"every setting needs the same seeds: {n} default rows, "
                          f"{sorted({len(v) for v in rows.values()})} in the grid")
     rng = np.random.default_rng(seed)
-    r = np.array([_ratio(rows, rng.integers(0, n, n)) for _ in range(draws)])
+    r = np.array([_ratio(_medians(rows, rng.integers(0, n, n))) for _ in range(draws)])
     return {"low": float(np.percentile(r, 5, method="lower")),      # no interpolation:
             "high": float(np.percentile(r, 95, method="higher")),   # a draw may be inf
             "within": float(np.mean(r <= GOAL))}
@@ -225,13 +229,13 @@ def markdown(res: dict) -> str:
           "its diverged | default / best | within 10 % | ratio, seeds redrawn (5–95 %) | "
           "draws within 10 % |", "|---|---:|---:|---|---:|---:|---:|---|---|---:|"]
     for name, rows in res.items():
-        med = {k: float(np.median([r["rmse"] for r in v])) for k, v in rows.items()}
+        sp = verdict_spread(rows)                 # first: it checks the seeds agree
+        n = len(rows["default"])
+        med = _medians(rows, range(n))
         grid = {k: v for k, v in med.items() if k != "default"}
         best = min(grid, key=grid.get)
         div, bdiv = (sum(not np.isfinite(r["rmse"]) for r in rows[k]) for k in ("default", best))
-        n = len(rows["default"])
-        ratio = _ratio(rows, range(n))
-        sp = verdict_spread(rows)
+        ratio = _ratio(med)
         md.append(f"| {name} | {med['default']:.4g} | {div}/{n} | "
                   f"`{best}` | {grid[best]:.4g} | {bdiv}/{n} | {ratio:.3f} | "
                   f"{'yes' if ratio <= GOAL and div == 0 else 'NO'} | "
