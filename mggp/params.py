@@ -28,7 +28,13 @@ import textwrap
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, Iterable, Optional, Sequence, Tuple
 
-from narx.output_error import ESTIMATORS, OE_ESTIMATORS
+from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
+
+from .checkpoint import CHECKPOINT_SHARE
+from .choices import (BOUC_WEN_CLASS_GAIN, CLASS_GAIN, GAIN, PILOT, SIZE_TOLERANCE,
+                      heldout_samples, holdout_words, size_tolerance)
+from .operator_stage import OPERATOR_GAIN
+from .primitives import BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS
 
 __all__ = ["Param", "Rule", "Int", "Real", "OneOf", "Bool", "Seed", "Kind", "PARAMS",
            "DIAGNOSE_PARAMS", "GROUPS", "check_params", "check_value", "context_of",
@@ -253,6 +259,26 @@ GROUPS = {
 }
 
 _FITNESS = ("ms", "pem", "freerun", "ksa")
+
+
+def _pct(share: float) -> str:
+    """A share as the help texts write it: 0.15 -> '15 %'."""
+    return f"{100 * share:.3g} %"
+
+
+#: the figures of the automatic choices as the help texts say them, from
+#: the constants of :mod:`mggp.choices`, :mod:`mggp.primitives` and
+#: :mod:`mggp.operator_stage` (the one place each is set)
+_HELD_OUT = holdout_words().replace("%", " %")
+_PILOT = f"{_pct(PILOT)} of the generations"
+_CLASS_MARGINS = (f"a richer class only when over {_pct(CLASS_GAIN)} lower, the Bouc–Wen "
+                  f"class over {_pct(BOUC_WEN_CLASS_GAIN)}")
+_KEPT_GAIN = f"by over {_pct(GAIN)}"
+_PLAY_TEXT = ", ".join(f"{f:g}" for f in PLAY_RADIUS_FRACTIONS)
+_BOUC_WEN_TEXT = ", ".join(f"{s:g}" for s in dict.fromkeys(s for s, _ in BOUC_WEN_SHAPES))
+_N_EXAMPLE = heldout_samples(500)
+_SIZE_TEXT = (f"within {_pct(SIZE_TOLERANCE)} of the least (2/√n on n held-out samples "
+              f"when larger: {_pct(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE})")
 _ROWS = (
     Param("fitness", "ms", OneOf(_FITNESS, aliases=("osa",)),
           "simulation whose mean squared error scores a structure: multiple shooting "
@@ -295,11 +321,9 @@ _ROWS = (
     Param("use_phi", "auto", OneOf((True, False, "auto")), "terms may hold Φ-functions "
           "of lagged inputs (input increments and their signs, which model hysteresis); "
           "'auto': a pilot search of each model class (no Φ, Φ, and with operators='auto' "
-          "plays with Deng–Tan, then Bouc–Wen variables) at full population for a fifth of "
-          "the generations; the "
-          "class whose structure has the least held-out free-run error (θ on the first "
-          "70 % of the record, error on the last 30 %; a richer class only when over 15 % "
-          "lower, the Bouc–Wen class over 50 %) continues to the full generations",
+          "plays with Deng–Tan, then Bouc–Wen variables) at full population for "
+          f"{_PILOT}; the class whose structure has the least held-out free-run error "
+          f"({_HELD_OUT}; {_CLASS_MARGINS}) continues to the full generations",
           "model class", "--no-phi",
           context=True, meta=True, const=False,
           flag_help="plain polynomial terms only: no Φ-functions (--phi: Φ-functions "
@@ -313,9 +337,9 @@ _ROWS = (
           "--phi-outputs", context="if set", meta=True, const=True,
           default_text="inputs only"),
     Param("operators", "auto", OPERATORS, "memory operators of the inputs, "
-          "comma-separated: play (plays of radii 0.05, 0.1, 0.2, 0.35 × the input range), "
-          "dengtan (Deng–Tan operator) and boucwen (Bouc–Wen variables, β = 0.5, 1.5, 4.5 / "
-          "the input range, γ = β or 0), entering as --operator-entry says; none: no "
+          f"comma-separated: play (plays of radii {_PLAY_TEXT} × the input range), "
+          f"dengtan (Deng–Tan operator) and boucwen (Bouc–Wen variables, β = {_BOUC_WEN_TEXT}"
+          " / the input range, γ = β or 0), entering as --operator-entry says; none: no "
           "operators; auto: two model classes of the automatic choice of --phi/--no-phi "
           "(searches with play and dengtan, or with boucwen, in the primitive set, without "
           "Φ), none when --phi or "
@@ -323,18 +347,18 @@ _ROWS = (
           metavar="NAMES", default_text="a class of the automatic choice"),
     Param("operator_entry", "stage", OneOf(("stage", "search")),
           "how operators named by --operators enter the model: stage (after the search, "
-          "each operator term that lowers the fitness by 5 % is added, then terms it made "
+          f"each operator term that lowers the fitness by {_pct(OPERATOR_GAIN)} is added, then terms it made "
           "redundant are dropped) or search (operators join the search's primitive set)",
           "model class", "--operator-entry", context="if set", meta=True),
     Param("constant", "auto", OneOf((True, False, "auto")), "every structure also holds "
           "the constant term 1 (an intercept), for an output that rests at an offset the "
           "lag terms cannot express; 'auto': offered to every structure and kept in the "
-          "result only when it lowers the held-out free-run error by over 5 %; never with "
+          f"result only when it lowers the held-out free-run error {_KEPT_GAIN}; never with "
           "the steady-state constraints (it breaks the continuum of steady states)",
           "model class", "--constant", context="if set", meta=True, const=True,
           flag_help="every structure holds the constant term 1 (an intercept) "
           "(--no-constant: never; neither: offered, kept when it lowers the held-out "
-          "free-run error by over 5 %, never with --constraints steady-state)",
+          f"free-run error {_KEPT_GAIN}, never with --constraints steady-state)",
           default_text="chosen by held-out free-run error"),
     Param("max_lag", None, Int(1, none=True), "largest lag a term may use, in samples",
           "model class", "--max-lag", context=True, meta=True,
@@ -350,9 +374,8 @@ _ROWS = (
     Param("size", "auto", OneOf(("auto", "search")),
           "number of terms: search (the chosen structure as it is), or auto: the "
           "smallest structure of the run's Pareto front (complexity against fitness) whose "
-          "held-out free-run error (θ on the first 70 % of the record, error on the last "
-          "30 %) is within 5 % of the least (2/√n on n held-out samples when larger: 16 % "
-          "on 150); the hold selection keeps its structure",
+          f"held-out free-run error ({_HELD_OUT}) is {_SIZE_TEXT}; the hold selection "
+          "keeps its structure",
           "selection", "--size", meta=True),
     Param("local_search", True, Bool(), "after the search, improve the chosen structure "
           "one term at a time (drop a term, or replace, drop or add one lagged-signal "
@@ -384,9 +407,9 @@ _ROWS = (
           "θ of every structure scored in the search: least squares (ls), or output error "
           "(oe: instrumental variables, then Gauss-Newton on the simulation error), which "
           "white measurement noise on the output does not bias; oe needs --fitness ms or "
-          "freerun and scores each window from its 50th step (ms: at most half a window); "
-          "bj: oe, with the simulation error whitened by an autoregressive noise model "
-          "(order by BIC, at most 8) before its mean square is taken, for equation noise "
+          f"freerun and scores each window from its {BURN_IN}th step (ms: at most half a "
+          "window); bj: oe, with the simulation error whitened by an autoregressive noise "
+          f"model (order by BIC, at most {NOISE_ORDER}) before its mean square is taken, for equation noise "
           "that the dynamics colour",
           "selection", "--estimator", context="if set", meta=True),
     Param("refine", None, OneOf((None, "ms", "freerun")),
@@ -409,7 +432,7 @@ _ROWS = (
     Param("output", "y", Kind("a name", lambda v: isinstance(v, str)), "output column "
           "name", "data", "--output", metavar="NAME"),
     Param("checkpoint", None, PATH, "save the search state to this file after a generation, as often as "
-          "keeps the writes within about 5 % of the run's time "
+          f"keeps the writes within about {_pct(CHECKPOINT_SHARE)} of the run's time "
           "(one search: with Φ unless --no-phi, no automatic Φ choice)",
           "output", "--checkpoint", metavar="FILE", default_text="none"),
     Param("resume", False, Bool(), "continue the run saved in --checkpoint", "output",
