@@ -59,13 +59,22 @@ two agree whenever the depth is not reached.
 .. math::  \frac{dh}{dx} = 1 - \beta\,\operatorname{sign}(\dot x)\,h
            - \gamma\,|h|,
 
-integrated over each sample with :math:`x` taken linear between samples
-(one classic RK4 step of :math:`\Delta x_k = x_k - x_{k-1}`, the
-integration of :func:`narx.systems.piezo_bouc_wen`; accurate while
-:math:`(\beta + |\gamma|)|\Delta x_k|` is well below 1: on an input that
-steps across its range in one sample, a stiff shape's step grows without
-bound, and a structure holding that column is refused by the least-squares
-fit, :class:`narx.fitness.StructureScorer`). Its state is
+solved exactly over each sample with :math:`x` taken linear between
+samples. Counted in the direction of motion, :math:`g = \operatorname{sign}
+(\Delta x_k)\,h`, the law is linear on each sign of :math:`g`:
+:math:`dg/da = 1 - c\,g` along the input's path :math:`a`, with
+:math:`c = \beta + \gamma` while :math:`g \ge 0` and :math:`c = \beta -
+\gamma` while :math:`g < 0`, so
+
+.. math::  g(a) = g_0 + (1 - c\,g_0)\,\frac{1 - e^{-c a}}{c}
+
+(:math:`g_0 + a` when :math:`c = 0`) up to :math:`|\Delta x_k|`, switching
+branch where :math:`g` reaches 0 (at :math:`a = \ln(1 - c\,g_0)/c`; it
+can do so once a sample). This is exact for any step, so an input that
+steps across its range in one sample gets the same variable as a fine
+integration; one RK4 step a sample, as :func:`narx.systems.piezo_bouc_wen`
+takes, agrees with it to :math:`O(((\beta + |\gamma|)\Delta x_k)^5)` and
+is wrong on such steps (on some shapes it grows without bound). Its state is
 :math:`(x_{k-1}, h_{k-1})`, from :math:`(x_0, 0)` (``init`` sets
 :math:`h`). The law is homogeneous in :math:`(h, A)`: the Bouc-Wen
 variable of gain :math:`A` is :math:`A` times this one, so a model is
@@ -222,25 +231,41 @@ def deng_tan_step(state, x, params):  # pragma: no cover - compiled
 
 # -------------------------------------------------------------- Bouc-Wen
 @njit(cache=True)
-def _bouc_wen_rate(h, dx, b, g):  # pragma: no cover - compiled
-    """dh over a sample of input change ``dx``: Δx − β|Δx|h − γΔx|h|."""
-    return dx - b * abs(dx) * h - g * dx * abs(h)
+def _bouc_wen_advance(g, a, c):  # pragma: no cover - compiled
+    """g after a path ``a`` >= 0 of the input on a branch of rate ``c`` >= 0:
+    the solution g + (1 − c g)(1 − e^{−c a})/c of dg/da = 1 − c g (g + a at
+    c = 0), with ``expm1`` so that short paths keep their digits."""
+    if c > 0.0:
+        return g - (1.0 - c * g) * math.expm1(-c * a) / c
+    return g + a
 
 
 @njit(cache=True)
 def bouc_wen_step(state, x, params):  # pragma: no cover - compiled
-    """One Bouc-Wen step: ``state`` = [x_{k-1}, h_{k-1}] becomes [x_k, h_k]
-    by one RK4 step of :func:`_bouc_wen_rate` (see module doc)."""
+    """One Bouc-Wen step: ``state`` = [x_{k-1}, h_{k-1}] becomes [x_k, h_k],
+    the law solved exactly over the sample with x linear in between (see
+    module doc): g = sign(Δx)·h grows at rate 1 − (β − γ)g while negative,
+    until it reaches 0, then at rate 1 − (β + γ)g."""
     b = params[0]
-    g = params[1]
+    gm = params[1]
     dx = x - state[0]
     h = state[1]
     if dx != 0.0:
-        k1 = _bouc_wen_rate(h, dx, b, g)
-        k2 = _bouc_wen_rate(h + 0.5 * k1, dx, b, g)
-        k3 = _bouc_wen_rate(h + 0.5 * k2, dx, b, g)
-        k4 = _bouc_wen_rate(h + k3, dx, b, g)
-        h = h + (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+        sgn = 1.0 if dx > 0.0 else -1.0
+        a = abs(dx)
+        g = sgn * h
+        if g < 0.0:
+            k = b - gm
+            reach = math.log1p(-k * g) / k if k > 0.0 else -g
+            if a <= reach:
+                g = _bouc_wen_advance(g, a, k)
+                a = 0.0
+            else:
+                a -= reach
+                g = 0.0
+        if a > 0.0:
+            g = _bouc_wen_advance(g, a, b + gm)
+        h = sgn * g
     state[0] = x
     state[1] = h
     return h
@@ -411,17 +436,28 @@ def deng_tan_reference(x, init=None):
 
 
 def bouc_wen_reference(x, beta, gamma, init=None):
-    """Plain-Python Bouc-Wen variable: RK4 over each sample, written as a loop."""
-    def rate(h, dx):
-        return dx - beta * abs(dx) * h - gamma * dx * abs(h)
+    """Plain-Python Bouc-Wen variable: over each sample, the law's solution
+    h(s) = h∞ + (h − h∞) e^{−c s} along the input's path s, branch by branch
+    (c = β + γ while h points the way the input moves, else β − γ), written
+    as a loop."""
     out, h, xp = [], 0.0 if init is None else float(init), None
     for xk in map(float, x):
         dx = 0.0 if xp is None else xk - xp
-        k1 = rate(h, dx)
-        k2 = rate(h + k1 / 2, dx)
-        k3 = rate(h + k2 / 2, dx)
-        k4 = rate(h + k3, dx)
-        h += (k1 + 2 * k2 + 2 * k3 + k4) / 6
+        rest = abs(dx)
+        while rest > 0.0:
+            with_motion = h * dx >= 0.0
+            c = beta + gamma if with_motion else beta - gamma
+            if not with_motion:             # path until h reaches 0
+                to_zero = math.log(1.0 + c * abs(h)) / c if c > 0 else abs(h)
+                if to_zero < rest:
+                    h, rest = 0.0, rest - to_zero
+                    continue
+            if c > 0:
+                h_inf = math.copysign(1.0 / c, dx)
+                h = h_inf + (h - h_inf) * math.exp(-c * rest)
+            else:
+                h += math.copysign(rest, dx)
+            rest = 0.0
         xp = xk
         out.append(h)
     return np.array(out, dtype=float)
@@ -610,7 +646,7 @@ def register_operator(name, params, init, step, steady, *, check=None, doc="",
 
     Example, a Bouc-Wen hysteretic variable with its gain as a parameter
     and one Euler step per sample (the built-in ``BoucWen`` has unit gain
-    and one RK4 step),
+    and solves the law exactly over each sample),
     :math:`h_k = h_{k-1} + A\\Delta x_k - \\beta|\\Delta x_k|h_{k-1}
     - \\gamma\\Delta x_k|h_{k-1}|`, state ``[x_prev, h]``::
 

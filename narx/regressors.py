@@ -97,8 +97,11 @@ def factor_column(f, data: Data, y=None, noise=None,
 
 def operator_sequence(f: OpCall, x) -> np.ndarray:
     """The operator of ``f`` over the whole (unshifted) signal ``x``, from
-    the operator's default initial state (:mod:`narx.memory`)."""
-    return default_operators().get(f.name).sequence(x, f.params)
+    the operator's default initial state (:mod:`narx.memory`). A plug-in
+    operator's overflow is left as inf or NaN without a numpy warning (the
+    fit refuses a non-finite column: :meth:`narx.fitness.StructureScorer.fit`)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return default_operators().get(f.name).sequence(x, f.params)
 
 
 def _product(cols, n):

@@ -86,6 +86,9 @@ def direction_terms(inp: str, out: str, lag: int = 1) -> List[str]:
 NO_LAG_CONTROL = "Bouc–Wen increment, no output-lag control"
 #: share of the fitting samples that fits the held-out test's forms
 HOLDOUT = 0.7
+#: input lags (2 .. INPUT_MEMORY + 1) among the controls of the operator
+#: test's form without the output-lag control (:func:`operator_augmentation_test`)
+INPUT_MEMORY = 8
 
 
 @dataclass(frozen=True)
@@ -203,7 +206,14 @@ def operator_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
     :func:`phi_augmentation_test`. Deng–Tan is left out: the play radii and
     the Bouc–Wen shapes are set from the input's range, so the test does
     not depend on the input's units (Deng–Tan's
-    :math:`|\\arctan z|\\, z` does)."""
+    :math:`|\\arctan z|\\, z` does). The form without the output-lag control y[k-2] (for
+    oversampled records, where its LS fit drifts) holds the input lags
+    2..:data:`INPUT_MEMORY` + 1 as controls on both sides: an operator's
+    memory of the input's path stands in for a missing output lag as a
+    linear memory of the input would (on a second-order linear record with
+    white input, fitted with one output lag, the Bouc–Wen variables lowered
+    that form's free-run RMSE from 0.102 to 0.086 without them, placebos by
+    at most 0.0011; with them 0.0226 to 0.0223, placebos 0.0004)."""
     return phi_augmentation_test(model, data, shifts=shifts, alpha=alpha, seed=seed,
                                  operators=True, why=why)
 
@@ -239,7 +249,8 @@ def phi_augmentation_test(model: Model, data: Data, *, shifts: int = 99,
     # each term once: every input's controls hold the same output lag
     ctrl = list(dict.fromkeys(t for n, _ in pairs
                               for t in Model(control_terms(n, data.output), **sig).term_texts))
-    out = _augmentation(model, data, sig, pairs, D, inc, ctrl, shifts, alpha, seed, holdout)
+    out = _augmentation(model, data, sig, pairs, D, inc, ctrl, shifts, alpha, seed, holdout,
+                        input_memory=INPUT_MEMORY if operators else 0)
     if isinstance(out, str):
         if why is not None:
             why.append(out)
@@ -314,9 +325,9 @@ def independent_terms(base, extra, data: Data, sig, start: int,
 
 
 def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed,
-                  holdout=None):
+                  holdout=None, input_memory=0):
     reg = model.registry
-    start = max(model.max_lag, 2)
+    start = max(model.max_lag, 2, input_memory + 1)
     # rows of the LS fits (None: all) and first sample of the scored RMSE
     rows, first = None, 0
     if holdout is not None:
@@ -335,11 +346,20 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed,
                  ("Bouc–Wen increment", inc + ctrl2, D, base1)]
         # on an oversampled record the LS fit of a second output lag simulates
         # with drifting dynamics: the increment form is also tried without that
-        # control term, against the baseline's terms without it
+        # control term, against the baseline's terms without it; with
+        # input_memory, input lags 2..input_memory + 1 join both sides as
+        # controls (linear memory of the input, which stands in for the
+        # missing output lag as the operators' memory of the path could)
         lag2 = Model([f"{data.output}[k-2]"], **sig).term_texts[0]
         if lag2 in ctrl2:
-            forms.append((NO_LAG_CONTROL, inc + [t for t in ctrl2 if t != lag2], D,
-                          model.term_texts + [t for t in ctrl1 if t != lag2]))
+            fir = Model([f"{n}[k-{j}]" for n, _ in pairs for j in range(2, input_memory + 2)],
+                        **sig).term_texts if input_memory else []
+            no_lag = [t for t in ctrl2 if t != lag2]
+            fir2 = independent_terms(inc + no_lag, fir, data, sig, start)[0]
+            fir1 = independent_terms(model.term_texts + [t for t in ctrl1 if t != lag2],
+                                     fir, data, sig, start)[0]
+            forms.append((NO_LAG_CONTROL, inc + no_lag + fir2, D,
+                          model.term_texts + [t for t in ctrl1 if t != lag2] + fir1))
         for label, base, add, against in forms:
             if not add:
                 continue
