@@ -51,7 +51,7 @@ from narx.terms import Term
 __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTANT", "GAIN",
            "HOLDOUT", "HOLDOUT_ENDS", "PILOT", "RESOLUTION", "error_floor",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
-           "class_choice", "constant_choice",
+           "class_choice", "constant_choice", "constant_pilot_choice",
            "constant_off", "constant_searched", "front_rows_heldout",
            "heldout_rmse", "holdout_words", "pilot_generations", "resolve_screen",
            "resolve_select",
@@ -304,6 +304,26 @@ def constant_choice(terms, data: Data, registry=None):
         why = (f"no constant term: held-out free-run RMSE {err_p:.4g} against {err_c:.4g} "
                f"with it (kept only when over {GAIN:.0%} lower)")
     return Choice("constant", keep, why, figs), (terms if keep else plain)
+
+
+def constant_pilot_choice(err_constant: float, err_plain: float, pilot: str) -> Choice:
+    """``constant='auto'``: whether the search continues with the constant
+    term offered to every structure, from two pilots of the chosen model
+    class, one with it and one without (``err_*``: each pilot's least
+    held-out free-run error, as :func:`class_choice` takes them). The
+    constant is kept only when its pilot's error is more than :data:`GAIN`
+    lower (the simpler search wins what the pilots cannot tell apart)."""
+    keep = bool(err_constant < (1.0 - GAIN) * err_plain
+                or (np.isinf(err_plain) and np.isfinite(err_constant)))
+    figs = {"pilot_heldout_rmse_constant": err_constant,
+            "pilot_heldout_rmse_no_constant": err_plain}
+    if keep:
+        why = (f"searched with the constant term: held-out free-run RMSE {err_constant:.4g} "
+               f"against {err_plain:.4g} without it ({pilot})")
+    else:
+        why = (f"no constant term: held-out free-run RMSE {err_plain:.4g} against "
+               f"{err_constant:.4g} with it, kept only when over {GAIN:.0%} lower ({pilot})")
+    return Choice("constant", keep, why, figs)
 
 
 def constant_off() -> Choice:

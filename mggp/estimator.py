@@ -33,6 +33,7 @@ import random
 import tempfile
 import time
 import warnings
+from functools import partial
 from typing import Optional
 
 import numpy as np
@@ -43,8 +44,8 @@ from narx.fitness import StructureScorer
 from narx.phi import default_registry
 
 from .checkpoint import checkpoint_seed, data_digest
-from .choices import (CONSTANT, Choice, class_choice, constant_searched,
-                      front_rows_heldout, heldout_rmse, pilot_generations,
+from .choices import (CONSTANT, Choice, class_choice, constant_pilot_choice,
+                      constant_searched, front_rows_heldout, heldout_rmse, pilot_generations,
                       resolve_screen, resolve_select, search_classes)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
@@ -85,10 +86,12 @@ class MGGPRegressor:
     when over 15 % lower, the Bouc–Wen class over 50 %; with the hold
     selection, classes that have a structure whose CLS refit holds first),
     and continues that pilot to the
-    full generations; ``constant`` offers the constant term to every
-    structure (not with the steady-state constraints, which it would break)
-    and keeps it in the result only when it lowers the held-out free-run
-    RMSE by over 5 %; ``size`` takes the fewest terms of the run's
+    full generations; ``constant`` runs one more pilot of the chosen class
+    (or of the one class asked for) without the constant term and searches
+    with the constant offered to every structure only when that pilot's
+    held-out error is over 5 % higher (never with the steady-state
+    constraints, which it would break), then keeps it in the result only
+    when it lowers the held-out free-run RMSE by over 5 %; ``size`` takes the fewest terms of the run's
     Pareto front within 5 % of the least held-out free-run RMSE (2/√n on
     n held-out samples when larger: :func:`mggp.choices.size_tolerance`). An
     explicit value of a parameter disables its choice.
@@ -307,11 +310,18 @@ class MGGPRegressor:
         its Pareto front (with the hold selection: of the structure that
         selection takes; :func:`mggp.choices.class_choice`),
         and that pilot continued to ``generations`` (the same run as an
-        uninterrupted search of that class). Sets ``ctx.seed``,
-        ``ctx.result``, ``ctx.screen``, ``ctx.search_class`` and the choice;
-        returns the structures evaluated."""
+        uninterrupted search of that class). With ``constant='auto'`` (and
+        the constant searched: :func:`mggp.choices.constant_searched`) the
+        chosen class also has a pilot without the constant term, and the
+        search continues with the constant only when its pilot's held-out
+        error is over :data:`mggp.choices.GAIN` lower
+        (:func:`mggp.choices.constant_pilot_choice`). Sets ``ctx.seed``,
+        ``ctx.result``, ``ctx.screen``, ``ctx.search_class``, ``ctx.shape``
+        and the choices; returns the structures evaluated."""
         classes = search_classes(self)
-        if len(classes) == 1:
+        piloted = (self.constant == "auto" and constant_searched(self)
+                   and self.checkpoint is None)
+        if len(classes) == 1 and not piloted:
             c = classes[0]
             self._phase(f"search {c.label}", self.generations)
             if self.use_phi == "auto":
@@ -324,46 +334,73 @@ class MGGPRegressor:
                                                 resume=self.resume)
             return ctx.result.evaluations
         pilot = pilot_generations(self.generations)
+        n = len(classes) + piloted
         seed, runs = None, []
         with tempfile.TemporaryDirectory(prefix="mggp-pilot-") as tmp:
             for i, c in enumerate(classes):
-                scr = ctx.screen if i == 0 else self._make_screen(
-                    ctx.data, ctx.start, ctx.registry, ctx)
-                path = os.path.join(tmp, f"pilot{i}.json")
-                self._phase(f"pilot {i + 1}/{len(classes)} {c.label}", pilot)
-                seed, res = self._search(ctx, c, pilot, scr, seed, checkpoint=path,
-                                         require_finite=False)
-                if res.best is None or not np.isfinite(res.best.fitness):
-                    runs.append((None, scr, path, float("inf"), False))
-                    continue                    # no finite fitness in this class
-                terms, holds = self._held_candidate(ctx, res)
-                err = heldout_rmse(terms, ctx.data, ctx.registry) if holds is not None else \
-                    min(r[1] for r in front_rows_heldout(terms, res, ctx.shape, ctx.data,
-                                                         ctx.registry))
-                runs.append((res, scr, path, err, holds))
+                label = f"pilot {i + 1}/{n} {c.label}"
+                seed, run = self._pilot(ctx, c, pilot, seed, os.path.join(tmp, f"p{i}.json"),
+                                        label, ctx.shape, ctx.screen if i == 0 else None)
+                runs.append(run)
             if all(r[0] is None for r in runs):
                 raise ValueError(NO_FINITE)
+            words = (f"pilots of {pilot} of {self.generations} generations at full "
+                     f"population")
             hold = None if all(r[4] is None for r in runs) else [bool(r[4]) for r in runs]
             choice = class_choice(classes, [r[3] for r in runs], hold,
-                                  f"pilots of {pilot} of {self.generations} generations at "
-                                  f"full population"
-                                  + ("" if hold else ", least error over each pilot's "
-                                     "Pareto front") + ", the chosen one continued")
+                                  words + ("" if hold else ", least error over each "
+                                           "pilot's Pareto front") + ", the chosen one "
+                                  "continued")
             win = [c.label for c in classes].index(choice.figures["class"])
             if runs[win][0] is None:            # every held-out free run diverges
                 win = next(i for i, r in enumerate(runs) if r[0] is not None)
                 choice = class_choice([classes[win]], [runs[win][3]])
-            res, scr, path = runs[win][:3]
+            go = win
+            if piloted:
+                plain = partial(self._structure, constant=False)
+                seed, run = self._pilot(ctx, classes[win], pilot, seed,
+                                        os.path.join(tmp, "plain.json"),
+                                        f"pilot {n}/{n} {classes[win].label}, no constant",
+                                        plain, None)
+                runs.append(run)
+                kept = constant_pilot_choice(runs[win][3], run[3], f"{words}, class "
+                                             f"{classes[win].label}")
+                ctx.choices["constant"] = kept
+                if not kept.value and run[0] is not None:
+                    go, ctx.shape = len(runs) - 1, plain
+            res, scr, path = runs[go][:3]
             evaluations = sum(r[0].evaluations for i, r in enumerate(runs)
-                              if r[0] is not None and i != win)
+                              if r[0] is not None and i != go)
             if pilot < self.generations:
                 self._phase(f"search {classes[win].label}", self.generations)
                 _, res = self._search(ctx, classes[win], self.generations, scr, seed,
                                       checkpoint=path, resume=True)
-        ctx.choices["use_phi"] = choice
+        if len(classes) > 1:
+            ctx.choices["use_phi"] = choice
         ctx.seed, ctx.result, ctx.screen = seed, res, scr
         ctx.search_class = classes[win]
         return evaluations + res.evaluations
+
+    def _pilot(self, ctx: FitContext, cls, generations: int, seed, path: str, label: str,
+               shape, screen):
+        """One pilot search of ``cls`` scoring the structures ``shape`` makes
+        (a new screen unless ``screen``): ``(seed, (result or None, screen,
+        checkpoint path, held-out error, holds))``, the held-out error that of
+        the structure the hold selection takes (``holds`` True/False) or the
+        least over the pilot's best structure and the smaller ones of its
+        Pareto front (``holds`` None); result None when no structure of the
+        class has a finite fitness."""
+        scr = screen if screen is not None else self._make_screen(
+            ctx.data, ctx.start, ctx.registry, ctx)
+        self._phase(label, generations)
+        seed, res = self._search(ctx, cls, generations, scr, seed, checkpoint=path,
+                                 require_finite=False, shape=shape)
+        if res.best is None or not np.isfinite(res.best.fitness):
+            return seed, (None, scr, path, float("inf"), False)
+        terms, holds = self._held_candidate(ctx, res, shape)
+        err = heldout_rmse(terms, ctx.data, ctx.registry) if holds is not None else \
+            min(r[1] for r in front_rows_heldout(terms, res, shape, ctx.data, ctx.registry))
+        return seed, (res, scr, path, err, holds)
 
     def _phase(self, label: str, generations: int) -> None:
         """Tell the callbacks that have a ``phase`` method which search runs
@@ -372,26 +409,28 @@ class MGGPRegressor:
             if hasattr(cb, "phase"):
                 cb.phase(label, generations)
 
-    def _held_candidate(self, ctx: FitContext, res):
-        """The structure of ``res`` the hold selection would take (when
-        ``select`` is or resolves to 'hold') and whether its CLS refit
-        holds (None: no hold selection); else the best-fitness one."""
-        best = ctx.shape(res.best.terms)
+    def _held_candidate(self, ctx: FitContext, res, shape):
+        """The structure of ``res`` (scored as ``shape`` makes it) the hold
+        selection would take (when ``select`` is or resolves to 'hold') and
+        whether its CLS refit holds (None: no hold selection); else the
+        best-fitness one."""
+        best = shape(res.best.terms)
         if self.select not in ("hold", "auto") or (
                 self.select == "auto" and resolve_select(self).value != "hold"):
             return best, None
-        cands = run_candidates(res, ctx.data.signals, ctx.shape, self.select_candidates)
+        cands = run_candidates(res, ctx.data.signals, shape, self.select_candidates)
         chosen, _ = select_hold(cands, ctx.data, ctx.start, ctx.registry, self.screen_band)
         return (chosen or best), chosen is not None
 
     def _search(self, ctx: FitContext, cls, generations: int, screen,
                 seed: Optional[int] = None, checkpoint=None, resume: bool = False,
-                require_finite: bool = True):
+                require_finite: bool = True, shape=None):
         """One evolution of the model class ``cls`` (:class:`mggp.choices.SearchClass`)
         for ``generations`` (continued from ``checkpoint`` with ``resume``):
         ``(seed, EvolutionResult)``; ``ValueError`` when no structure has a
-        finite fitness (unless not ``require_finite``)."""
-        data, shape = ctx.data, ctx.shape
+        finite fitness (unless not ``require_finite``); ``shape`` makes the
+        scored structures (default ``ctx.shape``)."""
+        data, shape = ctx.data, shape or ctx.shape
         pset = make_pset(data.signals, ctx.registry, use_phi=cls.use_phi,
                          phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs),
                          operators=search_operators(
@@ -444,11 +483,14 @@ class MGGPRegressor:
                                constraints=self.search_constraints, registry=registry,
                                hold=how == "hold")
 
-    def _structure(self, terms) -> tuple:
+    def _structure(self, terms, constant: Optional[bool] = None) -> tuple:
         """The scored structure of decoded terms: the allowed ones, after
-        the constant term when ``constant``."""
+        the constant term when ``constant`` (default: when the search offers
+        it, :func:`mggp.choices.constant_searched`)."""
         kept = tuple(t for t in terms if self._allowed(t))
-        return (CONSTANT,) + kept if constant_searched(self) else kept
+        if constant is None:
+            constant = constant_searched(self)
+        return (CONSTANT,) + kept if constant else kept
 
     def _allowed(self, term) -> bool:
         if identically_zero(term, self.registry or default_registry()):

@@ -509,6 +509,10 @@ def tree_from_tokens(tokens: Sequence[str], pset, type_=None) -> gp.PrimitiveTre
                 raise ValueError(f"{tok!r} at position {pos} is not allowed where "
                                  f"{t.__name__} is expected{hint}")
             raise ValueError(f"unknown primitive or terminal {tok!r}")
+        if len(cands) > 1 and not any(hasattr(n, "args") for n in cands):
+            # a terminal of a subtype listed under its supertype too (an
+            # operator's argument u[k-1] is also an input lag): the exact one
+            cands = [n for n in cands if n.ret is t] or cands[:1]
         node = cands[0] if len(cands) == 1 else _by_first_input(cands, tokens, pos, pset)
         nodes.append(node)
         expected.extend(reversed(getattr(node, "args", ())))

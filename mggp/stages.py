@@ -277,13 +277,22 @@ def constant(terms, data, ctx):
     """``constant='auto'``: the constant term offered to every structure of
     the search is kept only when the chosen structure's held-out free-run
     error is over 5 % lower with it (:func:`mggp.choices.constant_choice`);
-    with the steady-state constraints it was not offered."""
+    with the steady-state constraints it was not offered, and when the
+    pilots chose a search without it (:meth:`MGGPRegressor._searches`) the
+    structure has none."""
     if ctx.est.constant != "auto":
         return terms
     if steady(ctx.est):
         ctx.choices["constant"] = constant_off()
         return terms
-    ctx.choices["constant"], terms = constant_choice(terms, data, ctx.registry)
+    pilot = ctx.choices.get("constant")
+    if pilot is not None and not pilot.value:   # searched without it (the pilots' choice)
+        return terms
+    c, terms = constant_choice(terms, data, ctx.registry)
+    if pilot is not None:
+        c = replace(c, why=f"{pilot.why}; then {c.why}", figures={**pilot.figures,
+                                                                   **c.figures})
+    ctx.choices["constant"] = c
     return terms
 
 

@@ -136,6 +136,39 @@ def test_constant_kept_for_an_offset_only():
     assert ctl.model_.meta["constant"] is False
 
 
+def test_constant_pilot_keeps_the_constant_only_for_a_clear_gain():
+    from mggp.choices import GAIN, constant_pilot_choice
+    assert constant_pilot_choice(0.5, 1.0, "p").value is True
+    assert constant_pilot_choice(1.0 - GAIN / 2, 1.0, "p").value is False   # within the margin
+    assert constant_pilot_choice(1.0, float("inf"), "p").value is True      # plain diverges
+    c = constant_pilot_choice(0.0586, 0.0551, "pilots")
+    assert c.why.startswith("no constant term: held-out free-run RMSE 0.0551 against 0.0586 "
+                            "with it")
+    assert c.figures == {"pilot_heldout_rmse_constant": 0.0586,
+                         "pilot_heldout_rmse_no_constant": 0.0551}
+
+
+def test_the_search_drops_the_constant_when_its_pilot_gains_nothing():
+    """constant='auto': the chosen class also has a pilot without the
+    constant; on a record without an offset the search continues from it,
+    which is the same run as a search with constant=False (same seed, same
+    model); control: the offset record continues with the constant."""
+    kw = dict(_KW, population=40, generations=6, use_phi=False)
+    data = first_order_record(500, 0, noise=0.01)
+    cb = _Phases()
+    est = MGGPRegressor(**dict(kw, callbacks=[cb])).fit(*data)
+    c = est.choices_["constant"]
+    assert c["value"] is False and "pilots of 1 of 6 generations" in c["why"]
+    assert cb.phases == [("pilot 1/2 no Φ", 1), ("pilot 2/2 no Φ, no constant", 1),
+                         ("search no Φ", 6)]
+    plain = MGGPRegressor(**dict(kw, constant=False)).fit(*data)
+    assert est.model_.term_texts == plain.model_.term_texts
+    np.testing.assert_array_equal(est.model_.theta, plain.model_.theta)
+    off = MGGPRegressor(**kw).fit(*affine_record())
+    assert off.choices_["constant"]["why"].startswith("searched with the constant term")
+    assert "1" in off.model_.term_texts
+
+
 def test_no_constant_under_the_steady_state_constraints():
     kw = dict(_KW, population=40, generations=4, use_phi=False)
     est = MGGPRegressor(constraints="steady-state", **kw).fit(*affine_record())

@@ -438,6 +438,13 @@ def test_search_pset_with_operators_decodes_and_keeps_phi_only_set():
         tree_from_tokens(["Play@0.2", "q1", "u[k-1]"], pset)
     tree = tree_from_tokens(["q2", "DengTan", "u[k-1]"], pset)
     assert str(Decoder().decode(tree)) == "DengTan(u[k-3])"
+    # u[k-1] as a Φ-function's argument, where the operator's argument
+    # (a subtype of the input lag) is listed too: read back as the input lag
+    # (a checkpoint of a search with Φ and operators was refused before)
+    phi = make_pset(use_phi=True, operators=ops)
+    tokens = ["Phi1", "u[k-1]", "q1", "u[k-1]"]
+    tree = tree_from_tokens(tokens, phi)
+    assert [n.name for n in tree] == tokens and tree[1].ret.__name__ == "InputLag"
     # control: without operators the set is the Φ-only one, node for node
     base = make_pset()
     assert [p.name for t in base.primitives for p in base.primitives[t]] == \
@@ -671,7 +678,10 @@ def test_search_with_bouc_wen_operators_finds_them_on_a_piezo_record():
     u = training_input(2000, seed=4)
     data = Data(u, piezo_bouc_wen(u))
     assert search_operators("boucwen", u[None, :])["BoucWen"] == list(bouc_wen_shapes(u))
-    kw = dict(population=40, generations=5, random_state=1, use_phi=False, max_height=2)
+    # the constant searched in both (not chosen by pilots of 1 generation):
+    # the test compares the operators, at a tiny budget
+    kw = dict(population=40, generations=5, random_state=1, use_phi=False, max_height=2,
+              constant=True)
     bw = MGGPRegressor(operators="boucwen", operator_entry="search", **kw).fit(data)
     plain = MGGPRegressor(operators="none", **kw).fit(data)
     assert any("BoucWen(" in t for t in bw.model_.term_texts)
