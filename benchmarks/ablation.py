@@ -32,10 +32,12 @@ SETTINGS = {
     "default": {},
     "screen none": dict(screen=None),
     "select fitness": dict(select="fitness"),
+    "select freerun": dict(select="freerun"),
     "size search": dict(size="search"),
     "no constant": dict(constant=False),
     "no local search": dict(local_search=False),
     "no phi": dict(use_phi=False),
+    "no phi, no constant": dict(use_phi=False, constant=False),
     "phi": dict(use_phi=True),
     "best(no phi)": dict(use_phi=False, constant=False, screen=None, select="fitness",
                          size="search"),
@@ -51,16 +53,21 @@ SETTINGS = {
 
 
 def fit_row(tr, va, seed: int, kw: dict, budget: dict = None) -> dict:
-    """One fit at one job: its validation free-run RMSE (inf: diverged) and what it chose."""
+    """One fit at one job: its validation free-run RMSE (inf: diverged), the
+    held-out free-run RMSE of its structure on the training record
+    (:func:`mggp.choices.heldout_rmse`) and what it chose."""
     from mggp import MGGPRegressor
+    from mggp.choices import heldout_rmse
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         est = MGGPRegressor(random_state=seed, n_jobs=1, **(budget or {}), **kw).fit(tr)
     m = est.get_best()
+    held = heldout_rmse(tuple(est.terms_), tr, est.registry)
     sim = m.simulate(va, mode="freerun")
     rmse = float("inf") if sim.diverged or not np.isfinite(sim.rmse) else float(sim.rmse)
-    return dict(seed=seed, rmse=rmse, terms=m.n_terms, search_terms=len(est.search_terms_),
+    return dict(seed=seed, rmse=rmse, heldout_rmse=held, terms=m.n_terms,
+                search_terms=len(est.search_terms_),
                 seconds=time.perf_counter() - t0, structure=[str(t) for t in est.terms_],
                 local_search=len(est.local_search_ or []),
                 screen_rejected=getattr(est, "screen_rejected_", None),
