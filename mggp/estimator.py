@@ -321,13 +321,13 @@ class MGGPRegressor:
         classes = search_classes(self)
         piloted = (self.constant == "auto" and constant_searched(self)
                    and self.checkpoint is None)
+        if len(classes) == 1 and self.use_phi == "auto":
+            ctx.choices["use_phi"] = Choice(
+                "use_phi", True, "Φ: a checkpointed run (or one with Φ of outputs) is "
+                "one search with Φ, not compared with other model classes", {})
         if len(classes) == 1 and not piloted:
             c = classes[0]
             self._phase(f"search {c.label}", self.generations)
-            if self.use_phi == "auto":
-                ctx.choices["use_phi"] = Choice(
-                    "use_phi", True, "Φ: a checkpointed run (or one with Φ of outputs) is "
-                    "one search with Φ, not compared with other model classes", {})
             ctx.search_class = c
             ctx.seed, ctx.result = self._search(ctx, c, self.generations, ctx.screen,
                                                 checkpoint=self.checkpoint,

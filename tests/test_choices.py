@@ -379,3 +379,21 @@ def test_defaults_return_the_exact_structure_of_a_noise_free_record(seed):
     figs = ctl.choices_["use_phi"]["figures"]
     errs = [v for k, v in figs.items() if k.startswith("heldout_rmse_")]
     assert min(errs) > 100 * error_floor(noisy)
+
+
+def test_phi_of_outputs_is_one_class_and_still_pilots_the_constant():
+    """phi_outputs: one search with Φ, said in the use_phi choice line,
+    even when a pilot without the constant runs beside it; control: with
+    constant=False no pilot runs and the line is the same."""
+    d = first_order_record(500, 0, noise=0.01)
+    kw = dict(_KW, population=30, generations=5, phi_outputs=True)
+    cb = _Phases()
+    est = MGGPRegressor(**dict(kw, callbacks=[cb])).fit(*d)
+    assert est.choices_["use_phi"]["why"].startswith("Φ: a checkpointed run (or one with Φ "
+                                                     "of outputs)")
+    assert [p for p, _ in cb.phases] == ["pilot 1/2 Φ", "pilot 2/2 Φ, no constant", "search Φ"]
+    assert "pilots of 1 of 5 generations" in est.choices_["constant"]["why"]
+    one = _Phases()
+    ctl = MGGPRegressor(**dict(kw, constant=False, callbacks=[one])).fit(*d)
+    assert ctl.choices_["use_phi"]["why"] == est.choices_["use_phi"]["why"]
+    assert [p for p, _ in one.phases] == ["search Φ"]
