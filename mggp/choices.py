@@ -51,7 +51,7 @@ from narx.terms import Term
 __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTANT", "GAIN",
            "HOLDOUT", "HOLDOUT_ENDS", "PILOT", "RESOLUTION", "error_floor",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
-           "class_choice", "constant_choice", "constant_pilot_choice",
+           "class_choice", "constant_choice", "constant_pays", "constant_pilot_choice",
            "constant_off", "constant_searched", "front_rows_heldout",
            "heldout_rmse", "holdout_words", "pilot_generations", "resolve_screen",
            "resolve_select",
@@ -282,6 +282,14 @@ def constant_searched(est) -> bool:
     return bool(est.constant)
 
 
+def constant_pays(err_constant: float, err_plain: float) -> bool:
+    """The rule of both constant choices: a held-out error with the constant
+    more than :data:`GAIN` below the one without it, or finite where the
+    one without it is not."""
+    return bool(err_constant < (1.0 - GAIN) * err_plain
+                or (np.isinf(err_plain) and np.isfinite(err_constant)))
+
+
 def constant_choice(terms, data: Data, registry=None):
     """``constant='auto'``: ``(Choice, terms)``. The constant term of the
     chosen structure is kept only when its held-out free-run error is more
@@ -294,7 +302,7 @@ def constant_choice(terms, data: Data, registry=None):
     plain = tuple(t for t in terms if t != CONSTANT)
     err_c = heldout_rmse(terms, data, registry)
     err_p = heldout_rmse(plain, data, registry) if plain else float("inf")
-    keep = bool(err_c < (1.0 - GAIN) * err_p or (np.isinf(err_p) and np.isfinite(err_c)))
+    keep = constant_pays(err_c, err_p)
     figs = {"heldout_rmse_constant": err_c, "heldout_rmse_no_constant": err_p,
             "holdout": HOLDOUT}
     if keep:
@@ -313,8 +321,7 @@ def constant_pilot_choice(err_constant: float, err_plain: float, pilot: str) -> 
     held-out free-run error, as :func:`class_choice` takes them). The
     constant is kept only when its pilot's error is more than :data:`GAIN`
     lower (the simpler search wins what the pilots cannot tell apart)."""
-    keep = bool(err_constant < (1.0 - GAIN) * err_plain
-                or (np.isinf(err_plain) and np.isfinite(err_constant)))
+    keep = constant_pays(err_constant, err_plain)
     figs = {"pilot_heldout_rmse_constant": err_constant,
             "pilot_heldout_rmse_no_constant": err_plain}
     if keep:

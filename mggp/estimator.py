@@ -91,8 +91,9 @@ class MGGPRegressor:
     with the constant offered to every structure only when that pilot's
     held-out error is over 5 % higher (never with the steady-state
     constraints, which it would break), then keeps it in the result only
-    when it lowers the held-out free-run RMSE by over 5 %; ``size`` takes the fewest terms of the run's
-    Pareto front within 5 % of the least held-out free-run RMSE (2/√n on
+    when it lowers the held-out free-run RMSE by over 5 %; ``size`` takes
+    the fewest terms of the run's Pareto front within 5 % of the least
+    held-out free-run RMSE (2/√n on
     n held-out samples when larger: :func:`mggp.choices.size_tolerance`). An
     explicit value of a parameter disables its choice.
 

@@ -347,8 +347,8 @@ _ROWS = (
           metavar="NAMES", default_text="a class of the automatic choice"),
     Param("operator_entry", "stage", OneOf(("stage", "search")),
           "how operators named by --operators enter the model: stage (after the search, "
-          f"each operator term that lowers the fitness by {_pct(OPERATOR_GAIN)} is added, then terms it made "
-          "redundant are dropped) or search (operators join the search's primitive set)",
+          f"each operator term that lowers the fitness by {_pct(OPERATOR_GAIN)} is added, "
+          "then terms it made redundant are dropped) or search (operators join the search's primitive set)",
           "model class", "--operator-entry", context="if set", meta=True),
     Param("constant", "auto", OneOf((True, False, "auto")), "every structure also holds "
           "the constant term 1 (an intercept), for an output that rests at an offset the "
@@ -411,8 +411,8 @@ _ROWS = (
           "white measurement noise on the output does not bias; oe needs --fitness ms or "
           f"freerun and scores each window from its {BURN_IN}th step (ms: at most half a "
           "window); bj: oe, with the simulation error whitened by an autoregressive noise "
-          f"model (order by BIC, at most {NOISE_ORDER}) before its mean square is taken, for equation noise "
-          "that the dynamics colour",
+          f"model (order by BIC, at most {NOISE_ORDER}) before its mean square is taken, for "
+          "equation noise that the dynamics colour",
           "selection", "--estimator", context="if set", meta=True),
     Param("refine", None, OneOf((None, "ms", "freerun")),
           "refine θ by minimising the simulation error (ms: windows of --refine-window "
