@@ -348,7 +348,8 @@ _ROWS = (
     Param("operator_entry", "stage", OneOf(("stage", "search")),
           "how operators named by --operators enter the model: stage (after the search, "
           f"each operator term that lowers the fitness by {_pct(OPERATOR_GAIN)} is added, "
-          "then terms it made redundant are dropped) or search (operators join the search's primitive set)",
+          "then terms it made redundant are dropped) or search (operators join the "
+          "search's primitive set)",
           "model class", "--operator-entry", context="if set", meta=True),
     Param("constant", "auto", OneOf((True, False, "auto")), "every structure also holds "
           "the constant term 1 (an intercept), for an output that rests at an offset the "

@@ -696,8 +696,9 @@ def test_an_overflowing_operator_column_scores_inf_without_numpy_warnings():
     """A binary input steps its whole range in one sample; a plug-in
     Bouc–Wen variable of one Euler step a sample (the example of
     register_operator) grows without bound on a stiff shape (β = 9, γ = 0
-    per unit of range: each reversal multiplies it by about 9). The structure is refused (fitness inf) without numpy
-    warnings on the user's terminal; controls: a gentle shape of the plug-in,
+    per unit of range: each reversal multiplies it by about 9). The
+    structure is refused (fitness inf) without numpy warnings on the user's
+    terminal; controls: a gentle shape of the plug-in,
     and the built-in BoucWen of that shape (solved exactly, bounded),
     fit on the same record."""
     import warnings

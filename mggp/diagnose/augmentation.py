@@ -354,12 +354,11 @@ def _augmentation(model, data, sig, pairs, D, inc, control, shifts, alpha, seed,
         if lag2 in ctrl2:
             fir = Model([f"{n}[k-{j}]" for n, _ in pairs for j in range(2, input_memory + 2)],
                         **sig).term_texts if input_memory else []
-            no_lag = [t for t in ctrl2 if t != lag2]
-            fir2 = independent_terms(inc + no_lag, fir, data, sig, start)[0]
-            fir1 = independent_terms(model.term_texts + [t for t in ctrl1 if t != lag2],
-                                     fir, data, sig, start)[0]
-            forms.append((NO_LAG_CONTROL, inc + no_lag + fir2, D,
-                          model.term_texts + [t for t in ctrl1 if t != lag2] + fir1))
+            form = inc + [t for t in ctrl2 if t != lag2]
+            against = model.term_texts + [t for t in ctrl1 if t != lag2]
+            forms.append((NO_LAG_CONTROL,
+                          form + independent_terms(form, fir, data, sig, start)[0], D,
+                          against + independent_terms(against, fir, data, sig, start)[0]))
         for label, base, add, against in forms:
             if not add:
                 continue
