@@ -53,7 +53,7 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
            "class_choice", "constant_choice", "constant_pays", "constant_pilot_choice",
            "constant_off", "constant_searched", "front_rows_heldout",
-           "heldout_rmse", "holdout_words", "pilot_generations", "resolve_screen",
+           "heldout_rmse", "holdout_words", "percent", "pilot_generations", "resolve_screen",
            "resolve_select",
            "search_classes", "size_choice", "steady"]
 
@@ -124,6 +124,11 @@ class Choice:
         return {"value": self.value, "why": self.why, "figures": self.figures}
 
 
+def percent(share: float) -> str:
+    """A share as the choice lines and the help texts write it: 0.15 -> '15 %'."""
+    return f"{100 * share:.3g} %"
+
+
 def error_floor(data: Data) -> float:
     """The RMSE below which two fits on ``data`` count as equal,
 
@@ -168,8 +173,9 @@ def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT) -> 
 def holdout_words() -> str:
     """How :func:`heldout_rmse` splits the record, in words for a choice line."""
     if HOLDOUT_ENDS == ("tail",):
-        return f"θ on the first {1 - HOLDOUT:.0%}, error on the last {HOLDOUT:.0%} of the record"
-    return (f"θ on {1 - HOLDOUT:.0%}, error on the other {HOLDOUT:.0%}, at the "
+        return (f"θ on the first {percent(1 - HOLDOUT)}, error on the last "
+                f"{percent(HOLDOUT)} of the record")
+    return (f"θ on {percent(1 - HOLDOUT)}, error on the other {percent(HOLDOUT)}, at the "
             f"{' and the '.join(HOLDOUT_ENDS)} of the record in turn")
 
 
@@ -237,7 +243,7 @@ def size_choice(rows, n_heldout: int = 0) -> Choice:
             "searched_heldout_rmse": rows[0][1], "candidates": len(rows)}
     if i == 0:
         why = (f"size {n} terms: the chosen structure (held-out free-run RMSE {err:.4g}; "
-               f"no smaller one of the Pareto front within {tol:.0%})")
+               f"no smaller one of the Pareto front within {percent(tol)})")
     else:
         why = (f"size {n} terms: Pareto-front structure with held-out free-run RMSE "
                f"{err:.4g} against {rows[0][1]:.4g} for the {rows[0][0]}-term chosen one")
@@ -310,7 +316,7 @@ def constant_choice(terms, data: Data, registry=None):
                f"without it")
     else:
         why = (f"no constant term: held-out free-run RMSE {err_p:.4g} against {err_c:.4g} "
-               f"with it (kept only when over {GAIN:.0%} lower)")
+               f"with it (kept only when over {percent(GAIN)} lower)")
     return Choice("constant", keep, why, figs), (terms if keep else plain)
 
 
@@ -329,7 +335,7 @@ def constant_pilot_choice(err_constant: float, err_plain: float, pilot: str) -> 
                f"against {err_plain:.4g} without it ({pilot})")
     else:
         why = (f"no constant term: held-out free-run RMSE {err_plain:.4g} against "
-               f"{err_constant:.4g} with it, kept only when over {GAIN:.0%} lower ({pilot})")
+               f"{err_constant:.4g} with it, kept only when over {percent(GAIN)} lower ({pilot})")
     return Choice("constant", keep, why, figs)
 
 

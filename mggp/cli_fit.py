@@ -152,8 +152,7 @@ def _cmd_fit(args) -> int:
         print(f"auto: {c['why']}", file=sys.stderr)
     if est.local_search_:
         from .local_search import moves_text
-        print(f"local search: {len(est.local_search_)} one-term move(s): "
-              f"{moves_text(est.local_search_)} "
+        print(f"{moves_text(est.local_search_)} "
               f"({est.fitness} fitness {fmt(est.local_search_[-1]['fitness'])} after)",
               file=sys.stderr)
     fr_ls = m.simulate(data, mode="freerun")

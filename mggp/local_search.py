@@ -24,12 +24,13 @@ factors replaced by another lagged signal, dropped or joined by one more
 term's own lags, which keeps a step's cost linear in the number of lags).
 When dropping a term improves :math:`J` (or leaves it equal, as on a
 noise-free record whose errors the caller floors at rounding), the best
-such drop is taken before any replacement, so that a spurious term leaves the model instead
-of being traded for the one that fits the noise best.
+such drop is taken before any replacement, so that a spurious term leaves
+the model instead of being traded for the one that fits the noise best.
 Φ-calls and memory operators stay as the search built them: their term may
-be dropped or joined by a lagged signal, the call itself is not changed. This is the hybrid of evolutionary and local
-search called memetic (Moscato, "On evolution, search, optimization, genetic
-algorithms and martial arts", Caltech C3P report 826, 1989); for term
+be dropped or joined by a lagged signal, the call itself is not changed.
+This is the hybrid of evolutionary and local search called memetic
+(Moscato, "On evolution, search, optimization, genetic algorithms and
+martial arts", Caltech C3P report 826, 1989); for term
 selection in NARX models compare the forward-backward moves of Piroddi and
 Spinelli (Int. J. Control 76(17), 2003).
 """
@@ -116,12 +117,14 @@ def term_moves(signals, lags: Iterable[int], max_degree: int,
 
 
 def moves_text(steps, term=str) -> str:
-    """The moves of ``steps`` (:meth:`LocalStep.to_dict` rows) in one line:
-    ``old -> new`` for a replacement, ``+new`` for an addition, ``-old``
-    for a drop; ``term`` formats each term's text (e.g. as Markdown code)."""
-    return ", ".join(f"{term(s['removed'])} -> {term(s['added'])}" if s["added"] and s["removed"]
-                     else f"+{term(s['added'])}" if s["added"] else f"-{term(s['removed'])}"
-                     for s in steps)
+    """The moves of ``steps`` (:meth:`LocalStep.to_dict` rows) in one line,
+    ``local search: N one-term move(s): ...``: ``old -> new`` for a
+    replacement, ``+new`` for an addition, ``-old`` for a drop; ``term``
+    formats each term's text (e.g. as Markdown code)."""
+    moves = ", ".join(f"{term(s['removed'])} -> {term(s['added'])}" if s["added"] and s["removed"]
+                      else f"+{term(s['added'])}" if s["added"] else f"-{term(s['removed'])}"
+                      for s in steps)
+    return f"local search: {len(steps)} one-term move(s): {moves}"
 
 
 def _change(old: Sequence[Term], new: Sequence[Term]) -> Tuple[Optional[str], Optional[str]]:

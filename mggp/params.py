@@ -32,7 +32,7 @@ from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
 from .checkpoint import CHECKPOINT_SHARE
 from .choices import (BOUC_WEN_CLASS_GAIN, CLASS_GAIN, GAIN, PILOT, SIZE_TOLERANCE,
-                      heldout_samples, holdout_words, size_tolerance)
+                      heldout_samples, holdout_words, percent, size_tolerance)
 from .operator_stage import OPERATOR_GAIN
 from .primitives import BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS
 
@@ -261,24 +261,19 @@ GROUPS = {
 _FITNESS = ("ms", "pem", "freerun", "ksa")
 
 
-def _pct(share: float) -> str:
-    """A share as the help texts write it: 0.15 -> '15 %'."""
-    return f"{100 * share:.3g} %"
-
-
 #: the figures of the automatic choices as the help texts say them, from
 #: the constants of :mod:`mggp.choices`, :mod:`mggp.primitives` and
 #: :mod:`mggp.operator_stage` (the one place each is set)
-_HELD_OUT = holdout_words().replace("%", " %")
-_PILOT = f"{_pct(PILOT)} of the generations"
-_CLASS_MARGINS = (f"a richer class only when over {_pct(CLASS_GAIN)} lower, the Bouc–Wen "
-                  f"class over {_pct(BOUC_WEN_CLASS_GAIN)}")
-_KEPT_GAIN = f"by over {_pct(GAIN)}"
+_HELD_OUT = holdout_words()
+_PILOT = f"{percent(PILOT)} of the generations"
+_CLASS_MARGINS = (f"a richer class only when over {percent(CLASS_GAIN)} lower, the Bouc–Wen "
+                  f"class over {percent(BOUC_WEN_CLASS_GAIN)}")
+_KEPT_GAIN = f"by over {percent(GAIN)}"
 _PLAY_TEXT = ", ".join(f"{f:g}" for f in PLAY_RADIUS_FRACTIONS)
 _BOUC_WEN_TEXT = ", ".join(f"{s:g}" for s in dict.fromkeys(s for s, _ in BOUC_WEN_SHAPES))
 _N_EXAMPLE = heldout_samples(500)
-_SIZE_TEXT = (f"within {_pct(SIZE_TOLERANCE)} of the least (2/√n on n held-out samples "
-              f"when larger: {_pct(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE})")
+_SIZE_TEXT = (f"within {percent(SIZE_TOLERANCE)} of the least (2/√n on n held-out samples "
+              f"when larger: {percent(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE})")
 _ROWS = (
     Param("fitness", "ms", OneOf(_FITNESS, aliases=("osa",)),
           "simulation whose mean squared error scores a structure: multiple shooting "
@@ -347,7 +342,7 @@ _ROWS = (
           metavar="NAMES", default_text="a class of the automatic choice"),
     Param("operator_entry", "stage", OneOf(("stage", "search")),
           "how operators named by --operators enter the model: stage (after the search, "
-          f"each operator term that lowers the fitness by {_pct(OPERATOR_GAIN)} is added, "
+          f"each operator term that lowers the fitness by {percent(OPERATOR_GAIN)} is added, "
           "then terms it made redundant are dropped) or search (operators join the "
           "search's primitive set)",
           "model class", "--operator-entry", context="if set", meta=True),
@@ -434,8 +429,9 @@ _ROWS = (
           metavar="NAME", default_text="u"),
     Param("output", "y", Kind("a name", lambda v: isinstance(v, str)), "output column "
           "name", "data", "--output", metavar="NAME"),
-    Param("checkpoint", None, PATH, "save the search state to this file after a generation, as often as "
-          f"keeps the writes within about {_pct(CHECKPOINT_SHARE)} of the run's time "
+    Param("checkpoint", None, PATH, "save the search state to this file after a "
+          "generation, as often as "
+          f"keeps the writes within about {percent(CHECKPOINT_SHARE)} of the run's time "
           "(one search: with Φ unless --no-phi, no automatic Φ choice)",
           "output", "--checkpoint", metavar="FILE", default_text="none"),
     Param("resume", False, Bool(), "continue the run saved in --checkpoint", "output",

@@ -191,8 +191,7 @@ def _choice_lines(est) -> list:
     steps = getattr(est, "local_search_", None) or []
     if steps:
         from .local_search import moves_text
-        out.append(f"- local search: {len(steps)} one-term move(s): "
-                   + moves_text(steps, lambda t: f"`{t}`"))
+        out.append("- " + moves_text(steps, lambda t: f"`{t}`"))
     return ["## Automatic choices", ""] + out + [""] if out else []
 
 
