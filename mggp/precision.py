@@ -97,13 +97,19 @@ def offset_message(data) -> str:
               "fitting")
 
 
-def search_precision(scorer, terms, theta) -> PrecisionCheck:
+def search_precision(scorer, terms, theta, start: Optional[int] = None) -> PrecisionCheck:
     """Fitness of ``terms`` with the search's θ and with ``theta`` (the
-    refit), on the same scorer: same rows, same simulation."""
+    refit), on the same scorer and the same simulation, from row ``start``
+    (the refit model's first row; default the search's). The search fits
+    every structure from the row its deepest reachable lag needs, so on a
+    short record the refit model, which starts at its own largest lag,
+    also simulates rows the search's θ was never fitted on: both are
+    compared on those rows too."""
     terms = tuple(terms)
     theta_s, s = scorer.fitted(terms)
     if s is None:
         return PrecisionCheck(float("inf"), float("inf"))
+    s = s if start is None else int(start)
     search = float("inf") if theta_s is None else scorer.simulated_mse(terms, theta_s, s)
     try:
         refit = scorer.simulated_mse(terms, np.asarray(theta, dtype=float), s)

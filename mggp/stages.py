@@ -394,7 +394,7 @@ def precision(terms, data, ctx):
     est.precision_ = check = None if (any(t.has_noise for t in terms)
                                       or est.search_constraints
                                       or est.model_.meta["estimation"] == "oe") else \
-        search_precision(ctx.scorer, terms, est.model_.theta)
+        search_precision(ctx.scorer, terms, est.model_.theta, est.model_.fit_info_["start"])
     if check is not None and check.refit_worse:
         est.model_ = _model(terms, data, ctx, "ls-search", check.search_theta,
                             qr_refit_fitness_value=check.refit_mse)
