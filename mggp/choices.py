@@ -53,7 +53,8 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
            "class_choice", "constant_choice", "constant_pays", "constant_pilot_choice",
            "constant_off", "constant_searched", "front_rows_heldout",
-           "heldout_rmse", "holdout_words", "percent", "pilot_generations", "resolve_screen",
+           "heldout_rmse", "holdout_words", "local_search_kept", "percent",
+           "pilot_generations", "resolve_screen",
            "resolve_select",
            "search_classes", "size_choice", "steady"]
 
@@ -248,6 +249,33 @@ def size_choice(rows, n_heldout: int = 0) -> Choice:
         why = (f"size {n} terms: Pareto-front structure with held-out free-run RMSE "
                f"{err:.4g} against {rows[0][1]:.4g} for the {rows[0][0]}-term chosen one")
     return Choice("size", rows[i][2], why, figs)
+
+
+def local_search_kept(err_before: float, err_after: float, n_heldout: int,
+                      moves: int) -> Choice:
+    """Whether the local search's ``moves`` are kept: its structure's
+    held-out free-run error ``err_after`` may exceed the error
+    ``err_before`` of the structure it started from by at most
+    :func:`size_tolerance` of ``n_heldout`` scored samples,
+
+    .. math:: e_{after} \\le (1 + \\tau)\\, e_{before}.
+
+    The local search lowers the search's in-sample fitness; the held-out
+    error chose the class, the constant and the size, and moves that lower
+    the fitness by giving up what the held-out part measures (e.g. input
+    terms traded for output lags that extrapolate each multiple-shooting
+    window) are not kept."""
+    tol = size_tolerance(n_heldout)
+    kept = bool(np.isfinite(err_after) and (not np.isfinite(err_before)
+                                            or err_after <= (1.0 + tol) * err_before))
+    figs = {"heldout_rmse_before": err_before, "heldout_rmse_after": err_after,
+            "moves": moves}
+    if kept:
+        return Choice("local_search", True, f"local search kept: held-out free-run RMSE "
+                      f"{err_after:.4g} against {err_before:.4g} before its moves", figs)
+    return Choice("local_search", False, f"local search not kept: its {moves} move(s) "
+                  f"give held-out free-run RMSE {err_after:.4g} against {err_before:.4g} "
+                  f"before (more than {percent(tol)} higher; {holdout_words()})", figs)
 
 
 def resolve_screen(est) -> Choice:

@@ -377,7 +377,9 @@ _ROWS = (
           "selection", "--size", meta=True),
     Param("local_search", True, Bool(), "after the search, improve the chosen structure "
           "one term at a time (drop a term, or replace, drop or add one lagged-signal "
-          "factor of a term) while the fitness improves", "selection", "--no-local-search",
+          "factor of a term) while the fitness improves; the moves are kept only when the "
+          f"held-out free-run error ({_HELD_OUT}) stays within the size choice's tolerance",
+          "selection", "--no-local-search",
           meta=True, const=False, flag_help="keep the structure the search chose, without "
           "the one-term improvements", default_text="on"),
     Param("select_candidates", 50, Int(1), "structures compared by --select freerun and "

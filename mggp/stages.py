@@ -75,7 +75,8 @@ from narx.model import ignore_rank_warnings
 from narx.output_error import OE_ESTIMATORS
 
 from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
-                      heldout_samples, resolve_select, size_choice, steady)
+                      heldout_rmse, heldout_samples, local_search_kept, resolve_select,
+                      size_choice, steady)
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -219,8 +220,11 @@ def local_search(terms, data, ctx):
     term keeps the measure and is taken); each accepted move passes the search's stability
     screen (:func:`mggp.local_search.improve`), within
     :data:`LOCAL_EVALS_SHARE` of the search's evaluations; a moved structure is pruned
-    again (``prune``). A structure chosen for its holding (``select``
-    'hold') is kept as chosen."""
+    again (``prune``), and kept only when its held-out free-run error is not
+    worse than the chosen structure's beyond the size choice's tolerance
+    (:func:`mggp.choices.local_search_kept`; otherwise the choice line says
+    so). A structure chosen for its holding (``select`` 'hold') is kept as
+    chosen."""
     est = ctx.est
     est.local_search_ = []
     how = selected(ctx)
@@ -246,9 +250,18 @@ def local_search(terms, data, ctx):
         def passes(ts):
             return scr.inside_band(ts) and (scr.hold is None or scr.holds(ts))
     budget = max(LOCAL_EVALS_MIN, int(LOCAL_EVALS_SHARE * ctx.result.evaluations))
-    terms, steps = improve(terms, score, moves, passes, max_evals=budget)
+    moved, steps = improve(terms, score, moves, passes, max_evals=budget)
+    if not steps:
+        return terms
+    moved = prune(moved, data, ctx)
+    c = local_search_kept(heldout_rmse(terms, data, ctx.registry),
+                          heldout_rmse(moved, data, ctx.registry),
+                          heldout_samples(data.n), len(steps))
+    if not c.value:
+        ctx.choices["local_search"] = c
+        return terms
     est.local_search_ = [s.to_dict() for s in steps]
-    return prune(terms, data, ctx) if steps else terms
+    return moved
 
 
 def size(terms, data, ctx):
