@@ -39,6 +39,7 @@ from .primitives import Decoder, tree_from_tokens, tree_to_tokens
 __all__ = ["EvolutionState", "save_checkpoint", "load_checkpoint", "CheckpointWriter",
            "CachePacker", "CHECKPOINT_SHARE",
            "settings_fingerprint", "data_digest", "checkpoint_seed", "checkpoint_settings",
+           "checkpoint_search", "copy_checkpoint",
            "FORMAT", "VERSION"]
 
 FORMAT = "mggp-checkpoint"
@@ -123,6 +124,23 @@ def checkpoint_settings(path) -> dict:
     except (OSError, ValueError, AttributeError, RecursionError):
         return {}
     return st if isinstance(st, dict) else {}
+
+
+def checkpoint_search(path) -> Optional[str]:
+    """The search a checkpoint of a fit with pilots belongs to (the model
+    class and whether the constant is offered: ``context['search']``), None
+    when there is no file or no such entry."""
+    ctx = checkpoint_settings(path).get("context")
+    tag = ctx.get("search") if isinstance(ctx, dict) else None
+    return tag if isinstance(tag, str) else None
+
+
+def copy_checkpoint(src, dst) -> None:
+    """Copy the checkpoint ``src`` to ``dst`` atomically (a crash leaves
+    ``dst`` as it was or the whole copy)."""
+    from narx.atomic import atomic_write_text
+    with open(src, encoding="utf-8") as fh:
+        atomic_write_text(dst, fh.read())
 
 
 def checkpoint_seed(path) -> Optional[int]:

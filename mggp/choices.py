@@ -387,6 +387,11 @@ class SearchClass:
     #: how much lower its held-out error must be than the class kept before it
     gain: float = CLASS_GAIN
 
+    @property
+    def key(self) -> str:
+        """The class's name in figures and file names (ASCII): 'no_phi', 'phi', ..."""
+        return _key(self.label)
+
 
 def _explicit_operators(v) -> tuple:
     """The operator names ``operators`` gives (empty for None, 'none', 'auto')."""
@@ -402,11 +407,11 @@ def search_classes(est) -> list:
     the operators ``operators`` names, which enter as ``operator_entry``
     says);
     otherwise the one class asked for (``operators='auto'``: none). Φ of
-    outputs and a checkpointed run are one search with Φ."""
+    outputs is one search with Φ."""
     from .primitives import AUTO_OPERATORS
     ops = _explicit_operators(est.operators)
     entry = est.operator_entry == "search"
-    if est.use_phi != "auto" or est.phi_outputs or est.checkpoint is not None:
+    if est.use_phi != "auto" or est.phi_outputs:
         phi = est.use_phi is not False
         return [SearchClass("Φ" if phi else "no Φ", phi, ops, entry)]
     out = [SearchClass("no Φ", False, ops, entry), SearchClass("Φ", True, ops, entry)]

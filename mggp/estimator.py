@@ -43,13 +43,14 @@ from narx.data import Data, DataError, as_data
 from narx.fitness import StructureScorer
 from narx.phi import default_registry
 
-from .checkpoint import checkpoint_seed, data_digest
+from .checkpoint import checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest
 from .choices import (CONSTANT, Choice, class_choice, constant_pilot_choice,
                       constant_searched, front_rows_heldout, heldout_rmse, pilot_generations,
                       resolve_screen, resolve_select, search_classes)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
-from .evolve import evolve
+from .evolve import check_context, evolve
+from .exceptions import CheckpointError
 from .params import PARAMS, check_params, context_of, params_doc
 from .pareto import ParetoFront
 from .precision import data_warnings
@@ -320,12 +321,11 @@ class MGGPRegressor:
         ``ctx.result``, ``ctx.screen``, ``ctx.search_class``, ``ctx.shape``
         and the choices; returns the structures evaluated."""
         classes = search_classes(self)
-        piloted = (self.constant == "auto" and constant_searched(self)
-                   and self.checkpoint is None)
+        piloted = self.constant == "auto" and constant_searched(self)
         if len(classes) == 1 and self.use_phi == "auto":
             ctx.choices["use_phi"] = Choice(
-                "use_phi", True, "Φ: a checkpointed run (or one with Φ of outputs) is "
-                "one search with Φ, not compared with other model classes", {})
+                "use_phi", True, "Φ: with Φ of outputs the fit is one search with Φ, "
+                "not compared with other model classes", {})
         if len(classes) == 1 and not piloted:
             c = classes[0]
             self._phase(f"search {c.label}", self.generations)
@@ -337,11 +337,18 @@ class MGGPRegressor:
         pilot = pilot_generations(self.generations)
         n = len(classes) + piloted
         seed, runs = None, []
+        if self.resume and self.checkpoint is not None and os.path.exists(self.checkpoint):
+            check_context(self.checkpoint, self._context(ctx.data))   # before the pilots
+            if self.random_state is None:
+                seed = checkpoint_seed(self.checkpoint)     # the run being resumed
         with tempfile.TemporaryDirectory(prefix="mggp-pilot-") as tmp:
+            def where(key):                     # beside the checkpoint, to be resumed
+                return (os.path.join(tmp, f"{key}.json") if self.checkpoint is None
+                        else f"{os.fspath(self.checkpoint)}.pilot-{key}")
             for i, c in enumerate(classes):
                 label = f"pilot {i + 1}/{n} {c.label}"
-                seed, run = self._pilot(ctx, c, pilot, seed, os.path.join(tmp, f"p{i}.json"),
-                                        label, ctx.shape, ctx.screen if i == 0 else None)
+                seed, run = self._pilot(ctx, c, pilot, seed, where(c.key), label, ctx.shape,
+                                        ctx.screen if i == 0 else None, c.label)
                 runs.append(run)
             if all(r[0] is None for r in runs):
                 raise ValueError(NO_FINITE)
@@ -360,22 +367,23 @@ class MGGPRegressor:
             if piloted:
                 plain = partial(self._structure, constant=False)
                 seed, run = self._pilot(ctx, classes[win], pilot, seed,
-                                        os.path.join(tmp, "plain.json"),
+                                        where(f"{classes[win].key}-no-constant"),
                                         f"pilot {n}/{n} {classes[win].label}, no constant",
-                                        plain, None)
+                                        plain, None, f"{classes[win].label}, no constant")
                 runs.append(run)
                 kept = constant_pilot_choice(runs[win][3], run[3], f"{words}, class "
                                              f"{classes[win].label}")
                 ctx.choices["constant"] = kept
                 if not kept.value and run[0] is not None:
                     go, ctx.shape = len(runs) - 1, plain
-            res, scr, path = runs[go][:3]
+            res, scr, path, tag = runs[go][:3] + (runs[go][5],)
             evaluations = sum(r[0].evaluations for i, r in enumerate(runs)
                               if r[0] is not None and i != go)
+            path = self._continued(path, tag)
             if pilot < self.generations:
                 self._phase(f"search {classes[win].label}", self.generations)
                 _, res = self._search(ctx, classes[win], self.generations, scr, seed,
-                                      checkpoint=path, resume=True)
+                                      checkpoint=path, resume=True, tag=tag)
         if len(classes) > 1:
             ctx.choices["use_phi"] = choice
         ctx.seed, ctx.result, ctx.screen = seed, res, scr
@@ -383,25 +391,47 @@ class MGGPRegressor:
         return evaluations + res.evaluations
 
     def _pilot(self, ctx: FitContext, cls, generations: int, seed, path: str, label: str,
-               shape, screen):
+               shape, screen, tag: str):
         """One pilot search of ``cls`` scoring the structures ``shape`` makes
-        (a new screen unless ``screen``): ``(seed, (result or None, screen,
-        checkpoint path, held-out error, holds))``, the held-out error that of
-        the structure the hold selection takes (``holds`` True/False) or the
-        least over the pilot's best structure and the smaller ones of its
-        Pareto front (``holds`` None); result None when no structure of the
-        class has a finite fitness."""
+        (a new screen unless ``screen``), its checkpoint at ``path`` (resumed
+        with ``resume``) tagged ``tag``: ``(seed, (result or None, screen,
+        checkpoint path, held-out error, holds, tag))``, the held-out error
+        that of the structure the hold selection takes (``holds`` True/False)
+        or the least over the pilot's best structure and the smaller ones of
+        its Pareto front (``holds`` None); result None when no structure of
+        the class has a finite fitness."""
         scr = screen if screen is not None else self._make_screen(
             ctx.data, ctx.start, ctx.registry, ctx)
         self._phase(label, generations)
         seed, res = self._search(ctx, cls, generations, scr, seed, checkpoint=path,
-                                 require_finite=False, shape=shape)
+                                 resume=self.resume, require_finite=False, shape=shape,
+                                 tag=tag)
         if res.best is None or not np.isfinite(res.best.fitness):
-            return seed, (None, scr, path, float("inf"), False)
+            return seed, (None, scr, path, float("inf"), False, tag)
         terms, holds = self._held_candidate(ctx, res, shape)
         err = heldout_rmse(terms, ctx.data, ctx.registry) if holds is not None else \
             min(r[1] for r in front_rows_heldout(terms, res, shape, ctx.data, ctx.registry))
-        return seed, (res, scr, path, err, holds)
+        return seed, (res, scr, path, err, holds, tag)
+
+    def _continued(self, pilot_path: str, tag: str) -> str:
+        """The checkpoint the chosen pilot continues in: its own file, or
+        with ``checkpoint`` that file, a copy of the pilot's unless a resumed
+        run finds it further along the same search (``tag``): each search is
+        one trajectory from its seed, so continuing from the pilot's state
+        or from a later one of the same search ends in the same run."""
+        if self.checkpoint is None:
+            return pilot_path
+        if self.resume and os.path.exists(self.checkpoint):
+            held = checkpoint_search(self.checkpoint)
+            if held != tag:
+                raise CheckpointError(
+                    f"checkpoint {os.fspath(self.checkpoint)}: holds the search "
+                    f"{held or 'of a run without pilots'!r}, but this run's pilots chose "
+                    f"{tag!r} (the pilots' generations follow generations); remove it or "
+                    f"run without resume")
+            return self.checkpoint
+        copy_checkpoint(pilot_path, self.checkpoint)
+        return self.checkpoint
 
     def _phase(self, label: str, generations: int) -> None:
         """Tell the callbacks that have a ``phase`` method which search runs
@@ -425,12 +455,13 @@ class MGGPRegressor:
 
     def _search(self, ctx: FitContext, cls, generations: int, screen,
                 seed: Optional[int] = None, checkpoint=None, resume: bool = False,
-                require_finite: bool = True, shape=None):
+                require_finite: bool = True, shape=None, tag: Optional[str] = None):
         """One evolution of the model class ``cls`` (:class:`mggp.choices.SearchClass`)
         for ``generations`` (continued from ``checkpoint`` with ``resume``):
         ``(seed, EvolutionResult)``; ``ValueError`` when no structure has a
         finite fitness (unless not ``require_finite``); ``shape`` makes the
-        scored structures (default ``ctx.shape``)."""
+        scored structures (default ``ctx.shape``); ``tag`` names the search
+        of a fit with pilots in the checkpoint's context."""
         data, shape = ctx.data, shape or ctx.shape
         pset = make_pset(data.signals, ctx.registry, use_phi=cls.use_phi,
                          phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs),
@@ -455,7 +486,9 @@ class MGGPRegressor:
         seed = self._seed() if seed is None else seed
         if resume and checkpoint is not None and self.random_state is None:
             seed = checkpoint_seed(checkpoint) or seed   # continue its run
-        context = {"data": data_digest(data), **context_of(self)}
+        context = self._context(data)
+        if tag is not None:
+            context["search"] = tag
         try:
             res = evolve(pset, evaluate_batch, seed=seed, population_size=self.population,
                          generations=generations, cxpb=self.cxpb, mutpb=self.mutpb,
@@ -472,6 +505,11 @@ class MGGPRegressor:
         if require_finite and (res.best is None or not np.isfinite(res.best.fitness)):
             raise ValueError(NO_FINITE)
         return seed, res
+
+    def _context(self, data) -> dict:
+        """The checkpoint context of a search of ``data``: the record's
+        digest and the parameters the fitness values depend on."""
+        return {"data": data_digest(data), **context_of(self)}
 
     def _make_screen(self, data, start, registry, ctx=None):
         how = self.screen if ctx is None else screened(ctx)

@@ -38,6 +38,7 @@ exactly as an uninterrupted one.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
 import random
@@ -58,7 +59,7 @@ from .operators import (cx_high_level, cx_low_level, mut_high_level,
 from .params import PARAMS, Int
 from .primitives import Decoder, tree_to_tokens
 
-__all__ = ["EvolutionSettings", "EvolutionResult", "make_toolbox", "evolve",
+__all__ = ["check_context", "EvolutionSettings", "EvolutionResult", "make_toolbox", "evolve",
            "structure_key"]
 
 LOG_FIELDS = ["gen", "nevals", "cache_hits", "best", "median", "best_terms"]
@@ -294,6 +295,27 @@ def _differences(old: dict, new: dict, prefix: str = "") -> str:
     return ", ".join(o for o in out if o)
 
 
+def _mismatch(checkpoint, diff: str) -> CheckpointError:
+    return CheckpointError(f"checkpoint {os.fspath(checkpoint)}: written by a run with other "
+                           f"settings or primitives (differs in: {diff}); remove it or run "
+                           f"without resume")
+
+
+def check_context(checkpoint, context: dict) -> None:
+    """Raise :class:`CheckpointError` naming the settings in which the
+    context stored in ``checkpoint`` differs from ``context`` (a fit with
+    pilots checks this before its first pilot, not after them); the entry
+    ``search`` (which pilot's search a file holds) is not compared."""
+    stored = checkpoint_settings(checkpoint).get("context")
+    if not isinstance(stored, dict):
+        return
+    ours = json.loads(json.dumps(context, default=str))
+    diff = _differences({k: v for k, v in stored.items() if k != "search"},
+                        {k: v for k, v in ours.items() if k != "search"}, "context.")
+    if diff:
+        raise _mismatch(checkpoint, diff)
+
+
 def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[float]],
            settings: Optional[EvolutionSettings] = None, *,
            decoder: Optional[Decoder] = None,
@@ -385,14 +407,9 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
             diff = _differences(stored, sdict) if stored else ""
             if not diff:
                 raise
-            raise CheckpointError(f"checkpoint {os.fspath(checkpoint)}: written by a run "
-                                  f"with other settings or primitives (differs in: {diff}); "
-                                  f"remove it or run without resume ({exc})") from None
+            raise CheckpointError(f"{_mismatch(checkpoint, diff)} ({exc})") from None
         if state.fingerprint != fingerprint:
-            raise CheckpointError(f"checkpoint {os.fspath(checkpoint)}: written by a run "
-                                  f"with other settings or primitives (differs in: "
-                                  f"{_differences(state.settings, sdict) or 'primitive set'}"
-                                  f"); remove it or run without resume")
+            raise _mismatch(checkpoint, _differences(state.settings, sdict) or "primitive set")
         state.settings = sdict
     else:
         rng = random.Random(s.seed)

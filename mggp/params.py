@@ -433,8 +433,9 @@ _ROWS = (
           "name", "data", "--output", metavar="NAME"),
     Param("checkpoint", None, PATH, "save the search state to this file after a "
           "generation, as often as "
-          f"keeps the writes within about {percent(CHECKPOINT_SHARE)} of the run's time "
-          "(one search: with Φ unless --no-phi, no automatic Φ choice)",
+          f"keeps the writes within about {percent(CHECKPOINT_SHARE)} of the run's time; "
+          "the pilots of the automatic choices are saved beside it (FILE.pilot-*), and "
+          "the fit is the one it would be without a checkpoint",
           "output", "--checkpoint", metavar="FILE", default_text="none"),
     Param("resume", False, Bool(), "continue the run saved in --checkpoint", "output",
           "--resume", const=True, default_text="start anew"),

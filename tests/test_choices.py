@@ -290,7 +290,8 @@ def test_search_classes_follow_the_overrides():
     assert labels(operators="play") == [("no Φ", ("play",)), ("Φ", ("play",))]
     assert labels(use_phi=False) == [("no Φ", ())]                 # operators 'auto': none
     assert labels(use_phi=True, operators="dengtan") == [("Φ", ("dengtan",))]
-    assert labels(checkpoint="ck.json") == [("Φ", ())]
+    # a checkpointed fit makes the same choices (its pilots are checkpointed too)
+    assert labels(checkpoint="ck.json") == labels()
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -389,8 +390,8 @@ def test_phi_of_outputs_is_one_class_and_still_pilots_the_constant():
     kw = dict(_KW, population=30, generations=5, phi_outputs=True)
     cb = _Phases()
     est = MGGPRegressor(**dict(kw, callbacks=[cb])).fit(*d)
-    assert est.choices_["use_phi"]["why"].startswith("Φ: a checkpointed run (or one with Φ "
-                                                     "of outputs)")
+    assert est.choices_["use_phi"]["why"].startswith("Φ: with Φ of outputs the fit is one "
+                                                     "search with Φ")
     assert [p for p, _ in cb.phases] == ["pilot 1/2 Φ", "pilot 2/2 Φ, no constant", "search Φ"]
     assert "pilots of 1 of 5 generations" in est.choices_["constant"]["why"]
     one = _Phases()

@@ -123,8 +123,11 @@ def test_dask_worker_loss_is_retried(piezo, monkeypatch):
     assert distributed
 
 
-FIT = dict(use_phi=True, size="search", fitness="ms", window=50, population=24, generations=4, max_terms=6,
-           max_height=3, random_state=2)
+#: one search (no pilots: the class and the constant fixed), whose checkpoint
+#: is written from its first generation on; a fit stopped in its pilots is
+#: in tests/test_resume_guard.py
+FIT = dict(use_phi=True, constant=False, size="search", fitness="ms", window=50,
+           population=24, generations=4, max_terms=6, max_height=3, random_state=2)
 
 
 def test_search_survives_a_killed_worker(piezo, tmp_path):
@@ -226,7 +229,8 @@ def fit_args(folder, u, y, population, generations, seed, max_terms):
     np.savetxt(csv, np.c_[u, y], delimiter=",", header="u,y", comments="")
     return ["fit", str(csv), "--fitness", "ms", "--window", "50", "--population",
             str(population), "--generations", str(generations), "--seed", str(seed),
-            "--max-terms", str(max_terms), "--max-height", "3", "--quiet", "--phi"]
+            "--max-terms", str(max_terms), "--max-height", "3", "--quiet", "--phi",
+            "--no-constant"]
 
 
 def test_sigkill_during_checkpoint_write_then_resume(piezo, tmp_path, capsys):

@@ -44,6 +44,55 @@ def test_run_without_seed_resumes_with_the_checkpoint_seed(tmp_path):
     np.testing.assert_array_equal(b.model_.theta, full.model_.theta)
 
 
+@pytest.mark.parametrize("seed", [16, 25])
+def test_a_checkpoint_does_not_change_the_fit(tmp_path, seed):
+    """The automatic choices run their pilots with a checkpoint too (each
+    pilot's beside it), so a checkpointed fit is the fit without one. On
+    these seeds the pilot without the constant term wins; before, a
+    checkpointed fit skipped that pilot and ended elsewhere."""
+    ck = tmp_path / "ck.json"
+    kw = dict(KW, generations=4)
+    a = MGGPRegressor(random_state=seed, checkpoint=ck, **kw).fit(*record(0))
+    full = MGGPRegressor(random_state=seed, **kw).fit(*record(0))
+    assert a.model_.term_texts == full.model_.term_texts
+    np.testing.assert_array_equal(a.model_.theta, full.model_.theta)
+    assert a.choices_["constant"]["why"] == full.choices_["constant"]["why"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "ck.json", "ck.json.pilot-no_phi", "ck.json.pilot-no_phi-no-constant"]
+
+
+class _StopInPilot:
+    """Interrupts a fit at the first generation of its second pilot."""
+
+    def __init__(self):
+        self.label = ""
+
+    def phase(self, label, generations):
+        self.label = label
+
+    def __call__(self, state):
+        if self.label.startswith("pilot 2"):
+            raise KeyboardInterrupt
+
+
+def test_a_fit_stopped_in_its_pilots_resumes_to_the_same_model(tmp_path):
+    """Stopped during the second of its class pilots (use_phi='auto'), the
+    resumed fit takes the finished pilot from its file, continues the
+    stopped one and ends as the uninterrupted fit; control: the fit is
+    really stopped there (the continued search's file is not yet written)."""
+    ck = tmp_path / "ck.json"
+    kw = dict(KW, use_phi="auto", generations=5)
+    with pytest.raises(KeyboardInterrupt):
+        MGGPRegressor(random_state=3, checkpoint=ck, callbacks=[_StopInPilot()],
+                      **kw).fit(*record(0))
+    assert not ck.exists() and (tmp_path / "ck.json.pilot-no_phi").exists()
+    b = MGGPRegressor(random_state=3, checkpoint=ck, resume=True, **kw).fit(*record(0))
+    full = MGGPRegressor(random_state=3, **kw).fit(*record(0))
+    assert b.model_.term_texts == full.model_.term_texts
+    np.testing.assert_array_equal(b.model_.theta, full.model_.theta)
+    assert b.choices_["use_phi"]["why"] == full.choices_["use_phi"]["why"]
+
+
 @pytest.mark.parametrize("edit, text", [
     (lambda d: d.update(population=d["population"][:3]), "population_size=12"),
     (lambda d: d.update(generation=1000000), "logbook holds"),
