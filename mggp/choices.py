@@ -49,13 +49,12 @@ from narx.model import ignore_rank_warnings
 from narx.terms import Term
 
 __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTANT", "GAIN",
-           "HOLDOUT", "HOLDOUT_ENDS", "PILOT", "RESOLUTION", "error_floor",
+           "HELD_EXCITATION", "HOLDOUT", "HOLDOUT_ENDS", "PILOT", "RESOLUTION", "error_floor",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
            "class_choice", "constant_choice", "constant_pays", "constant_pilot_choice",
-           "constant_off", "constant_searched", "front_rows_heldout",
-           "heldout_rmse", "holdout_words", "local_search_kept", "percent",
-           "pilot_generations", "resolve_screen",
-           "resolve_select",
+           "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
+           "holdout_message", "holdout_words", "local_search_kept", "percent", "rmse_text",
+           "terms_text", "pilot_generations", "resolve_screen", "resolve_select",
            "search_classes", "size_choice", "steady"]
 
 #: share of the record (its tail) on which the held-out free-run error is measured
@@ -130,6 +129,17 @@ def percent(share: float) -> str:
     return f"{100 * share:.3g} %"
 
 
+def rmse_text(e: float) -> str:
+    """An RMSE as the choice lines write it: 4 significant digits, or
+    '∞ (diverges)' for a free run that diverges."""
+    return f"{e:.4g}" if np.isfinite(e) else "∞ (diverges)"
+
+
+def terms_text(n: int) -> str:
+    """'1 term', '5 terms'."""
+    return f"{n} term" + ("" if n == 1 else "s")
+
+
 def error_floor(data: Data) -> float:
     """The RMSE below which two fits on ``data`` count as equal,
 
@@ -191,6 +201,37 @@ def heldout_samples(n: int, holdout: float = HOLDOUT) -> int:
     return len(HOLDOUT_ENDS) * _end_samples(n, holdout)
 
 
+#: a held-out part whose every input's standard deviation is below this share
+#: of the input's over the record cannot tell the candidate models apart
+HELD_EXCITATION = 0.1
+
+
+def holdout_message(data: Data) -> str:
+    """A warning when the held-out part of ``data`` (:func:`heldout_rmse`'s)
+    barely moves any input: every input's standard deviation there is below
+    :data:`HELD_EXCITATION` of its standard deviation over the record (e.g.
+    a step record whose last 30 % is the held input). Every candidate then
+    settles alike, so the automatic choices rest on the transient's tail.
+    '' when the held-out part is excited."""
+    m = _end_samples(data.n)
+    part = np.zeros(data.n, dtype=bool)
+    for end in HOLDOUT_ENDS:
+        part[(data.n - m if end == "tail" else 0):(data.n if end == "tail" else m)] = True
+    shares = {}
+    for name in data.inputs:
+        x = np.asarray(data.input(name), dtype=float)
+        sd = float(np.std(x))
+        shares[name] = float(np.std(x[part])) / sd if sd > 0 else 0.0
+    if not shares or max(shares.values()) >= HELD_EXCITATION:
+        return ""
+    said = ", ".join(f"{n} {v:.2g}" for n, v in shares.items())
+    return (f"the held-out part ({holdout_words()}) barely moves the input (its standard "
+            f"deviation there against the record's: {said}): the automatic choices of the "
+            f"model class, the constant term and the size rest on it; give a record whose "
+            f"held-out part is excited like the rest, or set them (--phi/--no-phi, "
+            f"--no-constant, --size search)")
+
+
 #: the smallest structure whose held-out error is within this share of the least is
 #: taken (or within the held-out RMSE's sampling spread, when larger: :func:`size_tolerance`)
 SIZE_TOLERANCE = 0.05
@@ -243,11 +284,13 @@ def size_choice(rows, n_heldout: int = 0) -> Choice:
     figs = {"terms": n, "heldout_rmse": err, "searched_terms": rows[0][0],
             "searched_heldout_rmse": rows[0][1], "candidates": len(rows)}
     if i == 0:
-        why = (f"size {n} terms: the chosen structure (held-out free-run RMSE {err:.4g}; "
+        why = (f"size {terms_text(n)}: the chosen structure (held-out free-run RMSE "
+               f"{rmse_text(err)}; "
                f"no smaller one of the Pareto front within {percent(tol)})")
     else:
-        why = (f"size {n} terms: Pareto-front structure with held-out free-run RMSE "
-               f"{err:.4g} against {rows[0][1]:.4g} for the {rows[0][0]}-term chosen one")
+        why = (f"size {terms_text(n)}: Pareto-front structure with held-out free-run RMSE "
+               f"{rmse_text(err)} against {rmse_text(rows[0][1])} for the {rows[0][0]}-term "
+               f"chosen one")
     return Choice("size", rows[i][2], why, figs)
 
 
@@ -272,9 +315,11 @@ def local_search_kept(err_before: float, err_after: float, n_heldout: int,
             "moves": moves}
     if kept:
         return Choice("local_search", True, f"local search kept: held-out free-run RMSE "
-                      f"{err_after:.4g} against {err_before:.4g} before its moves", figs)
+                      f"{rmse_text(err_after)} against {rmse_text(err_before)} before its "
+                      f"moves", figs)
     return Choice("local_search", False, f"local search not kept: its {moves} move(s) "
-                  f"give held-out free-run RMSE {err_after:.4g} against {err_before:.4g} "
+                  f"give held-out free-run RMSE {rmse_text(err_after)} against "
+                  f"{rmse_text(err_before)} "
                   f"before (more than {percent(tol)} higher; {holdout_words()})", figs)
 
 
@@ -340,10 +385,12 @@ def constant_choice(terms, data: Data, registry=None):
     figs = {"heldout_rmse_constant": err_c, "heldout_rmse_no_constant": err_p,
             "holdout": HOLDOUT}
     if keep:
-        why = (f"constant term: held-out free-run RMSE {err_c:.4g} against {err_p:.4g} "
+        why = (f"constant term: held-out free-run RMSE {rmse_text(err_c)} against "
+               f"{rmse_text(err_p)} "
                f"without it")
     else:
-        why = (f"no constant term: held-out free-run RMSE {err_p:.4g} against {err_c:.4g} "
+        why = (f"no constant term: held-out free-run RMSE {rmse_text(err_p)} against "
+               f"{rmse_text(err_c)} "
                f"with it (kept only when over {percent(GAIN)} lower)")
     return Choice("constant", keep, why, figs), (terms if keep else plain)
 
@@ -359,11 +406,12 @@ def constant_pilot_choice(err_constant: float, err_plain: float, pilot: str) -> 
     figs = {"pilot_heldout_rmse_constant": err_constant,
             "pilot_heldout_rmse_no_constant": err_plain}
     if keep:
-        why = (f"searched with the constant term: held-out free-run RMSE {err_constant:.4g} "
-               f"against {err_plain:.4g} without it ({pilot})")
+        why = (f"searched with the constant term: held-out free-run RMSE {rmse_text(err_constant)} "
+               f"against {rmse_text(err_plain)} without it ({pilot})")
     else:
-        why = (f"no constant term: held-out free-run RMSE {err_plain:.4g} against "
-               f"{err_constant:.4g} with it, kept only when over {percent(GAIN)} lower ({pilot})")
+        why = (f"no constant term: held-out free-run RMSE {rmse_text(err_plain)} against "
+               f"{rmse_text(err_constant)} with it, kept only when over {percent(GAIN)} lower "
+               f"({pilot})")
     return Choice("constant", keep, why, figs)
 
 
@@ -464,9 +512,9 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     figs = {"class": c.label, "operators": list(c.operators), "holdout": HOLDOUT}
     for cl, e in zip(classes, errors):
         figs[f"heldout_rmse_{_key(cl.label)}"] = e
-    others = ", ".join(f"{errors[i]:.4g} {_with(classes[i].label)}"
+    others = ", ".join(f"{rmse_text(errors[i])} {_with(classes[i].label)}"
                        for i in range(n) if i != best)
-    why = f"{c.label}: held-out free-run RMSE {errors[best]:.4g} against {others}"
+    why = f"{c.label}: held-out free-run RMSE {rmse_text(errors[best])} against {others}"
     if any(holds):
         figs["holds"] = {cl.label: h for cl, h in zip(classes, holds)}
         if len(pool) < n:
@@ -474,5 +522,9 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
                     f"{', '.join(_with(classes[i].label) for i in pool)} "
                     f"{'has' if len(pool) == 1 else 'have'} a structure whose CLS refit "
                     f"holds its output")
-    why += f" ({holdout_words()}{'; ' + pilot if pilot else ''})"
+    rule = "" if n < 2 else (
+        f"; a richer class only when its error is over {percent(CLASS_GAIN)} lower"
+        + "".join(f", {_with(cl.label).removeprefix('with ')} over {percent(cl.gain)}"
+                  for cl in classes[1:] if cl.gain != CLASS_GAIN))
+    why += f" ({holdout_words()}{rule}{'; ' + pilot if pilot else ''})"
     return Choice("use_phi", c.use_phi, why, figs)

@@ -45,8 +45,8 @@ from narx.phi import default_registry
 
 from .checkpoint import checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest
 from .choices import (CONSTANT, Choice, class_choice, constant_pilot_choice,
-                      constant_searched, front_rows_heldout, heldout_rmse, pilot_generations,
-                      resolve_screen, resolve_select, search_classes)
+                      constant_searched, front_rows_heldout, heldout_rmse, holdout_message,
+                      pilot_generations, resolve_screen, resolve_select, search_classes)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import check_context, evolve
@@ -275,6 +275,10 @@ class MGGPRegressor:
         start = self._validate(data)
         for msg, kind in data_warnings(data, self.fitness, self.window, self.k):
             warnings.warn(msg, kind, stacklevel=2)
+        held = ("auto" in (self.use_phi, self.constant, self.size)
+                and holdout_message(data))
+        if held:
+            warnings.warn(held, UserWarning, stacklevel=2)
         if self.max_lag is not None and self.max_lag > start:
             warnings.warn(f"max_lag={self.max_lag} has no effect: trees of max_height="
                           f"{self.max_height} reach lags up to {start} only (1 + 3 × "

@@ -398,3 +398,31 @@ def test_phi_of_outputs_is_one_class_and_still_pilots_the_constant():
     ctl = MGGPRegressor(**dict(kw, constant=False, callbacks=[one])).fit(*d)
     assert ctl.choices_["use_phi"]["why"] == est.choices_["use_phi"]["why"]
     assert [p for p, _ in one.phases] == ["search Φ"]
+
+
+def test_a_held_out_part_without_excitation_is_said():
+    """A step record whose last 30 % is the held input: every candidate
+    settles alike there, so the automatic choices rest on little, and the
+    fit says so; control: the same system on an input that moves to the
+    end, and the same step record with every held-out choice fixed."""
+    import warnings
+    from mggp.choices import holdout_message
+    n = 600
+    u = np.where(np.arange(n) < 200, 0.0, 1.0)
+    u[:200] = np.random.default_rng(0).standard_normal(200)
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.8 * y[k - 1] + 0.5 * u[k - 1]
+    step = Data(u, y)
+    assert "held-out part" in holdout_message(step) and "u 0" in holdout_message(step)
+    moving = np.random.default_rng(1).standard_normal(n)
+    assert holdout_message(Data(moving, y)) == ""
+    kw = dict(population=20, generations=2, random_state=0, n_jobs=1)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        MGGPRegressor(**kw).fit(step)
+    assert any("barely moves the input" in str(x.message) for x in w)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        MGGPRegressor(use_phi=False, constant=False, size="search", **kw).fit(step)
+    assert not any("barely moves the input" in str(x.message) for x in w)
