@@ -29,7 +29,7 @@ import os
 import shlex
 import sys
 
-from .cli import BEYOND, CLIError, add_signal_args
+from .cli import BEYOND, CLIError, Files, add_signal_args
 from .params import (DIAGNOSE_PARAMS, NAMES, PATH, Bool, Kind, Param, add_options,
                      check_options)
 
@@ -71,7 +71,9 @@ def register(sub):
     groups = add_options(p, DIAGNOSE_OPTIONS)
     groups["budget"].description = "defaults: about 40 s for 10,000 samples with --jobs 2"
     add_signal_args(groups["data"])
-    p.set_defaults(func=_cmd_diagnose)
+    p.set_defaults(func=_cmd_diagnose, files=Files(
+        {"train": "TRAIN.csv", "validation": "--validation", "model": "--model"},
+        {"out": "--out", "json": "--json"}, {"report": "--report"}))
 
 
 def _check_args(args):
