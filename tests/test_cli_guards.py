@@ -102,6 +102,11 @@ def test_fit_says_whether_the_model_was_written(capsys, tmp_path):
     (["--fitness", "pem", "--window", "7"], "--window applies to --fitness ms only, got "
                                             "--fitness pem"),
     (["--k", "3"], "--k applies to --fitness ksa only, got --fitness ms"),
+    (["--max-height", "100"], "--max-height must be between 1 and 20 (trees of height h "
+                              "reach lags up to 1 + 3h, 61 at 20"),
+    (["--jobs", "0"], "--jobs must be >= 1 or -1, got 0"),
+    (["--operators", "foo"], "--operators must be auto, none, or comma-separated names "
+                             "among play, dengtan, boucwen, got foo"),
 ])
 def test_fit_option_rules(capsys, tmp_path, argv, text):
     code, _, err = run(capsys, "fit", csv(tmp_path), "--population", "10",
