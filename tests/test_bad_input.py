@@ -128,6 +128,30 @@ def test_too_few_samples_for_the_lags(files, cmd, needles):
         assert needle in line, line
 
 
+@pytest.mark.parametrize("argv, needles", [
+    (["--max-lag", "4"], ["60 samples are too few: the search needs at least 64, its "
+                          "largest lag 4 (max_lag=4) plus 60 rows to fit (4 per term of "
+                          "max_terms=15, at least 20)", "lower max_terms to 14"]),
+    ([], ["at least 76, its largest lag 16 (what max_height=5 reaches",
+          "give more samples, or lower max_terms to 11"]),
+])
+def test_too_few_samples_counts_the_lag_the_search_reaches(files, argv, needles):
+    """The rule is the largest lag the terms can have (max_height's reach,
+    capped by max_lag) plus 4 rows per term of max_terms (at least 20); the
+    message names both settings and what would fit. The advice holds:
+    --max-terms 14 with --max-lag 4 fits the 60 samples."""
+    p = files / "short60.csv"
+    p.write_text("\n".join(GOOD_LINES[:61]) + "\n")
+    code, err = run("fit", str(p), *argv)
+    line = one_line(err)
+    assert code == 2 and line.startswith("error: ") and "short60.csv: " in line
+    for needle in needles:
+        assert needle in line, line
+    from mggp import MGGPRegressor
+    data = read_csv(p)
+    MGGPRegressor(max_lag=4, max_terms=14)._check_samples(data.n)      # no error
+
+
 def test_constant_input_rejected_for_identification_not_for_simulation(files):
     p = files / "const.csv"
     p.write_text("t,u,y\n" + "".join(f"{i},2.5,{float(b)!r}\n" for i, b in enumerate(_Y)))
