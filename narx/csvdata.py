@@ -228,8 +228,12 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
                 raise DataError(f"{os.fspath(path)}: input {name!r} is constant (column "
                                 f"{name!r} holds {col[0]:g} on all {n} data rows): an "
                                 f"input must vary to identify a model")
-    return Data(arr[:, :m], arr[:, m] if output else None, inputs=inputs,
-                output=output or "y")
+    from .terms import TermError
+    try:
+        return Data(arr[:, :m], arr[:, m] if output else None, inputs=inputs,
+                    output=output or "y")
+    except TermError as exc:                      # a column name is no signal name
+        raise DataError(f"{os.fspath(path)}: {exc}") from None
 
 
 def write_with_column(src, dst, name: str, values: np.ndarray) -> None:

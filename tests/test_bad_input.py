@@ -413,3 +413,17 @@ def test_property_cli_returns_two_with_one_line(model_text, csv_text, cmd):
     finally:
         os.unlink(m)
         os.unlink(d)
+
+
+def test_non_ascii_column_name_gets_an_ascii_suggestion(files):
+    """Signal names are ASCII identifiers; the suggested name must be one
+    (it repeated 'Displacement_µm', a Unicode identifier) and the file is named."""
+    from narx.terms import ascii_name
+    p = files / "uni.csv"
+    p.write_text("Voltage_V,Displacement_µm\n" + "".join(
+        f"{float(a)!r},{float(b)!r}\n" for a, b in zip(_U, _Y)))
+    code, err = run("fit", str(p), "--input", "Voltage_V", "--output", "Displacement_µm")
+    line = one_line(err)
+    assert code == 2 and "uni.csv: signal names must be identifiers" in line
+    assert "got 'Displacement_µm': rename the column (e.g. 'Displacement__m')" in line
+    assert ascii_name("Température_°C") == "Temperature__C"
