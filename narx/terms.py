@@ -60,12 +60,13 @@ class HasSignals:
 
 def ascii_name(name: str) -> str:
     """A signal name for ``name`` made of ASCII letters, digits and ``_``:
-    accents dropped (``é`` -> ``e``), any other character ``_``, leading and
-    trailing ``_`` stripped ('Displacement_µm' -> 'Displacement__m')."""
+    accents dropped (``é`` -> ``e``), each run of other characters ``_``,
+    leading and trailing ``_`` stripped ('Voltage [V]' -> 'Voltage_V',
+    'Displacement_µm' -> 'Displacement__m')."""
     import unicodedata
     folded = "".join(c for c in unicodedata.normalize("NFKD", name)
                      if not unicodedata.combining(c))
-    return re.sub(r"[^A-Za-z0-9_]", "_", folded).strip("_")
+    return re.sub(r"[^A-Za-z0-9_]+", "_", folded).strip("_")
 
 
 @dataclass(frozen=True)
