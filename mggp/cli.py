@@ -183,6 +183,11 @@ def check_files(args) -> None:
                                f"another folder")
 
 
+#: why a record of constant output cannot score a simulation
+UNSCORED = ("the simulation error cannot be scored (range-normalised MAPE divides by "
+            "the output range)")
+
+
 #: how far a diverged simulation went, in the words of the error messages
 BEYOND = f"beyond {DIVERGENCE_FACTOR:.0e}".replace("e+0", "e") + " times"
 
@@ -207,7 +212,8 @@ def _cmd_estimate(args) -> int:
     from narx.csvdata import read_csv
     inputs = args.input or ["u"]
     output = args.output or "y"
-    data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True)
+    data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True,
+                    varying_output="nothing can be identified")
     model = Model(args.terms, inputs=inputs, output=output)
     need = model.max_lag + model.n_terms
     if data.n <= need:
@@ -270,7 +276,7 @@ def _cmd_simulate(args) -> int:
         from narx.atomic import check_writable
         check_writable(args.out, "--out")
         _check_new_column(args.data, column)
-    data = read_csv(args.data, inputs=inputs, output=output)
+    data = read_csv(args.data, inputs=inputs, output=output, varying_output=UNSCORED)
     if data.n <= model.max_lag + 1:
         raise CLIError(f"{args.data}: {data.n} samples are too few for the model's "
                        f"largest lag {model.max_lag}")
@@ -287,7 +293,8 @@ def _cmd_simulate(args) -> int:
         raise CLIError(f"the model is unstable on {args.data}: its {args.mode} simulation "
                        f"diverged (output {BEYOND} the data's magnitude)")
     if args.out:
-        write_with_column(args.data, args.out, column, res.y_hat)
+        write_with_column(args.data, args.out, column,     # empty where not simulated
+                          np.where(res.valid, res.y_hat, np.nan))
     scored = int(res.valid.sum())
     why = ("initial conditions" if args.mode != "ksa" else
            f"initial conditions and the first {kw['k']}-step horizon")

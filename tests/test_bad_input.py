@@ -76,6 +76,8 @@ def commands(files, csv):
 
 # ------------------------------------------------------------------ bad CSV
 BAD_CSV = [
+    ("comment", "# recorded 2024, volts\n" + "\n".join(GOOD_LINES) + "\n",
+     ["line 1 starts with '#'", "comment lines before the header row are not supported"]),
     ("nan", csv_with(6, "4,nan,1.0"), ["line 6, column 'u'", "not finite"]),
     ("inf", csv_with(8, "6,1.0,-inf"), ["line 8, column 'y'", "'-inf' is not finite"]),
     ("infinity", csv_with(3, "1,Infinity,1.0"), ["line 3, column 'u'", "not finite"]),
@@ -427,3 +429,20 @@ def test_non_ascii_column_name_gets_an_ascii_suggestion(files):
     assert code == 2 and "uni.csv: signal names must be identifiers" in line
     assert "got 'Displacement_µm': rename the column (e.g. 'Displacement__m')" in line
     assert ascii_name("Température_°C") == "Temperature__C"
+
+
+@pytest.mark.parametrize("cmd, why", [
+    ("estimate", "nothing can be identified"),
+    ("fit", "nothing can be identified"),
+    ("simulate", "the simulation error cannot be scored"),
+    ("validation", "the simulation error cannot be scored"),
+])
+def test_constant_output_names_the_file_and_the_value(files, cmd, why):
+    """One wording for every command (fit's): the file, the output and its value."""
+    p = files / "flat.csv"
+    p.write_text("t,u,y\n" + "".join(f"{i},{float(a)!r},5.0\n" for i, a in enumerate(_U)))
+    argv = (["diagnose", files / "good.csv", "--validation", p] if cmd == "validation"
+            else commands(files, p)[cmd])
+    code, err = run(*argv)
+    line = one_line(err)
+    assert code == 2 and f"flat.csv: output 'y' is constant (every sample 5.0): {why}" in line
