@@ -10,14 +10,19 @@ Every subcommand reads CSV files with a header row (input column ``u``,
 output ``y`` unless ``--input``/``--output`` say otherwise). Any problem
 with the input prints one line ``error: ...`` on stderr and exits with code
 2; outputs are written atomically and only after every check has passed,
-so nothing already written is lost or half-overwritten.
+so nothing already written is lost or half-overwritten. An output path that
+is also an input (or another output) is refused before any work
+(:func:`check_files`).
 """
 from __future__ import annotations
 
 import argparse
+import fnmatch
+import os
 import sys
 import warnings
-from typing import List, Optional
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional
 
 import numpy as np
 
@@ -25,44 +30,162 @@ from narx.linalg import DIVERGENCE_FACTOR
 
 from .exceptions import CLIError
 
-__all__ = ["main", "CLIError", "build_parser"]
+__all__ = ["main", "CLIError", "build_parser", "Files", "check_files"]
 
 
 class _Parser(argparse.ArgumentParser):
     """One ``error:`` line instead of a usage dump; positionals written
-    after a list option (``fit --input E v data.csv``), which argparse gives
-    to the list, go back to the positionals left without a value."""
+    after an option with values, which argparse gives to that option
+    (``fit --input E v data.csv``, ``quasistatic m.json --units V um
+    data.csv``), go back to the positionals left without a value.
+
+    A list option (``nargs='+'``) may say which of its values it owns: an
+    ``owns`` attribute on its action, a test of one value (a column name is
+    an identifier, a term has a lagged signal ``x[k-i]``,
+    :func:`is_term_text`). Its trailing values it does not own, and the
+    values argparse left over (after an option of fixed arity), fill the
+    missing positionals in command-line order. A required positional still
+    missing then takes the last values of the list option given last.
+    """
 
     def error(self, message):                      # no usage dump, one line
         raise CLIError(f"{self.prog.split()[-1]}: {message}")
 
     def parse_known_args(self, args=None, namespace=None):
         args = sys.argv[1:] if args is None else list(args)
-        pos = [a for a in self._actions if not a.option_strings and a.nargs is None
-               and a.required]
-        for a in pos:                              # checked below, after the give-back
+        pos = [a for a in self._actions if not a.option_strings and a.nargs in (None, "?")]
+        required = [a for a in pos if a.nargs is None and a.required]
+        for a in required:                         # checked below, after the give-back
             a.required = False
         try:
             ns, rest = super().parse_known_args(args, namespace)
         finally:
-            for a in pos:
+            for a in required:
                 a.required = True
         missing = [a for a in pos if getattr(ns, a.dest, None) is None]
-        lists = [(max(i for i, t in enumerate(args) if t in a.option_strings), a)
-                 for a in self._actions if a.nargs in ("+", "*") and a.option_strings
-                 and any(t in a.option_strings for t in args)]
-        if missing and lists:
-            last = max(lists, key=lambda r: r[0])[1]   # the list option given last
-            values = getattr(ns, last.dest)
-            if isinstance(values, list) and len(values) > len(missing):
-                setattr(ns, last.dest, values[:-len(missing)])
-                for a, v in zip(missing, values[-len(missing):]):
-                    setattr(ns, a.dest, v)
-                missing = []
+        if missing:
+            rest = self._give_back(args, ns, missing, rest)
+        missing = [a for a in required if getattr(ns, a.dest, None) is None]
         if missing:
             self.error("the following arguments are required: "
                        + ", ".join(a.metavar or a.dest for a in missing))
         return ns, rest
+
+    def _give_back(self, args, ns, missing, rest):
+        """Fill the ``missing`` positionals from the values a list option does
+        not own and from ``rest``; returns what is left of ``rest``."""
+        lists = [(max(i for i, t in enumerate(args) if t in a.option_strings), a)
+                 for a in self._actions if a.nargs in ("+", "*") and a.option_strings
+                 and any(t in a.option_strings for t in args)]
+        found = []                                 # (index in args, value, source)
+        for i, a in lists:
+            values = getattr(ns, a.dest)
+            owns = getattr(a, "owns", None)
+            if owns is None or not isinstance(values, list) \
+                    or args[i + 1:i + 1 + len(values)] != values:
+                continue
+            keep = len(values)
+            while keep > 1 and not owns(values[keep - 1]):
+                keep -= 1
+            found += [(i + 1 + j, values[j], a) for j in range(keep, len(values))]
+        at = 0
+        for v in rest:                             # left over after a fixed-arity option
+            if v in args[at:] and not v.startswith("-"):
+                at = args.index(v, at) + 1
+                found.append((at - 1, v, None))
+        found.sort(key=lambda f: f[0])
+        for a, (_, v, src) in zip(missing, found):
+            setattr(ns, a.dest, v)
+            if src is None:
+                rest = [t for t in rest if t is not v]
+            else:
+                setattr(ns, src.dest, [t for t in getattr(ns, src.dest) if t is not v])
+        still = [a for a in missing if a.nargs is None and getattr(ns, a.dest) is None]
+        if still and lists:                        # by count: the list option given last
+            last = max(lists, key=lambda r: r[0])[1]
+            values = getattr(ns, last.dest)
+            if isinstance(values, list) and len(values) > len(still):
+                setattr(ns, last.dest, values[:-len(still)])
+                for a, v in zip(still, values[-len(still):]):
+                    setattr(ns, a.dest, v)
+        return rest
+
+
+def is_term_text(v: str) -> bool:
+    """Whether a command-line value is a term rather than a file name: it
+    has a lagged signal (``x[k-i]``, every term but the constant) or is the
+    constant ``1``."""
+    return "[" in v or v.strip() == "1"
+
+
+#: files a report folder gets (mggp.report, mggp.diagnose.report,
+#: mggp.quasistatic_report): an input there of such a name would be replaced
+REPORT_FILES = ("summary.md", "*.png")
+
+
+@dataclass(frozen=True)
+class Files:
+    """The files a subcommand reads and writes, each an argparse ``dest``
+    mapped to how messages name it (``{"data": "DATA.csv"}``,
+    ``{"out": "--out"}``); ``folders`` are outputs that are folders
+    (``--report``). A subcommand sets it with ``set_defaults(files=...)``
+    and :func:`check_files` checks it before the command runs."""
+
+    inputs: Dict[str, str]
+    outputs: Dict[str, str]
+    folders: Dict[str, str] = field(default_factory=dict)
+
+
+def _same_path(a, b) -> bool:
+    """Whether two paths name one file: equal real paths, or (both existing)
+    the same file by :func:`os.path.samefile` (hard links)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_files(args) -> None:
+    """Refuse (``CLIError``) a destination that would replace a file the
+    command reads or writes otherwise: an output path that is also an input
+    file (or a ``--phi-module`` file), two outputs on one path, or a report
+    folder holding an input or output of a name the report writes
+    (:data:`REPORT_FILES`). Called for every subcommand before any work."""
+    files = getattr(args, "files", None)
+    if files is None:
+        return
+    ins = [(label, v) for dest, label in files.inputs.items()
+           if (v := getattr(args, dest, None)) is not None]
+    ins += [("--phi-module", m) for m in getattr(args, "phi_module", []) if m.endswith(".py")]
+    outs = [(label, v) for dest, label in {**files.outputs, **files.folders}.items()
+            if (v := getattr(args, dest, None)) is not None]
+    for n, (opt, path) in enumerate(outs):
+        for label, src in ins:
+            if _same_path(path, src):
+                raise CLIError(f"{opt} {path} is also an input file ({label}); choose "
+                               f"another path")
+        for other, path2 in outs[:n]:
+            if _same_path(path, path2):
+                raise CLIError(f"{other} {path2} and {opt} {path} name the same path; "
+                               f"choose another path")
+    for dest, opt in files.folders.items():
+        folder = getattr(args, dest, None)
+        if folder is None:
+            continue
+        for label, src in ins + [o for o in outs if o[0] != opt]:
+            name = os.path.basename(src)
+            if any(fnmatch.fnmatch(name, pat) for pat in REPORT_FILES) and \
+                    _same_path(os.path.dirname(os.path.abspath(src)), folder):
+                raise CLIError(f"{opt} {folder} would replace the file {src} ({label}): the "
+                               f"report writes {', '.join(REPORT_FILES)} there; choose "
+                               f"another folder")
+
+
+#: why a record of constant output cannot score a simulation
+UNSCORED = ("the simulation error cannot be scored (range-normalised MAPE divides by "
+            "the output range)")
 
 
 #: how far a diverged simulation went, in the words of the error messages
@@ -73,7 +196,8 @@ def add_signal_args(p, inputs: str = "u", output: str = "y"):
     """``--input NAME [NAME ...]`` and ``--output NAME``; ``inputs`` and
     ``output`` describe the defaults in the help."""
     p.add_argument("--input", nargs="+", metavar="NAME", default=None,
-                   help=f"input column name(s) in the CSV files (default: {inputs})")
+                   help=f"input column name(s) in the CSV files (default: {inputs})"
+                   ).owns = str.isidentifier              # not a file name: _Parser
     p.add_argument("--output", metavar="NAME", default=None,
                    help=f"output column name in the CSV files (default: {output})")
 
@@ -88,7 +212,8 @@ def _cmd_estimate(args) -> int:
     from narx.csvdata import read_csv
     inputs = args.input or ["u"]
     output = args.output or "y"
-    data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True)
+    data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True,
+                    varying_output="nothing can be identified")
     model = Model(args.terms, inputs=inputs, output=output)
     need = model.max_lag + model.n_terms
     if data.n <= need:
@@ -151,7 +276,7 @@ def _cmd_simulate(args) -> int:
         from narx.atomic import check_writable
         check_writable(args.out, "--out")
         _check_new_column(args.data, column)
-    data = read_csv(args.data, inputs=inputs, output=output)
+    data = read_csv(args.data, inputs=inputs, output=output, varying_output=UNSCORED)
     if data.n <= model.max_lag + 1:
         raise CLIError(f"{args.data}: {data.n} samples are too few for the model's "
                        f"largest lag {model.max_lag}")
@@ -168,7 +293,8 @@ def _cmd_simulate(args) -> int:
         raise CLIError(f"the model is unstable on {args.data}: its {args.mode} simulation "
                        f"diverged (output {BEYOND} the data's magnitude)")
     if args.out:
-        write_with_column(args.data, args.out, column, res.y_hat)
+        write_with_column(args.data, args.out, column,     # empty where not simulated
+                          np.where(res.valid, res.y_hat, np.nan))
     scored = int(res.valid.sum())
     why = ("initial conditions" if args.mode != "ksa" else
            f"initial conditions and the first {kw['k']}-step horizon")
@@ -208,7 +334,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="training record: CSV with a header row, one column per signal")
     e.add_argument("--terms", nargs="+", required=True, metavar="TERM",
                    help="the model's terms in the term language, e.g. \"y[k-1]\" "
-                        "\"Phi1(u[k-1],u[k-2])\" (required)")
+                        "\"Phi1(u[k-1],u[k-2])\" (required); DATA.csv may follow them: "
+                        "a value without '[' other than the constant 1 is no term "
+                        "(every other term has a lagged signal x[k-i]) and is taken as "
+                        "DATA.csv").owns = is_term_text
     e.add_argument("--constraints", choices=["steady-state"], default=None,
                    help="steady-state: constrained LS (CLS) under the continuum-of-steady-"
                         "states conditions (Σ_y = 1, other cluster sums 0) derived from the "
@@ -217,7 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--out", metavar="MODEL.json",
                    help="write the fitted model here (default: not written, only printed)")
     add_signal_args(e)
-    e.set_defaults(func=_cmd_estimate)
+    e.set_defaults(func=_cmd_estimate, files=Files({"data": "DATA.csv"}, {"out": "--out"}))
 
     s = sub.add_parser("simulate", help="simulate a model file on data")
     s.add_argument("model", metavar="MODEL.json", help="a model written by fit or estimate")
@@ -239,7 +368,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "where not simulated) (default: not written, only the scores are "
                         "printed)")
     add_signal_args(s, inputs="the model's input names", output="the model's output name")
-    s.set_defaults(func=_cmd_simulate)
+    s.set_defaults(func=_cmd_simulate, files=Files({"model": "MODEL.json", "data": "DATA.csv"},
+                                                   {"out": "--out"}))
 
     for name in ("cli_fit", "cli_diagnose", "cli_compensate", "cli_quasistatic"):
         try:
@@ -256,7 +386,6 @@ def _import_plugin(spec: str) -> None:
     """Import a module that registers Φ-functions: ``pkg.mod`` or ``file.py``."""
     import importlib
     import importlib.util
-    import os
     try:
         if spec.endswith(".py"):
             if not os.path.isfile(spec):
@@ -343,6 +472,7 @@ def _main(argv: Optional[List[str]]) -> int:
     args = None
     try:
         args = build_parser().parse_args(argv)
+        check_files(args)                      # before any file is read or written
         for mod in args.phi_module:
             _import_plugin(mod)
         from .params import PARAMS
@@ -355,7 +485,6 @@ def _main(argv: Optional[List[str]]) -> int:
         print("error: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:                   # e.g. `mggp ... | head -1`
-        import os
         try:                                  # no second error at interpreter exit
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         except (OSError, ValueError):

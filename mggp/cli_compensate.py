@@ -27,7 +27,7 @@ import warnings
 
 import numpy as np
 
-from .cli import BEYOND, CLIError, fmt
+from .cli import BEYOND, CLIError, Files, fmt
 
 __all__ = ["register"]
 
@@ -67,7 +67,8 @@ def register(sub):
                    help="write the input even when more than half of the steps fall back "
                         "(refused by default: the tracking is then usually worse than with "
                         "no compensation)")
-    p.set_defaults(func=_cmd_compensate)
+    p.set_defaults(func=_cmd_compensate, files=Files(
+        {"model": "MODEL.json", "reference": "REFERENCE.csv"}, {"out": "--out"}))
 
 
 def _cmd_compensate(args) -> int:

@@ -29,7 +29,7 @@ import os
 import shlex
 import sys
 
-from .cli import BEYOND, CLIError, add_signal_args
+from .cli import BEYOND, UNSCORED, CLIError, Files, add_signal_args
 from .params import (DIAGNOSE_PARAMS, NAMES, PATH, Bool, Kind, Param, add_options,
                      check_options)
 
@@ -71,7 +71,9 @@ def register(sub):
     groups = add_options(p, DIAGNOSE_OPTIONS)
     groups["budget"].description = "defaults: about 40 s for 10,000 samples with --jobs 2"
     add_signal_args(groups["data"])
-    p.set_defaults(func=_cmd_diagnose)
+    p.set_defaults(func=_cmd_diagnose, files=Files(
+        {"train": "TRAIN.csv", "validation": "--validation", "model": "--model"},
+        {"out": "--out", "json": "--json"}, {"report": "--report"}))
 
 
 def _check_args(args):
@@ -123,7 +125,7 @@ def _read_validation(args, inputs, output):
                        f"{list(inputs)}, got {len(v_inputs)} validation column name(s) "
                        f"{list(v_inputs)}")
     v_output = args.validation_output or output
-    val = read_csv(args.validation, inputs=v_inputs, output=v_output)
+    val = read_csv(args.validation, inputs=v_inputs, output=v_output, varying_output=UNSCORED)
     return Data(val.U.T, val.y, inputs=list(inputs), output=output)
 
 
@@ -139,7 +141,8 @@ def _cmd_diagnose(args) -> int:
     if model is not None and len(inputs) != len(model.inputs):
         raise CLIError(f"--input: the model has {len(model.inputs)} input(s) "
                        f"{list(model.inputs)}, got {len(inputs)} column name(s)")
-    train = read_csv(args.train, inputs=inputs, output=output)
+    train = read_csv(args.train, inputs=inputs, output=output,
+                     varying_output="nothing can be identified")
     val = _read_validation(args, inputs, output)
     if model is not None and (list(model.inputs) != inputs or model.output != output):
         from narx.data import Data

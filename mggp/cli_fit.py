@@ -19,7 +19,7 @@ import sys
 import time
 import warnings
 
-from .cli import CLIError, check_refine_args, fmt, mode_option, refinement_line
+from .cli import CLIError, Files, check_refine_args, fmt, mode_option, refinement_line
 from .exceptions import CLSRejectedWarning
 from .params import PATH, PARAMS, Bool, Param, add_options, check_params, options_given
 
@@ -57,7 +57,9 @@ def register(sub):
     p.add_argument("data", metavar="DATA.csv", help="training record (columns u and y "
                    "unless --input/--output say otherwise)")
     add_options(p, FIT_OPTIONS)
-    p.set_defaults(func=_cmd_fit)
+    p.set_defaults(func=_cmd_fit, files=Files({"data": "DATA.csv"},
+                                              {"out": "--out", "checkpoint": "--checkpoint"},
+                                              {"report": "--report"}))
 
 
 class _Progress:
@@ -130,8 +132,6 @@ def _cmd_fit(args) -> int:
             check_writable(path, opt)           # a ValueError is one error: line
     if args.report and os.path.exists(args.report) and not os.path.isdir(args.report):
         raise CLIError(f"--report {args.report}: exists and is not a folder")
-    if args.report and args.out and os.path.abspath(args.report) == os.path.abspath(args.out):
-        raise CLIError(f"--report and --out name the same path {args.out}")
     est.set_params(inputs=est.inputs or ["u"], callbacks=[
         _Progress(est.generations, sys.stderr, args.quiet)])
     data = read_csv(args.data, inputs=est.inputs, output=est.output, varying_inputs=True)

@@ -29,7 +29,7 @@ import sys
 
 import numpy as np
 
-from .cli import CLIError, add_signal_args
+from .cli import CLIError, Files, add_signal_args
 
 __all__ = ["register"]
 
@@ -61,7 +61,8 @@ def register(sub):
     p.add_argument("--report", metavar="DIR", default=None,
                    help="write summary.md and the figure to this folder (default: none)")
     add_signal_args(p, inputs="the model's input names", output="the model's output name")
-    p.set_defaults(func=_cmd_quasistatic)
+    p.set_defaults(func=_cmd_quasistatic, files=Files(
+        {"model": "MODEL.json", "data": "DATA.csv"}, {"json": "--json"}, {"report": "--report"}))
 
 
 def _sine(args, model):

@@ -54,7 +54,8 @@ from .exceptions import CheckpointError
 from .params import PARAMS, check_params, context_of, params_doc
 from .pareto import ParetoFront
 from .precision import data_warnings
-from .primitives import identically_zero, make_pset, max_lag_for_height, search_operators
+from .primitives import (identically_zero, make_pset, max_lag_for_height, reachable_lag,
+                         search_operators)
 from .screen import StabilityScreen
 from .stages import FitContext, run_stages, screened
 
@@ -241,10 +242,7 @@ class MGGPRegressor:
     def _validate(self, data: Data):
         check_params(self)
         start = max_lag_for_height(self.max_height)
-        if data.n < start + max(4 * self.max_terms, 20):
-            raise DataError(f"{data.n} samples are too few: the search needs at least "
-                            f"{start + max(4 * self.max_terms, 20)} (largest lag {start} "
-                            f"for max_height={self.max_height})")
+        self._check_samples(data.n)
         for name in data.inputs:
             if np.ptp(data.input(name)) == 0:
                 raise DataError(f"input {name!r} is constant: nothing can be identified")
@@ -255,6 +253,28 @@ class MGGPRegressor:
             raise DataError(f"output {data.output!r} is constant (every sample "
                             f"{float(data.y[0])!r}): nothing can be identified")
         return start
+
+    def _check_samples(self, n: int) -> None:
+        """Raise :class:`DataError` when ``n`` samples are fewer than the
+        largest lag the terms can have (:func:`reachable_lag`: max_height's
+        reach, capped by max_lag) plus the rows of the fit, 4 per term of
+        max_terms and at least 20; the message names both settings with
+        their values and what would fit."""
+        lag = reachable_lag(self.max_height, self.max_lag)
+        rows = max(4 * self.max_terms, 20)
+        if n >= lag + rows:
+            return
+        by = (f"max_lag={self.max_lag}" if lag == self.max_lag else
+              f"what max_height={self.max_height} reaches, 1 + 3 × height")
+        fits = []
+        if n - lag >= 20:
+            fits.append(f"max_terms to {(n - lag) // 4}")
+        if n - rows >= 1:
+            fits.append(f"max_lag to {n - rows}")
+        raise DataError(f"{n} samples are too few: the search needs at least {lag + rows}, "
+                        f"its largest lag {lag} ({by}) plus {rows} rows to fit "
+                        f"(4 per term of max_terms={self.max_terms}, at least 20); give "
+                        f"more samples" + (f", or lower {' or '.join(fits)}" if fits else ""))
 
     def _seed(self) -> int:
         rs = self.random_state

@@ -34,9 +34,9 @@ from .checkpoint import CHECKPOINT_SHARE
 from .choices import (BOUC_WEN_CLASS_GAIN, CLASS_GAIN, GAIN, PILOT, SIZE_TOLERANCE,
                       heldout_samples, holdout_words, percent, size_tolerance)
 from .operator_stage import OPERATOR_GAIN
-from .primitives import BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS
+from .primitives import BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS, max_lag_for_height
 
-__all__ = ["Param", "Rule", "Int", "Real", "OneOf", "Bool", "Seed", "Kind", "PARAMS",
+__all__ = ["MAX_HEIGHT", "Param", "Rule", "Int", "Real", "OneOf", "Bool", "Seed", "Kind", "PARAMS",
            "DIAGNOSE_PARAMS", "GROUPS", "check_params", "check_value", "context_of",
            "meta_of", "add_options", "options_given", "check_options", "params_doc"]
 
@@ -71,20 +71,26 @@ class Rule:
 
 
 class Int(Rule):
-    """An integer ``>= lo`` (or one of ``also``; or None if ``none``)."""
+    """An integer ``>= lo`` and, if ``hi`` is given, ``<= hi`` (or one of
+    ``also``; or None if ``none``); ``why`` completes the message of a
+    bounded rule (what the bound comes from)."""
 
     argtype = int
 
-    def __init__(self, lo: int, none: bool = False, also: Tuple[int, ...] = ()):
-        self.lo, self.none, self.also = lo, none, tuple(also)
+    def __init__(self, lo: int, none: bool = False, also: Tuple[int, ...] = (),
+                 hi: Optional[int] = None, why: str = ""):
+        self.lo, self.hi, self.none, self.also = lo, hi, none, tuple(also)
         extra = "".join(f" or {a}" for a in self.also)
-        self.cli_words = f">= {lo}{extra}"
-        self.words = f"an integer >= {lo}{extra}" + (" or None" if none else "")
+        bound = f">= {lo}" if hi is None else f"between {lo} and {hi}"
+        why = f" ({why})" if why else ""
+        self.cli_words = f"{bound}{extra}{why}"
+        self.words = f"an integer {bound}{extra}" + (" or None" if none else "") + why
 
     def ok(self, v) -> bool:
         if v is None:
             return self.none
-        return _integer(v) and (v >= self.lo or v in self.also)
+        return _integer(v) and ((v >= self.lo and (self.hi is None or v <= self.hi))
+                                or v in self.also)
 
 
 class Real(Rule):
@@ -157,8 +163,10 @@ class Kind(Rule):
     """Anything ``test`` accepts (a type, a list of names...); ``words``
     says what."""
 
-    def __init__(self, words: str, test: Callable[[Any], bool], argtype=str):
+    def __init__(self, words: str, test: Callable[[Any], bool], argtype=str,
+                 cli_words: Optional[str] = None):
         self.words, self.test, self.argtype = words, test, argtype
+        self.cli_words = cli_words
 
     def ok(self, v) -> bool:
         return bool(self.test(v))
@@ -187,7 +195,8 @@ def _operators(v) -> bool:
 ANY = Kind("anything", lambda v: True)
 OPERATORS = Kind("'auto', None, 'none' or names among play, dengtan, boucwen (a list, or "
                  "comma-separated text)",
-                 _operators)
+                 _operators, cli_words="auto, none, or comma-separated names among play, "
+                                       "dengtan, boucwen")
 NAMES = Kind("None or a list of names", _names)
 PATH = Kind("None or a path", _path)
 
@@ -274,6 +283,14 @@ _BOUC_WEN_TEXT = ", ".join(f"{s:g}" for s in dict.fromkeys(s for s, _ in BOUC_WE
 _N_EXAMPLE = heldout_samples(500)
 _SIZE_TEXT = (f"within {percent(SIZE_TOLERANCE)} of the least (2/√n on n held-out samples "
               f"when larger: {percent(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE})")
+#: largest max_height: a back-shift chain q⁻³ per level reaches lag 1 + 3h,
+#: 61 samples at 20, and the trees (products of up to 2^h factors) take
+#: time exponential in h to draw and decode (seconds at 40, a hang at 100);
+#: a longer memory is for hand-written terms (``mggp estimate``) or the
+#: memory operators (--operators)
+MAX_HEIGHT = 20
+_HEIGHT_WHY = (f"trees of height h reach lags up to 1 + 3h, {max_lag_for_height(MAX_HEIGHT)} "
+               f"at {MAX_HEIGHT}, and grow exponentially with h")
 _ROWS = (
     Param("fitness", "ms", OneOf(_FITNESS, aliases=("osa",)),
           "simulation whose mean squared error scores a structure: multiple shooting "
@@ -311,8 +328,9 @@ _ROWS = (
           "share of each generation copied unchanged (the best)", "budget"),
     Param("max_terms", 15, Int(1), "largest number of terms of a model", "model class",
           "--max-terms", meta=True),
-    Param("max_height", 5, Int(1), "height of the GP trees; a tree of height h reaches "
-          "lags up to 1 + 3h", "model class", "--max-height", meta=True),
+    Param("max_height", 5, Int(1, hi=MAX_HEIGHT, why=_HEIGHT_WHY), "height of the GP "
+          f"trees; a tree of height h reaches lags up to 1 + 3h; at most {MAX_HEIGHT}",
+          "model class", "--max-height", meta=True),
     Param("use_phi", "auto", OneOf((True, False, "auto")), "terms may hold Φ-functions "
           "of lagged inputs (input increments and their signs, which model hysteresis); "
           "'auto': a pilot search of each model class (no Φ, Φ, and with operators='auto' "

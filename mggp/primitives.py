@@ -88,7 +88,8 @@ from narx.terms import Lag, OpCall, PhiCall, Signals, Term, format_param
 
 __all__ = ["Expr", "InputLag", "input_lag_type", "LagSymbol", "SHIFTS", "make_pset",
            "tree_from_tokens", "tree_to_tokens", "decode", "Decoder",
-           "decode_individual", "max_lag_for_height", "play_radii", "OPERATOR_CHOICES",
+           "decode_individual", "max_lag_for_height", "reachable_lag", "play_radii",
+           "OPERATOR_CHOICES",
            "operator_node_name", "search_operators", "operator_names", "bouc_wen_shapes",
            "BOUC_WEN_SHAPES", "AUTO_OPERATORS",
            "operator_arg_type"]
@@ -441,6 +442,13 @@ def make_pset(signals: Optional[Signals] = None,
 def max_lag_for_height(height: int) -> int:
     """Largest lag a tree of DEAP height ``height`` can express: ``1 + 3h``."""
     return 1 + max(SHIFTS.values()) * height
+
+
+def reachable_lag(height: int, max_lag=None) -> int:
+    """Largest lag a search's terms can have: what trees of ``height`` reach
+    (:func:`max_lag_for_height`), capped by ``max_lag`` when given."""
+    reach = max_lag_for_height(height)
+    return reach if max_lag is None else min(max_lag, reach)
 
 
 def _index(pset) -> Dict[Tuple[type, str], list]:

@@ -80,6 +80,6 @@ def t_threshold_of(est, n_inputs: int) -> float:
     effect; degree up to ``max_degree``, else 3)."""
     if est.t_threshold is not None:
         return float(est.t_threshold)
-    from .primitives import max_lag_for_height
-    reach = max_lag_for_height(est.max_height)
-    return bonferroni_t(n_inputs, min(est.max_lag or reach, reach), est.max_degree or 3)
+    from .primitives import reachable_lag
+    return bonferroni_t(n_inputs, reachable_lag(est.max_height, est.max_lag),
+                        est.max_degree or 3)

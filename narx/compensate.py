@@ -332,9 +332,14 @@ class RootCompensator:
 
     # -------------------------------------------------------------- state
     def reset(self, u_past=0.0, y_past=0.0):
-        """Restart from inputs/outputs before the record; ŷ_0..ŷ_{d-1} follow."""
+        """Restart from inputs/outputs before the record; ŷ_0..ŷ_{d-1} follow.
+
+        At least one past input is kept, also for a static model (largest
+        lag 0): it is the input the first step's root is chosen nearest to
+        (and the held input of ``fallback='hold'``).
+        """
         ml, d = self.model.max_lag, self.delay
-        self.m = past_values("u_past", u_past, ml)
+        self.m = past_values("u_past", u_past, max(ml, 1))
         self.y = past_values("y_past", y_past, ml)
         for t in range(d):                    # outputs already fixed by past inputs
             jm = ml - d + t

@@ -158,6 +158,9 @@ def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
     idx = []
     for name in names:
         hits = [i for i, h in enumerate(header) if h == name]
+        if not hits and header and header[0].startswith("#"):
+            raise DataError(f"{path}: line {line} starts with '#', a comment: comment "
+                            f"lines before the header row are not supported; remove them")
         if not hits:
             shown = ", ".join(h if h.isprintable() else repr(h)
                               for h in header if h)[:200] or "(none)"
@@ -190,7 +193,7 @@ def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
 
 def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str] = "y",
              *, min_samples: int = 2, varying_inputs: bool = False,
-             purpose: str = "") -> Data:
+             purpose: str = "", varying_output: str = "") -> Data:
     """Read a record; ``output=None`` reads inputs only.
 
     Parameters
@@ -207,6 +210,10 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
         can be identified from it); simulation accepts it.
     purpose : str
         Said in the too-few-rows message (e.g. ``"for lags up to 16"``).
+    varying_output : str
+        If given, reject an output column that holds one value on every row
+        (``output 'y' is constant (every sample 5.0): {varying_output}``,
+        the words of :meth:`mggp.MGGPRegressor.fit`); the text says why.
     """
     inputs = ["u"] if inputs is None else ([inputs] if isinstance(inputs, str) else list(inputs))
     names = inputs + ([output] if output else [])
@@ -228,8 +235,15 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
                 raise DataError(f"{os.fspath(path)}: input {name!r} is constant (column "
                                 f"{name!r} holds {col[0]:g} on all {n} data rows): an "
                                 f"input must vary to identify a model")
-    return Data(arr[:, :m], arr[:, m] if output else None, inputs=inputs,
-                output=output or "y")
+    if varying_output and output and n > 1 and arr[:, m].min() == arr[:, m].max():
+        raise DataError(f"{os.fspath(path)}: output {output!r} is constant (every sample "
+                        f"{float(arr[0, m])!r}): {varying_output}")
+    from .terms import TermError
+    try:
+        return Data(arr[:, :m], arr[:, m] if output else None, inputs=inputs,
+                    output=output or "y")
+    except TermError as exc:                      # a column name is no signal name
+        raise DataError(f"{os.fspath(path)}: {exc}") from None
 
 
 def write_with_column(src, dst, name: str, values: np.ndarray) -> None:

@@ -58,6 +58,17 @@ class HasSignals:
         return self.signals.output
 
 
+def ascii_name(name: str) -> str:
+    """A signal name for ``name`` made of ASCII letters, digits and ``_``:
+    accents dropped (``é`` -> ``e``), each run of other characters ``_``,
+    leading and trailing ``_`` stripped ('Voltage [V]' -> 'Voltage_V',
+    'Displacement_µm' -> 'Displacement__m')."""
+    import unicodedata
+    folded = "".join(c for c in unicodedata.normalize("NFKD", name)
+                     if not unicodedata.combining(c))
+    return re.sub(r"[^A-Za-z0-9_]+", "_", folded).strip("_")
+
+
 @dataclass(frozen=True)
 class Signals:
     """Names of a model's signals: one output, inputs, and the noise name."""
@@ -72,10 +83,10 @@ class Signals:
         names = [self.output, *inputs, self.noise]
         for n in names:
             if not isinstance(n, str) or not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", n):
-                hint = re.sub(r"\W+", "_", n).strip("_") if isinstance(n, str) else ""
+                hint = ascii_name(n) if isinstance(n, str) else ""
                 hint = f" (e.g. {hint!r})" if hint and re.match(r"^[A-Za-z_]\w*$", hint) else ""
-                raise TermError(f"signal names must be identifiers (letters, digits and _, "
-                                f"not starting with a digit), got {n!r}: rename the "
+                raise TermError(f"signal names must be identifiers (ASCII letters, digits "
+                                f"and _, not starting with a digit), got {n!r}: rename the "
                                 f"column{hint}")
             if n == "k":
                 raise TermError("signal name 'k' is reserved (it is the time index)")

@@ -76,6 +76,8 @@ def commands(files, csv):
 
 # ------------------------------------------------------------------ bad CSV
 BAD_CSV = [
+    ("comment", "# recorded 2024, volts\n" + "\n".join(GOOD_LINES) + "\n",
+     ["line 1 starts with '#'", "comment lines before the header row are not supported"]),
     ("nan", csv_with(6, "4,nan,1.0"), ["line 6, column 'u'", "not finite"]),
     ("inf", csv_with(8, "6,1.0,-inf"), ["line 8, column 'y'", "'-inf' is not finite"]),
     ("infinity", csv_with(3, "1,Infinity,1.0"), ["line 3, column 'u'", "not finite"]),
@@ -126,6 +128,30 @@ def test_too_few_samples_for_the_lags(files, cmd, needles):
     assert code == 2 and "short.csv: 3 samples are" in line
     for needle in needles:
         assert needle in line, line
+
+
+@pytest.mark.parametrize("argv, needles", [
+    (["--max-lag", "4"], ["60 samples are too few: the search needs at least 64, its "
+                          "largest lag 4 (max_lag=4) plus 60 rows to fit (4 per term of "
+                          "max_terms=15, at least 20)", "lower max_terms to 14"]),
+    ([], ["at least 76, its largest lag 16 (what max_height=5 reaches",
+          "give more samples, or lower max_terms to 11"]),
+])
+def test_too_few_samples_counts_the_lag_the_search_reaches(files, argv, needles):
+    """The rule is the largest lag the terms can have (max_height's reach,
+    capped by max_lag) plus 4 rows per term of max_terms (at least 20); the
+    message names both settings and what would fit. The advice holds:
+    --max-terms 14 with --max-lag 4 fits the 60 samples."""
+    p = files / "short60.csv"
+    p.write_text("\n".join(GOOD_LINES[:61]) + "\n")
+    code, err = run("fit", str(p), *argv)
+    line = one_line(err)
+    assert code == 2 and line.startswith("error: ") and "short60.csv: " in line
+    for needle in needles:
+        assert needle in line, line
+    from mggp import MGGPRegressor
+    data = read_csv(p)
+    MGGPRegressor(max_lag=4, max_terms=14)._check_samples(data.n)      # no error
 
 
 def test_constant_input_rejected_for_identification_not_for_simulation(files):
@@ -389,3 +415,34 @@ def test_property_cli_returns_two_with_one_line(model_text, csv_text, cmd):
     finally:
         os.unlink(m)
         os.unlink(d)
+
+
+def test_non_ascii_column_name_gets_an_ascii_suggestion(files):
+    """Signal names are ASCII identifiers; the suggested name must be one
+    (it repeated 'Displacement_µm', a Unicode identifier) and the file is named."""
+    from narx.terms import ascii_name
+    p = files / "uni.csv"
+    p.write_text("Voltage_V,Displacement_µm\n" + "".join(
+        f"{float(a)!r},{float(b)!r}\n" for a, b in zip(_U, _Y)))
+    code, err = run("fit", str(p), "--input", "Voltage_V", "--output", "Displacement_µm")
+    line = one_line(err)
+    assert code == 2 and "uni.csv: signal names must be identifiers" in line
+    assert "got 'Displacement_µm': rename the column (e.g. 'Displacement__m')" in line
+    assert ascii_name("Température_°C") == "Temperature__C"
+
+
+@pytest.mark.parametrize("cmd, why", [
+    ("estimate", "nothing can be identified"),
+    ("fit", "nothing can be identified"),
+    ("simulate", "the simulation error cannot be scored"),
+    ("validation", "the simulation error cannot be scored"),
+])
+def test_constant_output_names_the_file_and_the_value(files, cmd, why):
+    """One wording for every command (fit's): the file, the output and its value."""
+    p = files / "flat.csv"
+    p.write_text("t,u,y\n" + "".join(f"{i},{float(a)!r},5.0\n" for i, a in enumerate(_U)))
+    argv = (["diagnose", files / "good.csv", "--validation", p] if cmd == "validation"
+            else commands(files, p)[cmd])
+    code, err = run(*argv)
+    line = one_line(err)
+    assert code == 2 and f"flat.csv: output 'y' is constant (every sample 5.0): {why}" in line

@@ -243,8 +243,9 @@ def test_semicolon_and_tab_files_with_decimal_commas(capsys, sine_csv, model19, 
     head = pred.read_text().splitlines()[:3]
     assert head[0] == sep.join(["t", "u", "y", "y_hat"])
     assert len(head[1].split(sep)) == 4
-    last = head[2].split(sep)[-1]                  # the source's decimal comma
-    assert "," in last and "." not in last, head[2]
+    row = pred.read_text().splitlines()[-1]        # simulated (the first rows are empty)
+    last = row.split(sep)[-1]                      # the source's decimal comma
+    assert "," in last and "." not in last, row
 
 
 def test_units_row_under_the_header_is_named(capsys, tmp_path):
@@ -374,3 +375,18 @@ def test_every_option_has_help_with_its_default(command):
             assert "default" in text, (command, action.option_strings, text)
     simulate = next(a for a in parser._actions if a.dest == "command").choices["simulate"]
     assert "(default: u)" not in simulate.format_help()
+
+
+@pytest.mark.parametrize("mode, extra", [("freerun", []), ("ksa", ["--k", "3"])])
+def test_simulate_out_leaves_the_rows_not_simulated_empty(capsys, sine_csv, model19, tmp_path,
+                                                          mode, extra):
+    """The help says the prediction is empty where not simulated: the
+    initial-condition rows (and the first ksa horizon) get no measured y."""
+    out = tmp_path / "p.csv"
+    code, _, err = run(capsys, "simulate", model19, sine_csv, "--mode", mode, *extra,
+                       "--out", out)
+    assert code == 0, err
+    rows = [ln.split(",") for ln in out.read_text().splitlines()[1:]]
+    empty = [i for i, r in enumerate(rows) if r[-1] == ""]
+    assert empty and empty == list(range(len(empty)))
+    assert all(r[-1] != "" for r in rows[len(empty):])

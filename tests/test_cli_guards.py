@@ -102,6 +102,11 @@ def test_fit_says_whether_the_model_was_written(capsys, tmp_path):
     (["--fitness", "pem", "--window", "7"], "--window applies to --fitness ms only, got "
                                             "--fitness pem"),
     (["--k", "3"], "--k applies to --fitness ksa only, got --fitness ms"),
+    (["--max-height", "100"], "--max-height must be between 1 and 20 (trees of height h "
+                              "reach lags up to 1 + 3h, 61 at 20"),
+    (["--jobs", "0"], "--jobs must be >= 1 or -1, got 0"),
+    (["--operators", "foo"], "--operators must be auto, none, or comma-separated names "
+                             "among play, dengtan, boucwen, got foo"),
 ])
 def test_fit_option_rules(capsys, tmp_path, argv, text):
     code, _, err = run(capsys, "fit", csv(tmp_path), "--population", "10",
@@ -364,3 +369,95 @@ def test_fit_report_opens_with_its_conclusion_and_lists_the_choices(capsys, tmp_
     assert code == 0, err
     assert "auto: " not in err
     assert "## Automatic choices" not in (rep2 / "summary.md").read_text()
+
+
+# ------------------------------------------------ an output on an input's path
+@pytest.fixture
+def io_files(tmp_path):
+    """A record d.csv, a model m.json of it and a reference r.csv."""
+    data = csv(tmp_path)
+    model = tmp_path / "m.json"
+    model.write_text(json.dumps({"output": "y", "inputs": ["u"], "terms": ["y[k-1]", "u[k-1]"],
+                                 "theta": [0.5, 0.5]}))
+    ref = tmp_path / "r.csv"
+    ref.write_text("r\n" + "\n".join(str(0.01 * i) for i in range(50)) + "\n")
+    (tmp_path / "rep").mkdir()
+    return tmp_path
+
+
+@pytest.mark.parametrize("argv, text", [
+    (["fit", "d.csv", "--out", "d.csv"], "--out d.csv is also an input file (DATA.csv)"),
+    (["fit", "d.csv", "--checkpoint", "./d.csv"], "--checkpoint ./d.csv is also an input "
+                                                  "file (DATA.csv)"),
+    (["fit", "d.csv", "--report", "d.csv"], "--report d.csv is also an input file"),
+    (["fit", "d.csv", "--out", "x.json", "--checkpoint", "x.json"],
+     "--out x.json and --checkpoint x.json name the same path"),
+    (["fit", "rep/summary.md", "--report", "rep"], "--report rep would replace the file "
+                                                   "rep/summary.md (DATA.csv)"),
+    (["estimate", "d.csv", "--terms", "y[k-1]", "--out", "d.csv"],
+     "--out d.csv is also an input file (DATA.csv)"),
+    (["simulate", "m.json", "d.csv", "--out", "link.csv"], "--out link.csv is also an "
+                                                           "input file (DATA.csv)"),
+    (["diagnose", "d.csv", "--json", "d.csv"], "--json d.csv is also an input file "
+                                               "(TRAIN.csv)"),
+    (["diagnose", "d.csv", "--model", "m.json", "--out", "m.json"],
+     "--out m.json is also an input file (--model)"),
+    (["diagnose", "d.csv", "--validation", "r.csv", "--out", "r.csv"],
+     "--out r.csv is also an input file (--validation)"),
+    (["quasistatic", "m.json", "d.csv", "--json", "d.csv"],
+     "--json d.csv is also an input file (DATA.csv)"),
+    (["compensate", "m.json", "r.csv", "--out", "m.json"],
+     "--out m.json is also an input file (MODEL.json)"),
+    (["--phi-module", "p.py", "simulate", "m.json", "d.csv", "--out", "p.py"],
+     "--out p.py is also an input file (--phi-module)"),
+])
+def test_no_output_replaces_an_input(capsys, io_files, monkeypatch, argv, text):
+    """Every command refuses, before any work, a destination that is one of
+    its inputs (same real path: also through a link) or another output;
+    every file is left as it was."""
+    monkeypatch.chdir(io_files)
+    (io_files / "link.csv").symlink_to(io_files / "d.csv")
+    (io_files / "rep" / "summary.md").write_text((io_files / "d.csv").read_text())
+    (io_files / "p.py").write_text("")
+    before = {p: p.read_bytes() for p in io_files.rglob("*") if p.is_file()}
+    code, out, err = run(capsys, *argv)
+    assert code == 2 and text in error_line(err) and out == ""
+    assert {p: p.read_bytes() for p in io_files.rglob("*") if p.is_file()} == before
+
+
+# ------------------------------------------------ positionals after list options
+def _two_inputs(tmp_path):
+    rng = np.random.default_rng(1)
+    a, b = rng.standard_normal(300), rng.standard_normal(300)
+    y = np.zeros(300)
+    for k in range(1, 300):
+        y[k] = 0.5 * y[k - 1] + a[k - 1] - 0.3 * b[k - 1]
+    p = tmp_path / "two.csv"
+    p.write_text("a,b,y\n" + "\n".join(f"{x},{z},{w}" for x, z, w in zip(a, b, y)))
+    return str(p)
+
+
+@pytest.mark.parametrize("order", ["input first", "terms first"])
+def test_estimate_gives_the_data_file_back_from_a_list_option(capsys, tmp_path, order):
+    data = _two_inputs(tmp_path)
+    terms = ["--terms", "y[k-1]", "a[k-1]", "b[k-1]"]
+    argv = (["--input", "a", "b", data] + terms if order == "input first"
+            else terms + [data, "--input", "a", "b"])
+    out = tmp_path / "m.json"
+    code, _, err = run(capsys, "estimate", *argv, "--out", out)
+    assert code == 0, err
+    m = load_model(out)
+    assert list(m.inputs) == ["a", "b"] and list(m.term_texts) == ["y[k-1]", "a[k-1]", "b[k-1]"]
+    np.testing.assert_allclose(m.theta, [0.5, 1.0, -0.3], atol=1e-9)
+
+
+@pytest.mark.parametrize("argv", [
+    ["--input", "u", "m.json", "d.csv"],
+    ["m.json", "--units", "V", "um", "d.csv"],
+    ["--units", "V", "um", "m.json", "d.csv"],
+])
+def test_quasistatic_gives_the_positionals_back(capsys, io_files, monkeypatch, argv):
+    monkeypatch.chdir(io_files)
+    code, out, err = run(capsys, "quasistatic", *argv, "--json", "qs.json")
+    assert code == 0, err
+    assert json.loads((io_files / "qs.json").read_text())["input"] == "d.csv"

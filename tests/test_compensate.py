@@ -532,3 +532,27 @@ def test_cli_default_rest_input_is_the_models_rest_state(tmp_path, capsys, inver
         capsys.readouterr().err
     data = np.genfromtxt(out, delimiter=",", names=True)
     assert np.allclose(data["u"], 2.0, atol=1e-9)          # held at rest from the start
+
+
+@pytest.mark.parametrize("terms, theta, fallbacks", [
+    (["u[k]"], [0.5], False),
+    (["u[k]", "1"], [0.5, 1.0], False),
+    (["u[k]*u[k]"], [0.5], True),          # no root for a negative reference
+])
+def test_cli_inverts_a_static_model(tmp_path, capsys, terms, theta, fallbacks):
+    """A model without past terms (largest lag 0) has a well-defined static
+    inverse: u = (r - c) / θ for y = θ u + c, a square root for θ u²."""
+    m = tmp_path / "static.json"
+    m.write_text(json.dumps({"output": "y", "inputs": ["u"], "terms": terms, "theta": theta}))
+    t, r = sine_input(duration=1.0, amplitude=5.0)
+    ref = _csv(tmp_path / "ref.csv", ["t", "r"], zip(t, r))
+    out = tmp_path / "in.csv"
+    code = main(["compensate", str(m), ref, "--out", str(out), "--allow-fallbacks"])
+    _, err = capsys.readouterr()
+    assert code == 0, err
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    ok = data["fallback"] == 0
+    assert ok.any() and (not ok.all()) == fallbacks
+    model = narx.load_model(m)
+    y = model.simulate(data["u"], data["u"], mode="osa").y_hat
+    np.testing.assert_allclose(y[ok], data["r"][ok], atol=1e-9)

@@ -541,3 +541,15 @@ def test_operator_augmentation_sees_a_play_behind_dynamics_not_a_linear_control(
     c = operator_augmentation_test(narx.Model(lin).fit(ctl), ctl, shifts=19, seed=0)
     assert c.statistic < a.statistic / 10
     assert c.statistic <= 0.005 * np.ptp(ctl.y)          # below the resolution floor
+
+
+def test_no_holds_names_a_record_once_with_its_tail():
+    """Validation as the tail of the training file: 'in train.csv', not
+    'in train.csv or train.csv (tail)'; two files are both named."""
+    from types import SimpleNamespace
+    from mggp.diagnose.drift import no_holds
+    tail = SimpleNamespace(holds_found={"train.csv": 0, "train.csv (tail)": 0},
+                           hold_min_len=50)
+    assert "in train.csv, so" in no_holds(tail)
+    two = SimpleNamespace(holds_found={"train.csv": 0, "val.csv": 0}, hold_min_len=50)
+    assert "in train.csv or val.csv, so" in no_holds(two)

@@ -106,7 +106,10 @@ def rest_error_check(h: HoldResponse, z: float, floor: float, viol: str) -> Chec
 
 def no_holds(ctx) -> str:
     """Why no hold response could be measured (drift, rest levels), in one phrase."""
-    records = " or ".join(ctx.holds_found) or "the data"
+    names = list(ctx.holds_found)
+    if len(names) == 2 and names[1] == f"{names[0]} (tail)":
+        names = names[:1]                   # the measuring tail is part of that record
+    records = " or ".join(names) or "the data"
     found = sum(ctx.holds_found.values())
     what = "steady-state drift and rest levels"
     if not found:
