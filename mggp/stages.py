@@ -231,9 +231,8 @@ def local_search(terms, data, ctx):
     if not est.local_search or how == "hold":
         return terms
     from .local_search import improve, term_moves
-    from .primitives import max_lag_for_height
-    reach = max_lag_for_height(est.max_height)
-    lags = range(1, min(est.max_lag or reach, reach) + 1)
+    from .primitives import reachable_lag
+    lags = range(1, reachable_lag(est.max_height, est.max_lag) + 1)
     degree = est.max_degree or max(3, max((t.degree for t in terms), default=1))
     moves = term_moves(data.signals, lags, degree, est._allowed)
     n = data.n - ctx.start
