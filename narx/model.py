@@ -174,7 +174,7 @@ class Model(HasSignals):
                           "n_samples": int(Psi.shape[0]), "start": int(start),
                           "residual_ss": est.residual_ss,
                           "constraints": labels if S is not None else None}
-        self.meta.setdefault("estimation", est.method)
+        self.meta["estimation"] = est.method        # the latest fit's method
         # the training record's signal ranges: compensators and checks use
         # them for the scale of the signals (units, offsets)
         self.meta["ranges"] = {name: [float(np.min(x)), float(np.max(x))] for name, x in
@@ -222,7 +222,7 @@ class Model(HasSignals):
         for i, (t, v) in enumerate(zip(self.terms, th)):
             sign = "-" if v < 0 else "+"
             body = f"{abs(v):.{precision}g}" + ("" if str(t) == "1" else f"*{t}")
-            parts.append(body if i == 0 and sign == "+" else f"{sign} {body}")
+            parts.append(f"{'' if sign == '+' else '-'}{body}" if i == 0 else f"{sign} {body}")
         return f"{self.output}[k] = " + " ".join(parts)
 
     def to_sympy(self):

@@ -100,3 +100,13 @@ def test_sympy_export_evaluates_to_the_model_prediction():
         vals = {"u": u, "y": y}
         args = [vals[str(s)[0]][k - int(str(s)[4:-1])] for s in syms]   # 'u[k-3]'
         assert f(*args) == pytest.approx(osa[k], rel=1e-12, abs=1e-12)
+
+
+def test_equation_writes_a_leading_negative_coefficient_as_a_number():
+    """'y[k] = -0.5*y[k-1] + ...', not 'y[k] = - 0.5*y[k-1]'; the
+    following terms keep their spaced signs."""
+    from narx import Model
+    assert Model(["y[k-1]", "u[k-1]"], [-0.5, 0.3]).equation() == \
+        "y[k] = -0.5*y[k-1] + 0.3*u[k-1]"
+    assert Model(["y[k-1]", "u[k-1]"], [0.5, -0.3]).equation() == \
+        "y[k] = 0.5*y[k-1] - 0.3*u[k-1]"

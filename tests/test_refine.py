@@ -103,6 +103,29 @@ def test_a_cls_model_loaded_from_a_file_keeps_its_constraints(tmp_path, piezo_va
         assert r.model.meta["estimation"] == "cls+refined-freerun"
 
 
+def test_a_refit_names_its_own_method(tmp_path, piezo_validation):
+    """A model fitted by LS and then refitted by CLS is a CLS model (its
+    file says so, and refine keeps its constraints after loading); refitted
+    by LS again, it is an LS model that refine may change freely. Before,
+    the first fit's method stayed in meta['estimation']."""
+    from narx.steady import steady_state_constraints
+    u, y = piezo_validation
+    ym = y + np.random.default_rng(2).normal(0, 0.01 * np.ptp(y), y.size)
+    terms = ["y[k-1]", "u[k-1]", "Phi1(u[k-1],u[k-2])",
+             "y[k-1]*Phi2(u[k-1],u[k-2])*Phi1(u[k-1],u[k-2])"]
+    m = narx.Model(terms).fit(u, ym)
+    assert m.meta["estimation"] == "ls"
+    m.fit(u, ym, constraints="steady-state")
+    assert m.meta["estimation"] == "cls"
+    m.save(tmp_path / "c.json")
+    r = refine(narx.load_model(tmp_path / "c.json"), u, ym, mode="ms", window=100)
+    cons = steady_state_constraints(m.terms)
+    assert np.max(np.abs(cons.S @ r.model.theta - cons.c)) < 1e-9
+    m.fit(u, ym)                                   # control: LS again, refine runs
+    assert m.meta["estimation"] == "ls"
+    refine(m, u, ym, mode="ms", window=100)
+
+
 def test_a_diverging_start_is_refused_and_noise_terms_warned(capsys, tmp_path):
     from mggp import MGGPRegressor
     from mggp.cli import main
