@@ -176,18 +176,42 @@ def _view(qs):
     return lo - pad, hi + pad
 
 
+def _bounding_curves(qs, lo, hi):
+    """The bounding structure's curves inside the plotted range ``lo..hi``:
+    ``(branch, attracting, line style, word, roots)`` for each branch and
+    kind that has a finite root there (the figure draws these, the caption
+    names what is drawn)."""
+    b = qs.bounding
+    for name in ("loading", "unloading"):
+        e = b.branch(name)
+        for att, ls, word in ((True, "--", "attracting"), (False, ":", "repelling")):
+            yb = np.where((e.roots > lo) & (e.roots < hi) & (e.attracting == att),
+                          e.roots, np.nan)
+            if np.any(np.isfinite(yb)):
+                yield name, att, ls, word, yb
+
+
 def caption(qs, clipped: int = None) -> str:
-    """Caption of the figure."""
+    """Caption of the figure: what is drawn, the bounding structure's
+    curves only when there are some in the plotted range."""
     lo, hi = _view(qs)
     if clipped is None:
         r = qs.roots[np.isfinite(qs.roots)]
         clipped = int(np.sum((r < lo) | (r > hi)))
+    kinds = {word for _, _, _, word, _ in _bounding_curves(qs, lo, hi)}
+    style = {"attracting": "dashed", "repelling": "dotted"}
+    bounding = ("; " + " and ".join(f"{style[w]}: the {w}" for w in
+                                    ("attracting", "repelling") if w in kinds)
+                + " bounding structure, the equilibria with the rate at its limit 0"
+                if kinds else "")
+    rest = ("; grey band: at rest every output is a steady state (a continuum)"
+            if np.all(qs.bounding.rest.solution == "continuum") else "")
     return ("Quasi-static analysis: the model's free-run loop (black, arrows: its "
             "orientation) between the solutions of the frozen equation ỹ = F_k(ỹ) at each "
             "sample, attracting (dots) and repelling (crosses) under loading (red, "
-            "ŷ_L) and unloading (blue, ŷ_U); dashed (dotted): the attracting (repelling) bounding "
-            "structure, the equilibria with the rate at its limit 0. A → B and C → D: the output and the attracting solution pulling it "
-            "on one loading and one unloading sample. "
+            f"ŷ_L) and unloading (blue, ŷ_U){bounding}{rest}. A → B and C → D: the output "
+            "and the attracting solution pulling it on one loading and one unloading "
+            "sample. "
             + (f"{clipped} solutions lie outside the plotted range." if clipped else ""))
 
 
@@ -263,15 +287,12 @@ def plot_quasistatic(path, qs, title: str = "Quasi-static analysis",
         if ur.size:
             ax.plot(ur, yr, "x", ms=3, mew=0.7, color=col, alpha=0.7,
                     label=f"$\\hat y_{sub}^r$: repelling, {name}")
-        e = b.branch(name)
-        for att, ls, word in ((True, "--", "attracting"), (False, ":", "repelling")):
-            yb = np.where((e.roots > lo) & (e.roots < hi) & (e.attracting == att),
-                          e.roots, np.nan)
-            label = f"bounding structure, {name} ({word})"
-            for j in range(yb.shape[1]):
-                if np.any(np.isfinite(yb[:, j])):
-                    ax.plot(b.u, yb[:, j], ls, lw=1.2, color=col, label=label)
-                    label = None
+    for name, _, ls, word, yb in _bounding_curves(qs, lo, hi):
+        label = f"bounding structure, {name} ({word})"
+        for j in range(yb.shape[1]):
+            if np.any(np.isfinite(yb[:, j])):
+                ax.plot(b.u, yb[:, j], ls, lw=1.2, color=_COL[name], label=label)
+                label = None
     if np.all(b.rest.solution == "continuum"):
         ax.axvspan(b.u[0], b.u[-1], color="0.93", zorder=0,
                    label="rest: every point a steady state (continuum)")

@@ -420,3 +420,19 @@ def test_fit_and_diagnose_reports_show_the_quasistatic_figure(capsys, tmp_path):
     text = open(write_report(tmp_path / "dx", dx)).read()
     assert (tmp_path / "dx" / "quasistatic.png").stat().st_size > 10_000
     assert "](quasistatic.png)" in text
+
+
+def test_caption_names_only_the_curves_the_figure_draws():
+    """y[k] = y[k-1] + 0.5 (u[k-1] - u[k-2]) has a continuum of steady
+    states at the rate's limit 0 too: no bounding curve is drawn, the rest
+    band is, and the caption says so (it described dashed and dotted
+    bounding curves on every figure); control: model (19), whose
+    attracting (unloading) and repelling (loading) bounding curves are
+    drawn and named."""
+    from mggp.quasistatic_report import caption
+    u = sine(70.0, 1.0, 1e-3, 2.0)
+    flat = caption(narx.quasistatic(narx.Model(["y[k-1]", "Phi1(u[k-1],u[k-2])"],
+                                               [1.0, 0.5]), u))
+    assert "bounding structure" not in flat and "grey band" in flat
+    c19 = caption(narx.quasistatic(model19(), u))
+    assert "dashed: the attracting and dotted: the repelling bounding structure" in c19
