@@ -232,6 +232,13 @@ def test_diverging_baseline_gives_an_undefined_ratio_and_a_warning(base_diagnosi
     assert "ratio undefined" in text and "RMSE diverges (baseline)" in text
     assert "warning: the baseline's free run diverges on the measuring samples" in text
     assert dx.gain.recommended == "baseline"
+    # without a finding the recommendation itself says the baseline diverges;
+    # control: a finite baseline's recommendation does not
+    quiet = replace(dx, findings=[])
+    assert "recommended: the baseline (no finding, so nothing was changed); its free run " \
+           "diverges on the measuring samples" in quiet.summary()
+    assert "diverges" not in replace(base_diagnosis, findings=[]).summary().split(
+        "recommended:")[1]
     row = _table([["hysteresis", "corr(|Δu|, e) = 0.3"]], ["finding", "evidence"])[2]
     assert row.count("|") - row.count("\\|") == 3
 

@@ -151,7 +151,10 @@ def verdict(dx) -> str:
     """Which model to use, and why, in one sentence (``dx.gain.recommended``)."""
     g = dx.gain
     if not dx.findings:
-        return "the baseline (no finding, so nothing was changed)"
+        return "the baseline (no finding, so nothing was changed)" + (
+            "; its free run diverges on the measuring samples, so it is no usable model of "
+            "them either: fit with other settings or more data" if not np.isfinite(g.baseline)
+            else "")
     if g.recommended == "extended":
         return (f"the extended model (on the measuring samples its free-run RMSE is "
                 f"{_g(g.ratio)} times lower than the baseline's)")
