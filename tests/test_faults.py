@@ -248,8 +248,11 @@ def test_sigkill_during_checkpoint_write_then_resume(piezo, tmp_path, capsys):
     deadline = time.time() + 120
     try:
         while time.time() < deadline and p.poll() is None:
-            tmps = [f for f in os.listdir(folder) if f.endswith(".tmp")]
-            if tmps and ck.exists():            # a later generation is being written
+            # ck first, then the folder: a temporary file listed before ck
+            # appeared may be the first write's, renamed to ck in between
+            # (killed then, nothing is torn); once ck exists, every
+            # temporary file is a later generation's write
+            if ck.exists() and any(f.endswith(".tmp") for f in os.listdir(folder)):
                 os.kill(p.pid, signal.SIGKILL)
                 killed_mid_write = True
                 break
