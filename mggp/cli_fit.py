@@ -119,8 +119,12 @@ def _cmd_fit(args) -> int:
     if args.resume and not args.checkpoint:
         raise CLIError("--resume needs --checkpoint FILE")
     if args.resume and not os.path.exists(args.checkpoint):
-        print(f"note: no checkpoint at {args.checkpoint} yet: a new run starts (it is "
-              f"written there as the search goes)", file=sys.stderr)
+        import glob
+        pilots = sorted(glob.glob(glob.escape(os.fspath(args.checkpoint)) + ".pilot-*"))
+        print(f"note: no checkpoint at {args.checkpoint} yet: " + (
+            f"the run continues from its {len(pilots)} pilot checkpoint(s) beside it"
+            if pilots else "a new run starts (it is written there as the search goes)"),
+            file=sys.stderr)
     if est.backend == "dask" and not args.scheduler:
         raise CLIError("--backend dask needs --scheduler ADDRESS")
     if args.scheduler and est.backend != "dask":

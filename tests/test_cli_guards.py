@@ -244,6 +244,14 @@ def test_resume_without_a_checkpoint_file_says_a_new_run_starts(capsys, tmp_path
                        "1", "--seed", "0", "--quiet", "--checkpoint", ck, "--resume")
     assert code == 0 and f"note: no checkpoint at {ck} yet: a new run starts" in err
     assert ck.exists()
+    # stopped in its pilots (their files beside it, FILE itself not yet
+    # written): the note says the run continues from them
+    for p in tmp_path.glob("typo.json.pilot-*"):
+        p.touch()
+    ck.unlink()
+    code, _, err = run(capsys, "fit", csv(tmp_path), "--population", "10", "--generations",
+                       "1", "--seed", "0", "--quiet", "--checkpoint", ck, "--resume")
+    assert code == 0 and "the run continues from its" in err and "pilot checkpoint" in err
 
 
 def test_fit_keeps_the_cls_model_when_hold_chose_it(capsys, tmp_path, monkeypatch):
