@@ -249,9 +249,7 @@ class MGGPRegressor:
         if self.fitness == "ksa" and self.k >= data.n - start:
             raise DataError(f"k={self.k} steps ahead do not fit in the {data.n - start} "
                             f"scored samples (k must be below that)")
-        if np.ptp(data.y) == 0:
-            raise DataError(f"output {data.output!r} is constant (every sample "
-                            f"{float(data.y[0])!r}): nothing can be identified")
+        data.require_varying_output("nothing can be identified")
         return start
 
     def _check_samples(self, n: int) -> None:

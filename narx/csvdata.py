@@ -212,8 +212,8 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
         Said in the too-few-rows message (e.g. ``"for lags up to 16"``).
     varying_output : str
         If given, reject an output column that holds one value on every row
-        (``output 'y' is constant (every sample 5.0): {varying_output}``,
-        the words of :meth:`mggp.MGGPRegressor.fit`); the text says why.
+        (:meth:`narx.data.Data.require_varying_output`, as
+        :meth:`mggp.MGGPRegressor.fit` does); the text says why.
     """
     inputs = ["u"] if inputs is None else ([inputs] if isinstance(inputs, str) else list(inputs))
     names = inputs + ([output] if output else [])
@@ -235,15 +235,18 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
                 raise DataError(f"{os.fspath(path)}: input {name!r} is constant (column "
                                 f"{name!r} holds {col[0]:g} on all {n} data rows): an "
                                 f"input must vary to identify a model")
-    if varying_output and output and n > 1 and arr[:, m].min() == arr[:, m].max():
-        raise DataError(f"{os.fspath(path)}: output {output!r} is constant (every sample "
-                        f"{float(arr[0, m])!r}): {varying_output}")
     from .terms import TermError
     try:
-        return Data(arr[:, :m], arr[:, m] if output else None, inputs=inputs,
+        data = Data(arr[:, :m], arr[:, m] if output else None, inputs=inputs,
                     output=output or "y")
     except TermError as exc:                      # a column name is no signal name
         raise DataError(f"{os.fspath(path)}: {exc}") from None
+    if varying_output:
+        try:
+            data.require_varying_output(varying_output)
+        except DataError as exc:
+            raise DataError(f"{os.fspath(path)}: {exc}") from None
+    return data
 
 
 def write_with_column(src, dst, name: str, values: np.ndarray) -> None:

@@ -110,6 +110,13 @@ class Data(HasSignals):
             raise DataError(f"{what} needs the measured output {self.output!r}")
         return self.y
 
+    def require_varying_output(self, why: str) -> None:
+        """Raise :class:`DataError` when the output holds one value on every
+        sample: ``output 'y' is constant (every sample 5.0): {why}``."""
+        if self.y is not None and self.n > 1 and np.ptp(self.y) == 0:
+            raise DataError(f"output {self.output!r} is constant (every sample "
+                            f"{float(self.y[0])!r}): {why}")
+
     def slice(self, start=None, stop=None) -> "Data":
         """A new record of samples ``start:stop`` (own empty cache)."""
         d = Data.__new__(Data)
