@@ -160,11 +160,10 @@ def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT) -> 
     :data:`HOLDOUT_ENDS` of the structure ``terms``, θ by least squares on
     the rest of the record for each end (``inf``: diverges or cannot be
     fitted), at least :func:`error_floor` (below it: rounding)."""
-    m = _end_samples(data.n, holdout)
     errs = []
     for end in HOLDOUT_ENDS:
-        fit, lo, hi = ((data.slice(0, data.n - m), data.n - m, data.n) if end == "tail"
-                       else (data.slice(m, data.n), 0, m))
+        lo, hi = _held_span(data.n, end, holdout)
+        fit = data.slice(0, lo) if end == "tail" else data.slice(hi, data.n)
         try:
             with ignore_rank_warnings():
                 model = Model(tuple(terms), inputs=data.inputs, output=data.output,
@@ -195,6 +194,13 @@ def _end_samples(n: int, holdout: float = HOLDOUT) -> int:
     return n - int(np.ceil((1.0 - holdout) * n))
 
 
+def _held_span(n: int, end: str, holdout: float = HOLDOUT):
+    """``(lo, hi)``: the samples of a record of ``n`` held out at ``end``
+    ('tail' or 'head')."""
+    m = _end_samples(n, holdout)
+    return (n - m, n) if end == "tail" else (0, m)
+
+
 def heldout_samples(n: int, holdout: float = HOLDOUT) -> int:
     """Samples of a record of ``n`` on which :func:`heldout_rmse` scores
     (``holdout`` of the record at each end of :data:`HOLDOUT_ENDS`)."""
@@ -213,10 +219,10 @@ def holdout_message(data: Data) -> str:
     a step record whose last 30 % is the held input). Every candidate then
     settles alike, so the automatic choices rest on the transient's tail.
     '' when the held-out part is excited."""
-    m = _end_samples(data.n)
     part = np.zeros(data.n, dtype=bool)
     for end in HOLDOUT_ENDS:
-        part[(data.n - m if end == "tail" else 0):(data.n if end == "tail" else m)] = True
+        lo, hi = _held_span(data.n, end)
+        part[lo:hi] = True
     shares = {}
     for name in data.inputs:
         x = np.asarray(data.input(name), dtype=float)
