@@ -39,7 +39,7 @@ from .primitives import Decoder, tree_from_tokens, tree_to_tokens
 __all__ = ["EvolutionState", "save_checkpoint", "load_checkpoint", "CheckpointWriter",
            "CachePacker", "CHECKPOINT_SHARE",
            "settings_fingerprint", "data_digest", "checkpoint_seed", "checkpoint_settings",
-           "checkpoint_search", "copy_checkpoint",
+           "checkpoint_search", "copy_checkpoint", "pilot_checkpoint", "pilot_checkpoints",
            "FORMAT", "VERSION"]
 
 FORMAT = "mggp-checkpoint"
@@ -133,6 +133,19 @@ def checkpoint_search(path) -> Optional[str]:
     ctx = checkpoint_settings(path).get("context")
     tag = ctx.get("search") if isinstance(ctx, dict) else None
     return tag if isinstance(tag, str) else None
+
+
+def pilot_checkpoint(path, key: str) -> str:
+    """Where a fit checkpointed at ``path`` keeps the checkpoint of its pilot
+    ``key`` (a model class, e.g. 'no_phi', or 'no_phi-no-constant'):
+    beside it, ``PATH.pilot-KEY``."""
+    return f"{os.fspath(path)}.pilot-{key}"
+
+
+def pilot_checkpoints(path) -> List[str]:
+    """The pilot checkpoints beside ``path`` (:func:`pilot_checkpoint`)."""
+    import glob
+    return sorted(glob.glob(glob.escape(os.fspath(path)) + ".pilot-*"))
 
 
 def copy_checkpoint(src, dst) -> None:

@@ -119,8 +119,8 @@ def _cmd_fit(args) -> int:
     if args.resume and not args.checkpoint:
         raise CLIError("--resume needs --checkpoint FILE")
     if args.resume and not os.path.exists(args.checkpoint):
-        import glob
-        pilots = sorted(glob.glob(glob.escape(os.fspath(args.checkpoint)) + ".pilot-*"))
+        from .checkpoint import pilot_checkpoints
+        pilots = pilot_checkpoints(args.checkpoint)
         print(f"note: no checkpoint at {args.checkpoint} yet: " + (
             f"the run continues from its {len(pilots)} pilot checkpoint(s) beside it"
             if pilots else "a new run starts (it is written there as the search goes)"),

@@ -43,7 +43,8 @@ from narx.data import Data, DataError, as_data
 from narx.fitness import StructureScorer
 from narx.phi import default_registry
 
-from .checkpoint import checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest
+from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
+                         pilot_checkpoint)
 from .choices import (CONSTANT, Choice, class_choice, constant_pilot_choice,
                       constant_searched, front_rows_heldout, heldout_rmse, holdout_message,
                       pilot_generations, resolve_screen, resolve_select, search_classes)
@@ -366,7 +367,7 @@ class MGGPRegressor:
         with tempfile.TemporaryDirectory(prefix="mggp-pilot-") as tmp:
             def where(key):                     # beside the checkpoint, to be resumed
                 return (os.path.join(tmp, f"{key}.json") if self.checkpoint is None
-                        else f"{os.fspath(self.checkpoint)}.pilot-{key}")
+                        else pilot_checkpoint(self.checkpoint, key))
             for i, c in enumerate(classes):
                 label = f"pilot {i + 1}/{n} {c.label}"
                 seed, run = self._pilot(ctx, c, pilot, seed, where(c.key), label, ctx.shape,
