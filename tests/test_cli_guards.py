@@ -254,6 +254,27 @@ def test_resume_without_a_checkpoint_file_says_a_new_run_starts(capsys, tmp_path
     assert code == 0 and "the run continues from its" in err and "pilot checkpoint" in err
 
 
+def test_resume_refuses_a_checkpoint_of_another_search(capsys, tmp_path):
+    """A checkpoint holds the search of one pilot (class, constant or not:
+    its context 'search'); a resume whose pilots chose another search is
+    refused in one line, not continued from the wrong state; control: the
+    file as written resumes."""
+    ck = tmp_path / "ck.json"
+    args = ("fit", csv(tmp_path), "--population", "10", "--generations", "5", "--seed",
+            "0", "--quiet", "--no-phi", "--checkpoint", ck)
+    assert run(capsys, *args)[0] == 0
+    doc = json.loads(ck.read_text())
+    tag = doc["settings"]["context"]["search"]
+    doc["settings"]["context"]["search"] = "Φ"
+    ck.write_text(json.dumps(doc))
+    code, _, err = run(capsys, *args, "--resume")
+    assert code == 2
+    assert f"holds the search 'Φ', but this run's pilots chose {tag!r}" in error_line(err)
+    doc["settings"]["context"]["search"] = tag
+    ck.write_text(json.dumps(doc))
+    assert run(capsys, *args, "--resume")[0] == 0
+
+
 def test_fit_keeps_the_cls_model_when_hold_chose_it(capsys, tmp_path, monkeypatch):
     """With --select hold the structure was chosen for its CLS refit, so a
     CLS fit that is only worse in free-run RMSE is still written."""
