@@ -401,23 +401,41 @@ def constant_choice(terms, data: Data, registry=None):
     return Choice("constant", keep, why, figs), (terms if keep else plain)
 
 
-def constant_pilot_choice(err_constant: float, err_plain: float, pilot: str) -> Choice:
+def constant_pilot_choice(err_constant: float, err_plain: float, err_own: float,
+                          pilot: str) -> Choice:
     """``constant='auto'``: whether the search continues with the constant
     term offered to every structure, from two pilots of the chosen model
     class, one with it and one without (``err_*``: each pilot's least
-    held-out free-run error, as :func:`class_choice` takes them). The
-    constant is kept only when its pilot's error is more than :data:`GAIN`
-    lower (the simpler search wins what the pilots cannot tell apart)."""
-    keep = constant_pays(err_constant, err_plain)
+    held-out free-run error, as :func:`class_choice` takes them;
+    ``err_own``: that of the structure behind ``err_constant`` without its
+    constant). The constant is kept only when its pilot's error is more
+    than :data:`GAIN` lower than both (:func:`constant_pays`): lower than
+    the other pilot's, and earned by the constant itself, not by a structure
+    the pilot with the constant happened to find, which the search without
+    it may find as well (the simpler search wins what the pilots cannot tell
+    apart).
+
+    With :math:`e_c`, :math:`e_p` and :math:`e_o` the three errors, the
+    search keeps the constant when
+    :math:`e_c < (1 - g)\\,\\min(e_p, e_o)` (:math:`g` = :data:`GAIN`).
+    """
+    keep = constant_pays(err_constant, err_plain) and constant_pays(err_constant, err_own)
     figs = {"pilot_heldout_rmse_constant": err_constant,
-            "pilot_heldout_rmse_no_constant": err_plain}
+            "pilot_heldout_rmse_no_constant": err_plain,
+            "pilot_heldout_rmse_own_no_constant": err_own}
     if keep:
-        why = (f"searched with the constant term: held-out free-run RMSE {rmse_text(err_constant)} "
-               f"against {rmse_text(err_plain)} without it ({pilot})")
-    else:
+        why = (f"searched with the constant term: held-out free-run RMSE "
+               f"{rmse_text(err_constant)} against {rmse_text(err_plain)} without it and "
+               f"{rmse_text(err_own)} for the same structure without it ({pilot})")
+    elif not constant_pays(err_constant, err_plain):
         why = (f"no constant term: held-out free-run RMSE {rmse_text(err_plain)} against "
                f"{rmse_text(err_constant)} with it, kept only when over {percent(GAIN)} lower "
                f"({pilot})")
+    else:
+        why = (f"no constant term: held-out free-run RMSE {rmse_text(err_constant)} with it "
+               f"against {rmse_text(err_plain)} without it, but {rmse_text(err_own)} for the "
+               f"same structure without it: the structure, not the constant, makes the "
+               f"gain (kept only when over {percent(GAIN)} lower than both; {pilot})")
     return Choice("constant", keep, why, figs)
 
 

@@ -339,7 +339,8 @@ class MGGPRegressor:
         the constant searched: :func:`mggp.choices.constant_searched`) the
         chosen class also has a pilot without the constant term, and the
         search continues with the constant only when its pilot's held-out
-        error is over :data:`mggp.choices.GAIN` lower
+        error is over :data:`mggp.choices.GAIN` lower than both that pilot's
+        and its own structure's without the constant
         (:func:`mggp.choices.constant_pilot_choice`). Sets ``ctx.seed``,
         ``ctx.result``, ``ctx.screen``, ``ctx.search_class``, ``ctx.shape``
         and the choices; returns the structures evaluated."""
@@ -394,8 +395,11 @@ class MGGPRegressor:
                                         f"pilot {n}/{n} {classes[win].label}, no constant",
                                         plain, None, f"{classes[win].label}, no constant")
                 runs.append(run)
-                kept = constant_pilot_choice(runs[win][3], run[3], f"{words}, class "
-                                             f"{classes[win].label}")
+                own = tuple(t for t in runs[win][6] if t != CONSTANT)
+                kept = constant_pilot_choice(
+                    runs[win][3], run[3],
+                    heldout_rmse(own, ctx.data, ctx.registry) if own else float("inf"),
+                    f"{words}, class {classes[win].label}")
                 ctx.choices["constant"] = kept
                 if not kept.value and run[0] is not None:
                     go, ctx.shape = len(runs) - 1, plain
@@ -418,11 +422,12 @@ class MGGPRegressor:
         """One pilot search of ``cls`` scoring the structures ``shape`` makes
         (a new screen unless ``screen``), its checkpoint at ``path`` (resumed
         with ``resume``) tagged ``tag``: ``(seed, (result or None, screen,
-        checkpoint path, held-out error, holds, tag))``, the held-out error
-        that of the structure the hold selection takes (``holds`` True/False)
-        or the least over the pilot's best structure and the smaller ones of
-        its Pareto front (``holds`` None); result None when no structure of
-        the class has a finite fitness."""
+        checkpoint path, held-out error, holds, tag, terms))``, the held-out
+        error that of the structure the hold selection takes (``holds``
+        True/False) or the least over the pilot's best structure and the
+        smaller ones of its Pareto front (``holds`` None), ``terms`` the
+        structure it is of; result None when no structure of the class has
+        a finite fitness."""
         scr = screen if screen is not None else self._make_screen(
             ctx.data, ctx.start, ctx.registry, ctx)
         self._phase(label, generations)
@@ -430,11 +435,14 @@ class MGGPRegressor:
                                  resume=self.resume, require_finite=False, shape=shape,
                                  tag=tag)
         if res.best is None or not np.isfinite(res.best.fitness):
-            return seed, (None, scr, path, float("inf"), False, tag)
+            return seed, (None, scr, path, float("inf"), False, tag, ())
         terms, holds = self._held_candidate(ctx, res, shape)
-        err = heldout_rmse(terms, ctx.data, ctx.registry) if holds is not None else \
-            min(r[1] for r in front_rows_heldout(terms, res, shape, ctx.data, ctx.registry))
-        return seed, (res, scr, path, err, holds, tag)
+        if holds is not None:
+            err = heldout_rmse(terms, ctx.data, ctx.registry)
+        else:
+            _, err, terms = min(front_rows_heldout(terms, res, shape, ctx.data, ctx.registry),
+                                key=lambda r: r[1])
+        return seed, (res, scr, path, err, holds, tag, tuple(terms))
 
     def _continued(self, pilot_path: str, tag: str) -> str:
         """The checkpoint the chosen pilot continues in: its own file, or

@@ -138,14 +138,30 @@ def test_constant_kept_for_an_offset_only():
 
 def test_constant_pilot_keeps_the_constant_only_for_a_clear_gain():
     from mggp.choices import GAIN, constant_pilot_choice
-    assert constant_pilot_choice(0.5, 1.0, "p").value is True
-    assert constant_pilot_choice(1.0 - GAIN / 2, 1.0, "p").value is False   # within the margin
-    assert constant_pilot_choice(1.0, float("inf"), "p").value is True      # plain diverges
-    c = constant_pilot_choice(0.0586, 0.0551, "pilots")
+    assert constant_pilot_choice(0.5, 1.0, 1.0, "p").value is True
+    assert constant_pilot_choice(1.0 - GAIN / 2, 1.0, 1.0, "p").value is False   # margin
+    assert constant_pilot_choice(1.0, float("inf"), 2.0, "p").value is True      # plain diverges
+    c = constant_pilot_choice(0.0586, 0.0551, 0.06, "pilots")
     assert c.why.startswith("no constant term: held-out free-run RMSE 0.0551 against 0.0586 "
                             "with it")
     assert c.figures == {"pilot_heldout_rmse_constant": 0.0586,
-                         "pilot_heldout_rmse_no_constant": 0.0551}
+                         "pilot_heldout_rmse_no_constant": 0.0551,
+                         "pilot_heldout_rmse_own_no_constant": 0.06}
+
+
+def test_constant_pilot_gain_must_come_from_the_constant_itself():
+    """The pilot with the constant beats the one without by far, but its own
+    structure does as well without the constant: the search drops it; the
+    control, where dropping the constant from that structure costs, keeps it."""
+    from mggp.choices import constant_pilot_choice
+    c = constant_pilot_choice(0.0523, 0.0676, 0.0530, "pilots")
+    assert c.value is False
+    assert c.why.startswith("no constant term: held-out free-run RMSE 0.0523 with it against "
+                            "0.0676 without it, but 0.053 for the same structure without it")
+    ctl = constant_pilot_choice(0.0523, 0.0676, 0.0700, "pilots")
+    assert ctl.value is True
+    assert ctl.why.startswith("searched with the constant term: held-out free-run RMSE 0.0523 "
+                              "against 0.0676 without it and 0.07 for the same structure")
 
 
 def test_the_search_drops_the_constant_when_its_pilot_gains_nothing():
