@@ -92,7 +92,8 @@ class MGGPRegressor:
     full generations; ``constant`` runs one more pilot of the chosen class
     (or of the one class asked for) without the constant term and searches
     with the constant offered to every structure only when that pilot's
-    held-out error is over 5 % higher (never with the steady-state
+    held-out error, and that of the other pilot's structure refitted without
+    its constant, are over 5 % higher (never with the steady-state
     constraints, which it would break), then keeps it in the result only
     when it lowers the held-out free-run RMSE by over 5 %; ``size`` takes
     the fewest terms of the run's Pareto front within 5 % of the least
