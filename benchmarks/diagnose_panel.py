@@ -24,7 +24,8 @@ samples, 4 Hz bandwidth at 1 ms), with or without three held segments of
 300 samples, and with or without a validation record (a held sine,
 :func:`narx.systems.held_sine`). Controls (truth: nothing to name):
 :func:`mggp.diagnose.controls.control_record` of every kind, 4,000 samples,
-40 dB. The issue's own example: the piezo system on
+40 dB. A white input (:func:`white`): a play behind first-order dynamics,
+and a static saturation (tanh) as a control. The issue's own example: the piezo system on
 20,000 samples of the case study's 1 Hz input, noise-free, no holds, tail
 (:func:`clean_piezo`). Shared records: the MR damper (inputs v, E; rows 400–1999 fit,
 2001–3599 validate) and the measured cascaded tanks (``uEst``/``yEst`` fit,
@@ -125,6 +126,23 @@ def clean_piezo(seed=1, n=20_000):
     return Record(f"Bouc-Wen, clean, 1 Hz, {n:,} samples, no holds, tail", "hysteresis", make)
 
 
+def white(kind, seed=0, n=3000):
+    """A first-order record y[k] = 0.8 y[k-1] + v[k-1] driven by a white
+    uniform input on [−1, 1] (it jumps across its range every sample),
+    40 dB, tail: ``kind`` 'play' (v = a play of half-width 0.2 of u:
+    hysteresis) or 'static tanh' (v = 0.5u + 0.4 tanh(3u): a static
+    saturation, nothing with memory; the operators of a white input look
+    like saturating functions of it, :func:`mggp.diagnose.augmentation.shuffled_operators`)."""
+    def make():
+        rng = np.random.default_rng(seed)
+        u = rng.uniform(-1.0, 1.0, n)
+        v = play(u) if kind == "play" else 0.5 * u + 0.4 * np.tanh(3.0 * u)
+        return Data(u, noisy(lfilter([0.0, 1.0], [1.0, -0.8], v), 40.0, rng)), None
+    if kind == "play":
+        return Record("play, white input, order 1, 40 dB, no holds, tail", "hysteresis", make)
+    return Record("control: static tanh, white input", "none", make)
+
+
 def control(kind, seed=0):
     return Record(f"control: {kind}", "none",
                   lambda: (control_record(kind, seed, N, 40.0).data, None))
@@ -158,7 +176,9 @@ RECORDS = (
     hysteretic("Bouc-Wen", 2, True, False, 40.0, 8),
     hysteretic("Bouc-Wen", 3, False, False, 30.0, 9),
     clean_piezo(),
-) + tuple(control(k) for k in CONTROL_KINDS) + (mr_damper(), cascaded_tanks())
+    white("play"),
+) + tuple(control(k) for k in CONTROL_KINDS) + (white("static tanh"), mr_damper(),
+                                               cascaded_tanks())
 
 
 def main(argv=None):

@@ -543,6 +543,52 @@ def test_operator_augmentation_sees_a_play_behind_dynamics_not_a_linear_control(
     assert c.statistic <= 0.005 * np.ptp(ctl.y)          # below the resolution floor
 
 
+
+def test_operator_augmentation_does_not_take_a_static_saturation_for_memory():
+    """On a white input the operators' outputs look like saturating static
+    functions of the last input, so an unmodelled 0.4 tanh(3u[k-1]) made
+    them lower the simulation error far more than placebo operators of a
+    shifted input could (statistic / threshold 22–28 with a linear
+    baseline). Shuffled placebos now keep each operator's value at the
+    input's own sample (:func:`shuffled_operators`): the static part is
+    theirs too, and only memory counts. Control: a play with the same white
+    input and dynamics stays far above its threshold."""
+    from mggp.diagnose.augmentation import operator_augmentation_test
+    from narx.memory import play
+    r = np.random.default_rng(0)
+    n = 3000
+    u = r.uniform(-1, 1, n)
+    ratio = {}
+    for name, drive in (("tanh", 0.5 * u + 0.4 * np.tanh(3 * u)), ("play", play(u, 0.2))):
+        y = np.zeros(n)
+        for k in range(1, n):
+            y[k] = 0.8 * y[k - 1] + drive[k - 1]
+        d = Data(u, y + 0.01 * np.std(y) * r.standard_normal(n))
+        a = operator_augmentation_test(narx.Model(["y[k-1]", "u[k-1]"]).fit(d), d,
+                                       shifts=19, seed=0)
+        ratio[name] = a.statistic / max(a.null_quantile, 0.005 * np.ptp(d.y))
+    assert ratio["tanh"] < 1.0, ratio
+    assert ratio["play"] > 3.0, ratio
+
+
+def test_shuffled_operators_keep_the_static_part_and_lose_the_path():
+    """A play's placebo at sample t is the play's value at the input u[t]
+    after a random path: within the play's half-width of u[t] (its static
+    part), but not the play's own value (its memory)."""
+    from mggp.diagnose.augmentation import shuffled_operators
+    from narx.memory import play
+    r = np.random.default_rng(3)
+    u = r.uniform(-1, 1, 500)
+    d = Data(u, np.zeros(500))
+    out, names = shuffled_operators(d, ["Play(u[k-1],0.3)"], r.permutation(500))
+    w = out.input(names["Play(u[k-1],0.3)"])
+    assert out.inputs == ("u", names["Play(u[k-1],0.3)"])
+    assert np.all(np.abs(w - u) <= 0.3 + 1e-12)
+    real = play(u, 0.3)
+    assert np.mean(np.isclose(w, real)) < 0.6
+    with pytest.raises(ValueError, match="lag 1"):
+        shuffled_operators(d, ["Play(u[k-2],0.3)"], r.permutation(500))
+
 def test_no_holds_names_a_record_once_with_its_tail():
     """Validation as the tail of the training file: 'in train.csv', not
     'in train.csv or train.csv (tail)'; two files are both named."""
