@@ -588,6 +588,11 @@ def test_shuffled_operators_keep_the_static_part_and_lose_the_path():
     assert np.mean(np.isclose(w, real)) < 0.6
     with pytest.raises(ValueError, match="lag 1"):
         shuffled_operators(d, ["Play(u[k-2],0.3)"], r.permutation(500))
+    # a record whose signals already use the placebo's name keeps its own
+    d2 = Data(np.column_stack([u, u]), np.zeros(500), inputs=("u", "w1"), output="y")
+    out2, names2 = shuffled_operators(d2, ["Play(u[k-1],0.3)"], r.permutation(500))
+    assert names2["Play(u[k-1],0.3)"] not in ("u", "w1", "y")
+    assert np.array_equal(out2.input("w1"), u)
 
 def test_no_holds_names_a_record_once_with_its_tail():
     """Validation as the tail of the training file: 'in train.csv', not

@@ -370,7 +370,7 @@ def shuffled_operators(data: Data, terms, perm, registry=None) -> Tuple[Data, di
     taken = {data.output, *data.inputs, ops.signals.noise}
     names = {}
     for t in terms:
-        names[t] = fresh_name(taken, "w") + str(len(names) + 1)
+        names[t] = fresh_name(taken, f"w{len(names) + 1}")
         taken.add(names[t])
     W = cols[inv]
     out = Data(np.column_stack([data.U.T, W]), data.y,
