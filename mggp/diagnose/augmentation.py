@@ -345,16 +345,23 @@ def shuffled_operators(data: Data, terms, perm, registry=None) -> Tuple[Data, di
     for every input), and its output put back at the sample each input
     value came from:
 
-    .. math::  w_t = O(u_{\pi})_{\pi^{-1}(t)},
+    .. math::  w_t = O(u_{\\pi})_{\\pi^{-1}(t)},
 
     the operator's value at the input :math:`u_t` after a random path to
-    it. A memoryless function of the input (a saturation a white input makes
-    the operators' outputs resemble) is then as available to the placebo
-    as to the real term, while the direction of motion and the loop are
-    not: a gain over these placebos is a gain from memory.
+    it. A memoryless function of the input (on a white input the operators'
+    outputs resemble a saturation of it) is then as available to the
+    placebo as to the real term, while the direction of motion and the loop
+    are not: a gain over these placebos is a gain from memory. The null is
+    that of a permutation test [1]_ whose permutations keep each input
+    value's sample.
 
     Returns ``data`` with one more input per term (its placebo signal ``w``,
-    used as ``w[k-1]``) and the map term -> that input's name."""
+    used as ``w[k-1]``) and the map term -> that input's name.
+
+    References
+    ----------
+    .. [1] Good, P., *Permutation, Parametric and Bootstrap Tests of
+       Hypotheses*, 3rd ed., Springer, 2005, ch. 3."""
     n = data.n
     ops = Model(list(terms), inputs=data.inputs, output=data.output, registry=registry)
     if ops.max_lag != 1:
