@@ -429,8 +429,8 @@ def constant_pilot_choice(err_constant: float, err_plain: float, err_own: float,
                f"{rmse_text(err_own)} for the same structure without it ({pilot})")
     elif not constant_pays(err_constant, err_plain):
         why = (f"no constant term: held-out free-run RMSE {rmse_text(err_plain)} against "
-               f"{rmse_text(err_constant)} with it, kept only when over {percent(GAIN)} lower "
-               f"({pilot})")
+               f"{rmse_text(err_constant)} with it (kept only when over {percent(GAIN)} lower; "
+               f"{pilot})")
     else:
         why = (f"no constant term: held-out free-run RMSE {rmse_text(err_constant)} with it "
                f"against {rmse_text(err_plain)} without it, but {rmse_text(err_own)} for the "
