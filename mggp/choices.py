@@ -52,6 +52,7 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "HELD_EXCITATION", "HOLDOUT", "HOLDOUT_ENDS", "PILOT", "RESOLUTION", "error_floor",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
            "class_choice", "constant_choice", "constant_pays", "constant_pilot_choice",
+           "without_constant",
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
            "holdout_message", "holdout_words", "local_search_kept", "percent", "rmse_text",
            "terms_text", "pilot_generations", "resolve_screen", "resolve_select",
@@ -375,6 +376,14 @@ def constant_pays(err_constant: float, err_plain: float) -> bool:
                 or (np.isinf(err_plain) and np.isfinite(err_constant)))
 
 
+def without_constant(terms, data: Data, registry=None):
+    """``(plain, error)``: the structure ``terms`` without the constant term
+    and its held-out free-run error (:func:`heldout_rmse`; ``inf`` when
+    nothing is left)."""
+    plain = tuple(t for t in terms if t != CONSTANT)
+    return plain, (heldout_rmse(plain, data, registry) if plain else float("inf"))
+
+
 def constant_choice(terms, data: Data, registry=None):
     """``constant='auto'``: ``(Choice, terms)``. The constant term of the
     chosen structure is kept only when its held-out free-run error is more
@@ -384,9 +393,8 @@ def constant_choice(terms, data: Data, registry=None):
     if CONSTANT not in terms:
         return Choice("constant", False, "no constant term: the chosen structure has "
                       "none", {}), terms
-    plain = tuple(t for t in terms if t != CONSTANT)
+    plain, err_p = without_constant(terms, data, registry)
     err_c = heldout_rmse(terms, data, registry)
-    err_p = heldout_rmse(plain, data, registry) if plain else float("inf")
     keep = constant_pays(err_c, err_p)
     figs = {"heldout_rmse_constant": err_c, "heldout_rmse_no_constant": err_p,
             "holdout": HOLDOUT}
@@ -419,7 +427,8 @@ def constant_pilot_choice(err_constant: float, err_plain: float, err_own: float,
     search keeps the constant when
     :math:`e_c < (1 - g)\\,\\min(e_p, e_o)` (:math:`g` = :data:`GAIN`).
     """
-    keep = constant_pays(err_constant, err_plain) and constant_pays(err_constant, err_own)
+    beats_plain = constant_pays(err_constant, err_plain)
+    keep = beats_plain and constant_pays(err_constant, err_own)
     figs = {"pilot_heldout_rmse_constant": err_constant,
             "pilot_heldout_rmse_no_constant": err_plain,
             "pilot_heldout_rmse_own_no_constant": err_own}
@@ -427,7 +436,7 @@ def constant_pilot_choice(err_constant: float, err_plain: float, err_own: float,
         why = (f"searched with the constant term: held-out free-run RMSE "
                f"{rmse_text(err_constant)} against {rmse_text(err_plain)} without it and "
                f"{rmse_text(err_own)} for the same structure without it ({pilot})")
-    elif not constant_pays(err_constant, err_plain):
+    elif not beats_plain:
         why = (f"no constant term: held-out free-run RMSE {rmse_text(err_plain)} against "
                f"{rmse_text(err_constant)} with it (kept only when over {percent(GAIN)} lower; "
                f"{pilot})")

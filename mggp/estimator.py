@@ -34,7 +34,7 @@ import tempfile
 import time
 import warnings
 from functools import partial
-from typing import Optional
+from typing import NamedTuple, Optional, Tuple
 
 import numpy as np
 
@@ -47,7 +47,8 @@ from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, da
                          pilot_checkpoint)
 from .choices import (CONSTANT, Choice, class_choice, constant_pilot_choice,
                       constant_searched, front_rows_heldout, heldout_rmse, holdout_message,
-                      pilot_generations, resolve_screen, resolve_select, search_classes)
+                      pilot_generations, resolve_screen, resolve_select, search_classes,
+                      without_constant)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import check_context, evolve
@@ -65,6 +66,23 @@ __all__ = ["MGGPRegressor", "ParetoFront"]
 #: what ``fit`` says when no structure of the search has a finite fitness
 NO_FINITE = ("no structure with a finite fitness was found: every candidate diverged; "
              "try fitness='pem' or a shorter window")
+
+
+class PilotRun(NamedTuple):
+    """One pilot search of :meth:`MGGPRegressor._searches`: its ``result``
+    (None when no structure of the class has a finite fitness), ``screen``,
+    checkpoint ``path`` and search ``tag``; ``error``, the held-out free-run
+    error of the structure the hold selection takes (``holds`` True/False)
+    or the least over the pilot's best structure and the smaller ones of its
+    Pareto front (``holds`` None); ``terms``, the structure that error is of."""
+
+    result: object
+    screen: object
+    path: str
+    error: float
+    holds: Optional[bool]
+    tag: str
+    terms: Tuple[str, ...]
 
 
 class MGGPRegressor:
@@ -375,19 +393,19 @@ class MGGPRegressor:
                 seed, run = self._pilot(ctx, c, pilot, seed, where(c.key), label, ctx.shape,
                                         ctx.screen if i == 0 else None, c.label)
                 runs.append(run)
-            if all(r[0] is None for r in runs):
+            if all(r.result is None for r in runs):
                 raise ValueError(NO_FINITE)
             words = (f"pilots of {pilot} of {self.generations} generations at full "
                      f"population")
-            hold = None if all(r[4] is None for r in runs) else [bool(r[4]) for r in runs]
-            choice = class_choice(classes, [r[3] for r in runs], hold,
+            hold = None if all(r.holds is None for r in runs) else [bool(r.holds) for r in runs]
+            choice = class_choice(classes, [r.error for r in runs], hold,
                                   words + ("" if hold else ", least error over each "
                                            "pilot's Pareto front") + ", the chosen one "
                                   "continued")
             win = [c.label for c in classes].index(choice.figures["class"])
-            if runs[win][0] is None:            # every held-out free run diverges
-                win = next(i for i, r in enumerate(runs) if r[0] is not None)
-                choice = class_choice([classes[win]], [runs[win][3]])
+            if runs[win].result is None:        # every held-out free run diverges
+                win = next(i for i, r in enumerate(runs) if r.result is not None)
+                choice = class_choice([classes[win]], [runs[win].error])
             go = win
             if piloted:
                 plain = partial(self._structure, constant=False)
@@ -396,17 +414,16 @@ class MGGPRegressor:
                                         f"pilot {n}/{n} {classes[win].label}, no constant",
                                         plain, None, f"{classes[win].label}, no constant")
                 runs.append(run)
-                own = tuple(t for t in runs[win][6] if t != CONSTANT)
                 kept = constant_pilot_choice(
-                    runs[win][3], run[3],
-                    heldout_rmse(own, ctx.data, ctx.registry) if own else float("inf"),
+                    runs[win].error, run.error,
+                    without_constant(runs[win].terms, ctx.data, ctx.registry)[1],
                     f"{words}, class {classes[win].label}")
                 ctx.choices["constant"] = kept
-                if not kept.value and run[0] is not None:
+                if not kept.value and run.result is not None:
                     go, ctx.shape = len(runs) - 1, plain
-            res, scr, path, tag = runs[go][:3] + (runs[go][5],)
-            evaluations = sum(r[0].evaluations for i, r in enumerate(runs)
-                              if r[0] is not None and i != go)
+            res, scr, path, tag = runs[go].result, runs[go].screen, runs[go].path, runs[go].tag
+            evaluations = sum(r.result.evaluations for i, r in enumerate(runs)
+                              if r.result is not None and i != go)
             path = self._continued(path, tag)
             if pilot < self.generations:
                 self._phase(f"search {classes[win].label}", self.generations)
@@ -422,13 +439,8 @@ class MGGPRegressor:
                shape, screen, tag: str):
         """One pilot search of ``cls`` scoring the structures ``shape`` makes
         (a new screen unless ``screen``), its checkpoint at ``path`` (resumed
-        with ``resume``) tagged ``tag``: ``(seed, (result or None, screen,
-        checkpoint path, held-out error, holds, tag, terms))``, the held-out
-        error that of the structure the hold selection takes (``holds``
-        True/False) or the least over the pilot's best structure and the
-        smaller ones of its Pareto front (``holds`` None), ``terms`` the
-        structure it is of; result None when no structure of the class has
-        a finite fitness."""
+        with ``resume``) tagged ``tag``: ``(seed, PilotRun)``
+        (:class:`PilotRun`)."""
         scr = screen if screen is not None else self._make_screen(
             ctx.data, ctx.start, ctx.registry, ctx)
         self._phase(label, generations)
@@ -436,14 +448,14 @@ class MGGPRegressor:
                                  resume=self.resume, require_finite=False, shape=shape,
                                  tag=tag)
         if res.best is None or not np.isfinite(res.best.fitness):
-            return seed, (None, scr, path, float("inf"), False, tag, ())
+            return seed, PilotRun(None, scr, path, float("inf"), False, tag, ())
         terms, holds = self._held_candidate(ctx, res, shape)
         if holds is not None:
             err = heldout_rmse(terms, ctx.data, ctx.registry)
         else:
             _, err, terms = min(front_rows_heldout(terms, res, shape, ctx.data, ctx.registry),
                                 key=lambda r: r[1])
-        return seed, (res, scr, path, err, holds, tag, tuple(terms))
+        return seed, PilotRun(res, scr, path, err, holds, tag, tuple(terms))
 
     def _continued(self, pilot_path: str, tag: str) -> str:
         """The checkpoint the chosen pilot continues in: its own file, or
