@@ -32,28 +32,19 @@ import numpy as np
 
 from narx.data import Data
 
-from .panel import bouc_wen_oscillator
+from .panel import bouc_wen_oscillator, multisine, sweep
 
 __all__ = ["records", "run"]
 
-FS = 750.0
-
-
-def _multisine(n: int, rng, rms: float = 50.0) -> np.ndarray:
-    t = np.arange(n) / FS
-    u = sum(np.cos(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi))
-            for f in np.arange(5.0, 150.0, 1.0))
-    return u * rms / np.std(u)
 
 
 def records(n_train: int = 32_768, n_multisine: int = 8_192, n_sweep: int = 16_384,
             seed: int = 0):
     """``(train, multisine, sweep)`` Data records of the oscillator (mm)."""
     rng = np.random.default_rng(seed)
-    u = _multisine(n_train, rng)
-    uv = _multisine(n_multisine, rng)
-    ts = np.arange(n_sweep) / FS
-    us = 40.0 * np.sin(2 * np.pi * (5.0 * ts + 0.5 * (145.0 / ts[-1]) * ts ** 2))
+    u = multisine(n_train, rng)
+    uv = multisine(n_multisine, rng)
+    us = sweep(n_sweep, 150.0)
     return tuple(Data(x, bouc_wen_oscillator(x)) for x in (u, uv, us))
 
 

@@ -90,15 +90,28 @@ def bouc_wen_oscillator(u, fs=750.0, substeps=20):
     return 1e3 * out
 
 
+def multisine(n: int, rng, rms: float = 50.0, fs: float = 750.0) -> np.ndarray:
+    """A random-phase multisine of ``n`` samples at ``fs`` Hz: every integer
+    frequency from 5 to 149 Hz, phases drawn from ``rng``, scaled to
+    ``rms`` (N) (the oscillator's force)."""
+    t = np.arange(n) / fs
+    u = sum(np.cos(2 * np.pi * fq * t + rng.uniform(0, 2 * np.pi))
+            for fq in np.arange(5.0, 150.0, 1.0))
+    u *= rms / np.std(u)
+    return u
+
+
+def sweep(n: int, f1: float, amplitude: float = 40.0, f0: float = 5.0,
+          fs: float = 750.0) -> np.ndarray:
+    """A linear sine sweep of ``n`` samples from ``f0`` to ``f1`` Hz, from rest."""
+    t = np.arange(n) / fs
+    return amplitude * np.sin(2 * np.pi * (f0 * t + 0.5 * ((f1 - f0) / t[-1]) * t ** 2))
+
+
 def _oscillator():
     rng = np.random.default_rng(0)
-    fs, n = 750.0, 3000
-    t = np.arange(n) / fs
-    freqs = np.arange(5.0, 150.0, 1.0)
-    u = sum(np.cos(2 * np.pi * fq * t + rng.uniform(0, 2 * np.pi)) for fq in freqs)
-    u *= 50.0 / np.std(u)                          # multisine, 50 N rms, 5-150 Hz
-    tv = np.arange(2000) / fs                      # sweep 5 -> 100 Hz, 40 N
-    uv = 40.0 * np.sin(2 * np.pi * (5.0 * tv + 0.5 * (95.0 / tv[-1]) * tv ** 2))
+    u = multisine(3000, rng)                       # 50 N rms, 5-150 Hz
+    uv = sweep(2000, 100.0)                        # 5 -> 100 Hz, 40 N
     return Data(u, bouc_wen_oscillator(u)), Data(uv, bouc_wen_oscillator(uv))
 
 
