@@ -51,7 +51,7 @@ from narx.terms import Term
 __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTANT", "GAIN",
            "HELD_EXCITATION", "HOLDOUT", "HOLDOUT_ENDS", "PILOT", "RESOLUTION", "error_floor",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
-           "class_choice", "constant_choice", "constant_pays", "constant_pilot_choice",
+           "class_choice", "class_margins", "constant_choice", "constant_pays", "constant_pilot_choice",
            "without_constant",
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
            "holdout_message", "holdout_words", "local_search_kept", "percent", "rmse_text",
@@ -522,6 +522,20 @@ def _key(label: str) -> str:
     return _LABELS.get(label, (label, label))[1]
 
 
+def class_margins(classes=None) -> str:
+    """The margins of :func:`class_choice` in words, for a choice line and
+    the help texts: 'a richer class only when its error is over 15 % lower,
+    Bouc–Wen variables over 50 %' (``classes``: those compared; default:
+    every class ``use_phi='auto'`` can compare)."""
+    if classes is None:
+        classes = [SearchClass("no Φ", False, (), gain=CLASS_GAIN),
+                   SearchClass("Φ", True, (), gain=CLASS_GAIN),
+                   SearchClass("Bouc–Wen", False, ("boucwen",), True, BOUC_WEN_CLASS_GAIN)]
+    return (f"a richer class only when its error is over {percent(CLASS_GAIN)} lower"
+            + "".join(f", {_with(cl.label).removeprefix('with ')} over {percent(cl.gain)}"
+                      for cl in classes[1:] if cl.gain != CLASS_GAIN))
+
+
 def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     """``use_phi='auto'``: the class of ``classes`` (simplest first) whose
     pilot has the least held-out free-run error ``errors[i]`` (of its best
@@ -555,9 +569,6 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
                     f"{', '.join(_with(classes[i].label) for i in pool)} "
                     f"{'has' if len(pool) == 1 else 'have'} a structure whose CLS refit "
                     f"holds its output")
-    rule = "" if n < 2 else (
-        f"; a richer class only when its error is over {percent(CLASS_GAIN)} lower"
-        + "".join(f", {_with(cl.label).removeprefix('with ')} over {percent(cl.gain)}"
-                  for cl in classes[1:] if cl.gain != CLASS_GAIN))
+    rule = "" if n < 2 else "; " + class_margins(classes)
     why += f" ({holdout_words()}{rule}{'; ' + pilot if pilot else ''})"
     return Choice("use_phi", c.use_phi, why, figs)

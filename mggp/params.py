@@ -31,8 +31,7 @@ from typing import Any, Callable, Dict, Iterable, Optional, Sequence, Tuple
 from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
 from .checkpoint import CHECKPOINT_SHARE
-from .choices import (BOUC_WEN_CLASS_GAIN, CLASS_GAIN, GAIN, PILOT, SIZE_TOLERANCE,
-                      heldout_samples, holdout_words, percent, size_tolerance)
+from .choices import (GAIN, PILOT, SIZE_TOLERANCE, class_margins, heldout_samples, holdout_words, percent, size_tolerance)
 from .operator_stage import OPERATOR_GAIN
 from .primitives import BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS, max_lag_for_height
 
@@ -275,8 +274,7 @@ _FITNESS = ("ms", "pem", "freerun", "ksa")
 #: :mod:`mggp.operator_stage` (the one place each is set)
 _HELD_OUT = holdout_words()
 _PILOT = f"{percent(PILOT)} of the generations"
-_CLASS_MARGINS = (f"a richer class only when over {percent(CLASS_GAIN)} lower, the Bouc–Wen "
-                  f"class over {percent(BOUC_WEN_CLASS_GAIN)}")
+_CLASS_MARGINS = class_margins()
 _KEPT_GAIN = f"by over {percent(GAIN)}"
 _PLAY_TEXT = ", ".join(f"{f:g}" for f in PLAY_RADIUS_FRACTIONS)
 _BOUC_WEN_TEXT = ", ".join(f"{s:g}" for s in dict.fromkeys(s for s, _ in BOUC_WEN_SHAPES))
