@@ -46,12 +46,13 @@ import numpy as np
 from narx import Model
 from narx.data import Data
 from narx.model import ignore_rank_warnings
+from narx.outliers import SPIKE_BAND, SPIKE_WIDTH, spikes_text
 from narx.terms import Term
 
 __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTANT", "GAIN",
            "HELD_EXCITATION", "HOLDOUT", "HOLDOUT_ENDS", "PILOT", "RESOLUTION", "error_floor",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
-           "class_choice", "class_margins", "constant_choice", "constant_pays", "constant_pilot_choice",
+           "class_choice", "class_margins", "outliers_choice", "constant_choice", "constant_pays", "constant_pilot_choice",
            "without_constant",
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
            "holdout_message", "holdout_words", "local_search_kept", "percent", "rmse_text",
@@ -520,6 +521,23 @@ def _with(label: str) -> str:
 
 def _key(label: str) -> str:
     return _LABELS.get(label, (label, label))[1]
+
+
+def outliers_choice(spikes, output: str = "y") -> Choice:
+    """``outliers='auto'``: the spikes :func:`narx.outliers.find_spikes` found
+    in the output (:class:`narx.outliers.Spike`), repaired before the
+    search; the value is their ``[start, stop]`` sample spans."""
+    figs = {"spikes": [s.to_dict() for s in spikes]}
+    if not spikes:
+        return Choice("outliers", [], f"outliers: none in {output} (no run of at most "
+                      f"{SPIKE_WIDTH} samples beyond the rest of its range by over "
+                      f"{percent(SPIKE_BAND)} that a linear ARX model cannot explain)", figs)
+    n = len(spikes)
+    return Choice("outliers", [[s.start, s.stop] for s in spikes],
+                  f"outliers: {n} isolated glitch{'es' if n > 1 else ''} of {output} "
+                  f"repaired by the line between {'their' if n > 1 else 'its'} neighbours: "
+                  f"{spikes_text(spikes, output)}; --outliers keep fits every sample as "
+                  f"measured", figs)
 
 
 def class_margins(classes=None) -> str:

@@ -159,6 +159,9 @@ def _cmd_fit(args) -> int:
         print(f"{moves_text(est.local_search_)} "
               f"({est.fitness} fitness {fmt(est.local_search_[-1]['fitness'])} after)",
               file=sys.stderr)
+    if est.outliers_:                         # the record the models were fitted on
+        from narx.outliers import repaired
+        data = repaired(data, est.outliers_)
     fr_ls = m.simulate(data, mode="freerun")
     lines = [f"seed {est.seed_}; {est.n_evaluations_} structures evaluated in "
              f"{est.fit_time_:.1f} s; best {est.fitness} fitness {fmt(est.fitness_)}"

@@ -41,13 +41,14 @@ import numpy as np
 from narx import Model
 from narx.data import Data, DataError, as_data
 from narx.fitness import StructureScorer
+from narx.outliers import find_spikes, repaired
 from narx.phi import default_registry
 
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
 from .choices import (CONSTANT, Choice, class_choice, constant_pilot_choice,
                       constant_searched, front_rows_heldout, heldout_rmse, holdout_message,
-                      pilot_generations, resolve_screen, resolve_select, search_classes,
+                      outliers_choice, pilot_generations, resolve_screen, resolve_select, search_classes,
                       without_constant)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
@@ -189,7 +190,7 @@ class MGGPRegressor:
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, estimator="ls", refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
-                 scheduler=None, inputs=None, output="y", checkpoint=None,
+                 scheduler=None, inputs=None, output="y", outliers="auto", checkpoint=None,
                  resume=False, callbacks=None, registry=None):
         self.fitness = fitness
         self.window = window
@@ -234,6 +235,7 @@ class MGGPRegressor:
         self.scheduler = scheduler
         self.inputs = inputs
         self.output = output
+        self.outliers = outliers
         self.checkpoint = checkpoint
         self.resume = resume
         self.callbacks = callbacks
@@ -310,6 +312,8 @@ class MGGPRegressor:
             delattr(self, name)                 # nothing from an earlier fit survives
         data = as_data(u, y, inputs=self.inputs, output=self.output)
         data.require_output("fit")
+        spikes = find_spikes(data) if self.outliers == "auto" else []
+        data = repaired(data, spikes)
         start = self._validate(data)
         for msg, kind in data_warnings(data, self.fitness, self.window, self.k):
             warnings.warn(msg, kind, stacklevel=2)
@@ -329,6 +333,8 @@ class MGGPRegressor:
                                  constraints=self.search_constraints, start=start,
                                  registry=registry, estimator=self.estimator)
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure)
+        if self.outliers == "auto":
+            ctx.choices["outliers"] = outliers_choice(spikes, data.output)
         if self.screen == "auto":
             ctx.choices["screen"] = resolve_screen(self)
         ctx.screen = self._make_screen(data, start, registry, ctx)
@@ -336,6 +342,7 @@ class MGGPRegressor:
         run_stages(ctx.shape(ctx.result.best.terms), data, ctx)
         res = ctx.result
         self.choices_ = {name: c.to_dict() for name, c in ctx.choices.items()}
+        self.outliers_ = tuple(spikes)
         self.logbook_ = res.logbook
         self.screen_rejected_ = None if ctx.screen is None else ctx.screen.rejected
         self.screen_rejected_hold_ = None if ctx.screen is None else ctx.screen.rejected_hold

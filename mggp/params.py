@@ -28,10 +28,12 @@ import textwrap
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, Iterable, Optional, Sequence, Tuple
 
+from narx.outliers import ARX_SIGMAS, SPIKE_BAND, SPIKE_WIDTH
 from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
 from .checkpoint import CHECKPOINT_SHARE
-from .choices import (GAIN, PILOT, SIZE_TOLERANCE, class_margins, heldout_samples, holdout_words, percent, size_tolerance)
+from .choices import (GAIN, PILOT, SIZE_TOLERANCE, class_margins, heldout_samples,
+                      holdout_words, percent, size_tolerance)
 from .operator_stage import OPERATOR_GAIN
 from .primitives import BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS, max_lag_for_height
 
@@ -449,6 +451,14 @@ _ROWS = (
           metavar="NAME", default_text="u"),
     Param("output", "y", Kind("a name", lambda v: isinstance(v, str)), "output column "
           "name", "data", "--output", metavar="NAME"),
+    Param("outliers", "auto", OneOf(("auto", "keep")), "isolated glitches of the "
+          f"measured output: 'auto' repairs every run of at most {SPIKE_WIDTH} samples that "
+          "lies on one side of both its neighbours, beyond the rest of the output's range "
+          f"by over {percent(SPIKE_BAND)} of it, and over {ARX_SIGMAS:g} robust standard "
+          "deviations from a linear ARX prediction (the straight line between its "
+          "neighbours replaces it; narx.outliers); 'keep': fit every sample as measured",
+          "data", "--outliers", context="if set", meta=True,
+          default_text="auto (repair isolated glitches of the output)"),
     Param("checkpoint", None, PATH, "save the search state to this file after a "
           "generation, as often as "
           f"keeps the writes within about {percent(CHECKPOINT_SHARE)} of the run's time; "

@@ -1,0 +1,168 @@
+"""Isolated glitches of the output: found, repaired, and the fit that follows
+(narx.outliers, MGGPRegressor(outliers=...), mggp fit --outliers)."""
+import json
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+import narx.outliers as outliers
+from narx import Data, Model
+from narx.outliers import find_spikes, repaired
+
+TRUE = {"y[k-1]", "y[k-2]", "u[k-1]", "y[k-1]*u[k-1]"}
+
+
+def _record(seed=3, n=600, noise=0.02):
+    """y[k] = 0.6 y[k-1] - 0.1 y[k-2] + 0.8 u[k-1] + 0.3 u[k-1] y[k-1],
+    white uniform input, white output noise."""
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1, 1, n)
+    y = np.zeros(n)
+    for k in range(2, n):
+        y[k] = 0.6 * y[k - 1] - 0.1 * y[k - 2] + 0.8 * u[k - 1] + 0.3 * u[k - 1] * y[k - 1]
+    return u, y + noise * rng.standard_normal(n)
+
+
+def _spiked(y):
+    """One sample up by 10 (about 1.4 output ranges), a run of two down by 8."""
+    ys = y.copy()
+    ys[300] += 10.0
+    ys[431:433] -= 8.0
+    return ys
+
+
+def test_the_planted_spikes_are_found_and_nothing_else():
+    u, y = _record()
+    spikes = find_spikes(Data(u, _spiked(y)))
+    assert [(s.start, s.stop) for s in spikes] == [(300, 301), (431, 433)]
+    assert spikes[0].values == (pytest.approx(_spiked(y)[300]),)
+    assert all(s.beyond > outliers.SPIKE_BAND and s.sigmas > outliers.ARX_SIGMAS
+               for s in spikes)
+    assert find_spikes(Data(u, y)) == []                    # control: the clean record
+
+
+def test_a_glitch_inside_the_range_or_a_short_one_is_not_taken():
+    """Control: a spike that stays within the rest of the range by the band,
+    and one that reaches only 10 % beyond it, are left alone."""
+    u, y = _record()
+    ys = y.copy()
+    ys[300] = np.min(y) + 0.5 * np.ptp(y)                   # inside the range
+    ys[200] = np.max(y) + 0.1 * np.ptp(y)                   # 10 % beyond it
+    assert find_spikes(Data(u, ys)) == []
+
+
+def test_an_output_that_answers_an_input_pulse_is_no_spike():
+    """An impulse test passes the isolation and range tests, and the ARX
+    test tells it from a glitch: with that test off (ARX_SIGMAS = 0) the
+    same samples would be taken."""
+    rng = np.random.default_rng(1)
+    u = np.zeros(600)
+    u[[100, 300, 500]] = 1.0
+    y = np.zeros(600)
+    for k in range(1, 600):
+        y[k] = 0.3 * y[k - 1] + 2.0 * u[k - 1]
+    d = Data(u, y + 1e-3 * rng.standard_normal(600))
+    assert find_spikes(d) == []
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(outliers, "ARX_SIGMAS", 0.0)
+        assert len(find_spikes(d)) >= 1
+
+
+def test_equal_glitches_do_not_hide_each_other_up_to_max_share():
+    """Five equal spikes of 600 samples are found together (each alone lies
+    within the range the others make); ten exceed MAX_SHARE (six a side)
+    and are left as measured."""
+    u, y = _record(n=600)
+    assert int(outliers.MAX_SHARE * 600) == 6
+    five, ten = y.copy(), y.copy()
+    five[100:600:100] += 20.0
+    ten[50:550:50] += 20.0
+    assert [s.start for s in find_spikes(Data(u, five))] == [100, 200, 300, 400, 500]
+    assert find_spikes(Data(u, ten)) == []
+
+
+def test_repair_draws_the_line_between_the_neighbours_and_copies():
+    u, y = _record()
+    ys = _spiked(y)
+    d = Data(u, ys)
+    r = repaired(d, find_spikes(d))
+    assert r.y[300] == pytest.approx((ys[299] + ys[301]) / 2)
+    assert r.y[431:433] == pytest.approx(ys[430] + (ys[433] - ys[430]) * np.array([1, 2]) / 3)
+    assert np.array_equal(np.delete(r.y, [300, 431, 432]), np.delete(ys, [300, 431, 432]))
+    assert np.array_equal(r.input("u"), d.input("u"))
+    assert d.y[300] == ys[300]                              # the record given is not changed
+    assert repaired(d, []) is d
+
+
+def test_no_spike_on_the_panel_records():
+    """Control on real and simulated records without glitches: the measured
+    cascaded tanks, buck converter and MR damper, the simulated piezo,
+    Prandtl-Ishlinskii, Bouc-Wen oscillator and Piroddi S1-S6 (training and
+    validation parts)."""
+    from benchmarks.panel import RECORDS
+    seen = 0
+    for name, make in RECORDS.items():
+        rec = make()
+        if rec is None:
+            continue
+        for part in rec:
+            assert find_spikes(part) == [], name
+            seen += 1
+    assert seen >= 18
+
+
+def _fit(u, y, seed, how):
+    from mggp import MGGPRegressor
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return MGGPRegressor(population=100, generations=20, max_height=2, random_state=seed,
+                             outliers=how).fit(u, y)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_fit_repairs_the_glitches_and_finds_the_true_terms(seed):
+    """With the default the true terms are found and the model validates
+    like the clean record's; with outliers='keep' (the control) the glitches
+    decide the fit: true terms are missing and the free run is far worse."""
+    u, y = _record()
+    uv, yv = _record(seed=4)
+    ys = _spiked(y)
+    est = _fit(u, ys, seed, "auto")
+    assert TRUE <= {str(t) for t in est.terms_}
+    assert [(s.start, s.stop) for s in est.outliers_] == [(300, 301), (431, 433)]
+    c = est.choices_["outliers"]
+    assert c["value"] == [[300, 301], [431, 433]] and "y[300]" in c["why"]
+    assert est.model_.meta["outliers"] == [[300, 301], [431, 433]]
+    clean = _fit(u, y, seed, "auto")
+    assert clean.choices_["outliers"]["value"] == []
+    val = Data(uv, yv)
+    e_auto = est.simulate(val).rmse
+    assert e_auto < 1.5 * clean.simulate(val).rmse
+    kept = _fit(u, ys, seed, "keep")
+    assert "outliers" not in kept.choices_ and kept.outliers_ == ()
+    assert not TRUE <= {str(t) for t in kept.terms_}
+    assert kept.simulate(val).rmse > 3 * e_auto
+
+
+def test_mggp_fit_says_what_it_repaired(tmp_path):
+    u, y = _record()
+    path = tmp_path / "glitch.csv"
+    np.savetxt(path, np.c_[u, _spiked(y)], delimiter=",", header="u,y", comments="")
+    out = tmp_path / "m.json"
+    p = subprocess.run([sys.executable, "-m", "mggp", "fit", str(path), "--seed", "1",
+                        "--population", "60", "--generations", "6", "--max-height", "2",
+                        "--out", str(out)], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    line = [ln for ln in p.stderr.splitlines() if ln.startswith("auto: outliers:")]
+    assert len(line) == 1 and "2 isolated glitches of y" in line[0] and "y[431:433]" in line[0]
+    meta = json.loads(out.read_text())["meta"]
+    assert meta["outliers"] == [[300, 301], [431, 433]]
+    m = Model.load(str(out))
+    assert m.meta["choices"]["outliers"]["figures"]["spikes"][0]["start"] == 300
+    p = subprocess.run([sys.executable, "-m", "mggp", "fit", str(path), "--seed", "1",
+                        "--population", "60", "--generations", "6", "--max-height", "2",
+                        "--outliers", "keep"], capture_output=True, text=True)
+    assert p.returncode == 0 and "auto: outliers" not in p.stderr
