@@ -166,3 +166,15 @@ def test_mggp_fit_says_what_it_repaired(tmp_path):
                         "--population", "60", "--generations", "6", "--max-height", "2",
                         "--outliers", "keep"], capture_output=True, text=True)
     assert p.returncode == 0 and "auto: outliers" not in p.stderr
+
+
+def test_the_benchmark_finds_its_large_planted_glitches_and_misses_small_ones():
+    """benchmarks.outliers on two seeds: glitches two ranges out are all found
+    exactly; half a range out (inside the band) none is, and nothing
+    outside the glitches is taken."""
+    from benchmarks.outliers import planted
+    rows = {r.split("|")[1].strip(): [c.strip() for c in r.split("|")[2:7]]
+            for r in planted(seeds=2, amplitudes=(0.5, 2.0)).splitlines()[2:]}
+    n = rows["2"][0]
+    assert rows["2"] == [n, n, "0", "0", "0"] and int(n) >= 20
+    assert rows["0.5"][1:] == ["0", "0", n, "0"]
