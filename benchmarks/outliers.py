@@ -22,7 +22,7 @@ Three parts, each printed as a Markdown table:
    outside the glitches. A glitch that lands where the signal sits at
    the other extreme stays inside the range and is not a glitch by the
    rule: the small amplitudes are missed by design, not by accident.
-3. **Fits**: the bilinear record of ``tests/test_outliers.py`` (600
+3. **Fits**: the bilinear record of :func:`bilinear_record` (600
    samples, white input, output noise 0.02) with one sample 10 up and a
    run of two 8 down, fitted by :class:`mggp.MGGPRegressor` with
    ``outliers='auto'`` (the default) and ``'keep'``, and the clean record,
@@ -138,7 +138,10 @@ def planted(seeds: int = 30, amplitudes=(0.5, 1.0, 2.0)) -> str:
     return "\n".join(md)
 
 
-def _record(seed, n=600, noise=0.02):
+def bilinear_record(seed=3, n=600, noise=0.02):
+    """``(u, y)``: y[k] = 0.6 y[k-1] - 0.1 y[k-2] + 0.8 u[k-1] + 0.3 u[k-1] y[k-1]
+    on a white uniform input in [-1, 1], white output noise of standard
+    deviation ``noise``."""
     rng = np.random.default_rng(seed)
     u = rng.uniform(-1, 1, n)
     y = np.zeros(n)
@@ -147,13 +150,20 @@ def _record(seed, n=600, noise=0.02):
     return u, y + noise * rng.standard_normal(n)
 
 
-def fits(seeds) -> str:
-    from mggp import MGGPRegressor
-    u, y = _record(3)
-    uv, yv = _record(4)
+def glitched(y):
+    """``y`` with sample 300 up by 10 and samples 431-432 down by 8 (the
+    bilinear record's range is about 7)."""
     ys = y.copy()
     ys[300] += 10.0
     ys[431:433] -= 8.0
+    return ys
+
+
+def fits(seeds) -> str:
+    from mggp import MGGPRegressor
+    u, y = bilinear_record(3)
+    uv, yv = bilinear_record(4)
+    ys = glitched(y)
     val = Data(uv, yv)
     md = ["| record | `outliers` | seed | true terms found | terms | validation free-run RMSE |",
           "|---|---|---:|---|---:|---:|"]

@@ -9,36 +9,16 @@ import numpy as np
 import pytest
 
 import narx.outliers as outliers
+from benchmarks.outliers import TRUE, bilinear_record, glitched
 from narx import Data, Model
 from narx.outliers import find_spikes, repaired
 
-TRUE = {"y[k-1]", "y[k-2]", "u[k-1]", "y[k-1]*u[k-1]"}
-
-
-def _record(seed=3, n=600, noise=0.02):
-    """y[k] = 0.6 y[k-1] - 0.1 y[k-2] + 0.8 u[k-1] + 0.3 u[k-1] y[k-1],
-    white uniform input, white output noise."""
-    rng = np.random.default_rng(seed)
-    u = rng.uniform(-1, 1, n)
-    y = np.zeros(n)
-    for k in range(2, n):
-        y[k] = 0.6 * y[k - 1] - 0.1 * y[k - 2] + 0.8 * u[k - 1] + 0.3 * u[k - 1] * y[k - 1]
-    return u, y + noise * rng.standard_normal(n)
-
-
-def _spiked(y):
-    """One sample up by 10 (about 1.4 output ranges), a run of two down by 8."""
-    ys = y.copy()
-    ys[300] += 10.0
-    ys[431:433] -= 8.0
-    return ys
-
 
 def test_the_planted_spikes_are_found_and_nothing_else():
-    u, y = _record()
-    spikes = find_spikes(Data(u, _spiked(y)))
+    u, y = bilinear_record()
+    spikes = find_spikes(Data(u, glitched(y)))
     assert [(s.start, s.stop) for s in spikes] == [(300, 301), (431, 433)]
-    assert spikes[0].values == (pytest.approx(_spiked(y)[300]),)
+    assert spikes[0].values == (pytest.approx(glitched(y)[300]),)
     assert all(s.beyond > outliers.SPIKE_BAND and s.sigmas > outliers.ARX_SIGMAS
                for s in spikes)
     assert find_spikes(Data(u, y)) == []                    # control: the clean record
@@ -47,7 +27,7 @@ def test_the_planted_spikes_are_found_and_nothing_else():
 def test_a_glitch_inside_the_range_or_a_short_one_is_not_taken():
     """Control: a spike that stays within the rest of the range by the band,
     and one that reaches only 10 % beyond it, are left alone."""
-    u, y = _record()
+    u, y = bilinear_record()
     ys = y.copy()
     ys[300] = np.min(y) + 0.5 * np.ptp(y)                   # inside the range
     ys[200] = np.max(y) + 0.1 * np.ptp(y)                   # 10 % beyond it
@@ -75,7 +55,7 @@ def test_equal_glitches_do_not_hide_each_other_up_to_max_share():
     """Five equal spikes of 600 samples are found together (each alone lies
     within the range the others make); ten exceed MAX_SHARE (six a side)
     and are left as measured."""
-    u, y = _record(n=600)
+    u, y = bilinear_record(n=600)
     assert int(outliers.MAX_SHARE * 600) == 6
     five, ten = y.copy(), y.copy()
     five[100:600:100] += 20.0
@@ -85,8 +65,8 @@ def test_equal_glitches_do_not_hide_each_other_up_to_max_share():
 
 
 def test_repair_draws_the_line_between_the_neighbours_and_copies():
-    u, y = _record()
-    ys = _spiked(y)
+    u, y = bilinear_record()
+    ys = glitched(y)
     d = Data(u, ys)
     r = repaired(d, find_spikes(d))
     assert r.y[300] == pytest.approx((ys[299] + ys[301]) / 2)
@@ -127,9 +107,9 @@ def test_the_fit_repairs_the_glitches_and_finds_the_true_terms(seed):
     """With the default the true terms are found and the model validates
     like the clean record's; with outliers='keep' (the control) the glitches
     decide the fit: true terms are missing and the free run is far worse."""
-    u, y = _record()
-    uv, yv = _record(seed=4)
-    ys = _spiked(y)
+    u, y = bilinear_record()
+    uv, yv = bilinear_record(seed=4)
+    ys = glitched(y)
     est = _fit(u, ys, seed, "auto")
     assert TRUE <= {str(t) for t in est.terms_}
     assert [(s.start, s.stop) for s in est.outliers_] == [(300, 301), (431, 433)]
@@ -148,9 +128,9 @@ def test_the_fit_repairs_the_glitches_and_finds_the_true_terms(seed):
 
 
 def test_mggp_fit_says_what_it_repaired(tmp_path):
-    u, y = _record()
+    u, y = bilinear_record()
     path = tmp_path / "glitch.csv"
-    np.savetxt(path, np.c_[u, _spiked(y)], delimiter=",", header="u,y", comments="")
+    np.savetxt(path, np.c_[u, glitched(y)], delimiter=",", header="u,y", comments="")
     out = tmp_path / "m.json"
     p = subprocess.run([sys.executable, "-m", "mggp", "fit", str(path), "--seed", "1",
                         "--population", "60", "--generations", "6", "--max-height", "2",
