@@ -214,6 +214,14 @@ def _cmd_estimate(args) -> int:
     output = args.output or "y"
     data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True,
                     varying_output="nothing can be identified")
+    spikes = []
+    if args.outliers == "auto":                 # the rule of fit: narx.outliers
+        from narx.outliers import find_spikes, repaired
+        from .choices import outliers_choice
+        spikes = find_spikes(data)
+        data = repaired(data, spikes)
+        if spikes:
+            print(f"auto: {outliers_choice(spikes, output).why}", file=sys.stderr)
     model = Model(args.terms, inputs=inputs, output=output)
     need = model.max_lag + model.n_terms
     if data.n <= need:
@@ -236,6 +244,8 @@ def _cmd_estimate(args) -> int:
         model = refined.model
     osa = model.simulate(data, mode="osa")
     fr = model.simulate(data, mode="freerun")
+    if args.outliers == "auto":
+        model.meta["outliers"] = [[sp.start, sp.stop] for sp in spikes]
     model.meta.update({"command": "estimate", "data": str(args.data), "n_samples": data.n,
                        "constraints": args.constraints,
                        "train": {"osa_rmse": osa.rmse, "freerun_rmse": fr.rmse,
@@ -343,6 +353,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "states conditions (Σ_y = 1, other cluster sums 0) derived from the "
                         "terms (default: none, plain LS)")
     add_refine_args(e, "100")
+    from .params import PARAMS
+    e.add_argument("--outliers", choices=["auto", "keep"], default="auto",
+                   help=PARAMS["outliers"].help.replace("%", "%%") + " (default: auto; said on stderr when "
+                        "it repairs)")
     e.add_argument("--out", metavar="MODEL.json",
                    help="write the fitted model here (default: not written, only printed)")
     add_signal_args(e)
