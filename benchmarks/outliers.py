@@ -153,7 +153,7 @@ def bilinear_record(seed=3, n=600, noise=0.02):
 
 def glitched(y):
     """``y`` with sample 300 up by 10 and samples 431-432 down by 8 (the
-    bilinear record's range is about 7)."""
+    bilinear record's output range is about 2.5)."""
     ys = y.copy()
     ys[300] += 10.0
     ys[431:433] -= 8.0

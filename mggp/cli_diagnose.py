@@ -168,7 +168,7 @@ def _cmd_diagnose(args) -> int:
     dx = diagnose(train, val, model, budget=budget, seed=args.random_state, jobs=args.n_jobs,
                   holdout=args.holdout, alpha=args.alpha, resolution=args.resolution,
                   names=names, model_name=os.path.basename(args.model or ""), progress=say,
-                  search_callbacks=search_progress)
+                  search_callbacks=search_progress, outliers=args.outliers)
     print(dx.summary())
     command = _command(args)
     if args.out:                              # saved first: a closed pipe loses nothing

@@ -497,6 +497,7 @@ DIAGNOSE_PARAMS: Dict[str, Param] = {p.name: p for p in (
     _diagnose_row("max_degree", default=3, group="budget", default_text=None),
     _diagnose_row("window", group="budget", help="multiple-shooting window in samples of "
                   "the baseline search"),
+    _diagnose_row("outliers", context=False, meta=False),
     Param("shifts", 99, Int(1), "placebo shifts of the Φ-augmentation test", "budget",
           "--shifts", estimator=False),
     Param("bootstrap", 199, Int(1), "replicas of the prediction-bias bootstrap", "budget",

@@ -98,6 +98,12 @@ class Spike:
         return {"start": self.start, "stop": self.stop, "values": list(self.values),
                 "beyond_ranges": self.beyond, "arx_sigmas": self.sigmas}
 
+    @classmethod
+    def from_dict(cls, d: dict) -> "Spike":
+        """The spike :meth:`to_dict` wrote."""
+        return cls(int(d["start"]), int(d["stop"]), tuple(float(v) for v in d["values"]),
+                   float(d["beyond_ranges"]), float(d["arx_sigmas"]))
+
 
 def _isolated_runs(y: np.ndarray, k: int, width: int):
     """The runs ``(start, stop)`` of at most ``width`` samples containing

@@ -23,6 +23,7 @@ from typing import List, Optional
 import numpy as np
 
 from narx.atomic import atomic_write_text
+from narx.outliers import Spike, spikes_text
 
 from ..plotting import figure, save as _save
 from ..quasistatic_report import diagnosis_figure
@@ -106,6 +107,13 @@ def terminal_summary(dx) -> str:
     if not np.isfinite(g.baseline):
         lines.append("warning: the baseline's free run diverges on the measuring samples, "
                      "so no gain can be measured against it")
+    glitches = dx.settings.get("outliers")
+    if isinstance(glitches, dict) and any(glitches.values()):
+        lines.append("note: isolated glitches of the output repaired before the diagnosis "
+                     "(--outliers keep: none): " + "; ".join(
+                         f"{label}: " + spikes_text([Spike.from_dict(d) for d in found],
+                                                    dx.fit_data.output)
+                         for label, found in glitches.items() if found))
     out = {k: v for k, v in dx.settings.get("measure_outside_fit_range", {}).items() if v > 0}
     if out:
         lines.append("note: " + ", ".join(f"{100 * v:.3g} % of the measuring samples' {k}"

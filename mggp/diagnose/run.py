@@ -31,6 +31,7 @@ import numpy as np
 from narx import Model
 from narx.data import Data, DataError
 from narx.metrics import mape
+from narx.outliers import find_spikes, repaired
 
 from .context import Context
 from .extend import (Budget, Extension, baseline_search, fit_extension, plan_extension,
@@ -259,7 +260,8 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
              holdout: float = 0.3, alpha: float = 0.01, resolution: float = 0.005,
              names: Tuple[str, str] = ("train", "validation"), model_name: str = "model",
              progress: Optional[Callable[[str], None]] = None,
-             search_callbacks: Optional[Callable[[int], list]] = None) -> Diagnosis:
+             search_callbacks: Optional[Callable[[int], list]] = None,
+             outliers: str = "auto") -> Diagnosis:
     """Diagnose a model (or an MGGP baseline) on ``train``; see the module doc.
 
     Parameters
@@ -283,6 +285,11 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     search_callbacks : callable, optional
         ``search_callbacks(generations)`` returns the per-generation
         callbacks of each MGGP search (e.g. the progress line of ``mggp fit``).
+    outliers : {'auto', 'keep'}
+        'auto': isolated glitches of each record's output are repaired
+        first (:mod:`narx.outliers`, the rule of ``mggp fit``; listed in
+        ``settings['outliers']`` and the summary); 'keep': every sample as
+        measured.
     """
     say = progress or (lambda msg: None)
     if not 0.0 < alpha < 0.5:
@@ -290,6 +297,16 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     if not 0.0 <= resolution < 1.0:
         raise ValueError(f"resolution must be in [0, 1), got {resolution!r}")
     _check_records(train, validation, model)
+    if outliers not in ("auto", "keep"):
+        raise ValueError(f"outliers must be 'auto' or 'keep', got {outliers!r}")
+    glitches = {}
+    if outliers == "auto":
+        for label, rec in zip(names, (train, validation)):
+            if rec is not None:
+                glitches[label] = find_spikes(rec)
+        train = repaired(train, glitches[names[0]])
+        if validation is not None:
+            validation = repaired(validation, glitches[names[1]])
     fit, measure, (fit_name, fit_rng), (meas_name, meas_rng) = _split(
         train, validation, holdout, names)
     rec_names = (fit_name, meas_name if validation is not None else f"{fit_name} (tail)")
@@ -341,6 +358,9 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                 else holdout, "budget": dict(budget.__dict__),
                 "baseline": base_source, "extension_search": plan.setting.describe(),
                 "measure_outside_fit_range": outside_fit_range(fit, measure, start),
+                "outliers": {label: [sp.to_dict() for sp in found]
+                             for label, found in glitches.items()} if outliers == "auto"
+                else "keep",
                 "candidates": [{"name": n, "terms": k, "fit_freerun_rmse": _num(s),
                                 "probe_hold_movement": _num(h)}
                                for n, k, s, h in ext.candidates]}
