@@ -176,7 +176,10 @@ class MGGPRegressor:
     (``model_.meta['estimation'] == 'ls-search'``). A
     :class:`mggp.SearchPrecisionWarning` names an offset that dominates a
     signal before the search (its normal equations lose precision on such
-    data).
+    data). ``outliers_`` holds the isolated glitches of the output that
+    ``outliers='auto'`` repaired before the search
+    (:class:`narx.outliers.Spike`; the models are fitted on the repaired
+    record).
     """
 
     def __init__(self, *, fitness="ms", window=100, k=10, criterion="mse",
