@@ -318,7 +318,9 @@ class MGGPRegressor:
         spikes = find_spikes(data) if self.outliers == "auto" else []
         data = repaired(data, spikes)
         start = self._validate(data)
-        for msg, kind in data_warnings(data, self.fitness, self.window, self.k):
+        for msg, kind in data_warnings(data, self.fitness, self.window, self.k,
+                                       reach=reachable_lag(self.max_height, self.max_lag),
+                                       max_height=self.max_height, max_lag=self.max_lag):
             warnings.warn(msg, kind, stacklevel=2)
         held = ("auto" in (self.use_phi, self.constant, self.size)
                 and holdout_message(data))

@@ -1,0 +1,113 @@
+"""Dead time of an input: the lag from which it acts on the output, found by
+a scan of linear ARX models.
+
+Typical use::
+
+    from narx.deadtime import onset_scan
+    scan = onset_scan(data, "u")      # OnsetScan(lags=..., rmse=...)
+    scan.best                         # the lag d whose model predicts best
+    scan.best_within(16)              # the best RMSE of a model starting within 16
+
+For each candidate dead time :math:`d = 1, \\dots, D` the model
+
+.. math:: y_k = a_1 y_{k-1} + a_2 y_{k-2} + \\sum_{j=0}^{3}
+          \\left(b_j u_{k-d-j} + c_j u_{k-d-j}^2\\right)
+          + \\sum_{v \\ne u} \\sum_{i=1}^{4} e_{v,i} v_{k-i} + f
+
+is fitted by least squares on the same rows and scored by its one-step
+RMSE; the squares let an even nonlinearity show its lag too. The input
+acts from about the lag whose model scores best (within the four lags
+that model spans). The classic use is choosing the delay of an ARX model
+by the loss over a range of delays (Ljung, *System Identification*, 2nd
+ed., Prentice Hall 1999, §16.4 and ``delayest`` of its toolbox).
+
+A record longer than :data:`ROWS` samples is scanned on its first
+:data:`ROWS` (the scan costs ``D`` least-squares fits).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .data import Data
+
+__all__ = ["MAX_DELAY", "ROWS", "SPAN", "OnsetScan", "onset_scan"]
+
+#: largest dead time scanned (at most a tenth of the rows scanned)
+MAX_DELAY = 200
+#: rows of a long record that the scan uses
+ROWS = 20_000
+#: input lags of each candidate model: d, d+1, ..., d+SPAN-1
+SPAN = 4
+
+
+@dataclass(frozen=True)
+class OnsetScan:
+    """One-step RMSE ``rmse[i]`` of the model whose input lags start at
+    ``lags[i]`` (see the module)."""
+
+    input: str
+    lags: np.ndarray
+    rmse: np.ndarray
+
+    @property
+    def best(self) -> int:
+        """The dead time whose model predicts best."""
+        return int(self.lags[int(np.argmin(self.rmse))])
+
+    @property
+    def best_rmse(self) -> float:
+        return float(np.min(self.rmse))
+
+    def best_within(self, reach: int) -> float:
+        """The least RMSE of the models whose input lags start within
+        ``reach`` (``inf`` when none does)."""
+        ok = self.lags <= reach
+        return float(np.min(self.rmse[ok])) if np.any(ok) else float("inf")
+
+    def onset_gain(self) -> float:
+        """How much better the best model predicts than the one whose lags
+        end just before it (starting :data:`SPAN` lags earlier): large at
+        a dead time, where the input's effect starts; near 1 where the
+        error only drifts with the lag (``inf``: no earlier model)."""
+        i = int(np.argmin(self.rmse)) - SPAN
+        return float(self.rmse[i] / self.best_rmse) if i >= 0 and self.best_rmse > 0 \
+            else float("inf")
+
+    def periodic(self, u, limit: float = 0.95) -> bool:
+        """Whether the input ``u`` (the scanned one) nearly repeats itself at
+        the best model's lags: its autocorrelation there exceeds ``limit``.
+        A periodic input gives every lag a period back the information of
+        the lags before it, so the scan cannot tell a dead time."""
+        u = np.asarray(u, dtype=float)[:ROWS]
+        x = u - u.mean()
+        den = float(x @ x)
+        if den == 0.0:
+            return False
+        return any(float(x[:-k] @ x[k:]) / den > limit
+                   for k in range(self.best, self.best + SPAN) if k < x.size)
+
+
+def onset_scan(data: Data, name: str, max_delay: int = MAX_DELAY) -> OnsetScan:
+    """The scan of input ``name`` of ``data`` (see the module)."""
+    y = np.asarray(data.require_output("scanning dead times"), dtype=float)[:ROWS]
+    n = len(y)
+    top = max(1, min(int(max_delay), n // 10))
+    p0 = top + SPAN
+    if n - p0 < 4 * (2 + 2 * SPAN + SPAN * len(data.inputs)):
+        return OnsetScan(name, np.arange(1, 1), np.zeros(0))
+    u = np.asarray(data.input(name), dtype=float)[:ROWS]
+    base = [y[p0 - i:n - i] for i in (1, 2)] + [np.ones(n - p0)]
+    for other in data.inputs:
+        if other != name:
+            v = np.asarray(data.input(other), dtype=float)[:ROWS]
+            base += [v[p0 - i:n - i] for i in range(1, SPAN + 1)]
+    t = y[p0:]
+    rmse = np.empty(top)
+    for d in range(1, top + 1):
+        lagged = [u[p0 - d - j:n - d - j] for j in range(SPAN)]
+        X = np.column_stack(base + lagged + [c * c for c in lagged])
+        r = t - X @ np.linalg.lstsq(X, t, rcond=None)[0]
+        rmse[d - 1] = np.sqrt(np.mean(r * r))
+    return OnsetScan(name, np.arange(1, top + 1), rmse)

@@ -1,0 +1,111 @@
+"""Dead time beyond the search's reach: found by the ARX scan and named
+before the search (narx.deadtime, mggp.precision.dead_time_message)."""
+import warnings
+
+import numpy as np
+import pytest
+
+from narx import Data
+from narx.deadtime import SPAN, onset_scan
+from mggp.precision import DEAD_TIME_GAIN, dead_time_message
+
+
+def _delayed(d, n=2000, seed=5, second=None):
+    """y[k] = 0.8 y[k-1] + 0.5 u[k-d] + 0.2 u[k-d]², a held random input
+    (steps every 10 samples), output noise 0.01; with ``second`` a second
+    input acting at lag 1 (0.3 v[k-1])."""
+    rng = np.random.default_rng(seed)
+    u = np.repeat(rng.uniform(-1, 1, n // 10), 10)
+    v = rng.uniform(-1, 1, n)
+    y = np.zeros(n)
+    for k in range(d + 1, n):
+        y[k] = 0.8 * y[k - 1] + 0.5 * u[k - d] + 0.2 * u[k - d] ** 2 \
+            + (0.3 * v[k - 1] if second else 0.0)
+    y += 0.01 * rng.standard_normal(n)
+    return Data(np.c_[u, v], y, inputs=["u", "v"]) if second else Data(u, y)
+
+
+def test_the_scan_finds_the_dead_time():
+    for d in (3, 10, 25, 40):
+        scan = onset_scan(_delayed(d), "u")
+        assert scan.best <= d <= scan.best + SPAN - 1, d
+
+
+def test_a_dead_time_beyond_reach_is_named_with_the_height_that_reaches_it():
+    msg = dead_time_message(_delayed(25), reach=16, max_height=5)
+    assert msg.startswith("input 'u' acts on the output from about lag 2")
+    assert "--max-height 9" in msg and "starting within 16" in msg
+    # controls: within reach at height 5, or at height 9
+    assert dead_time_message(_delayed(10), reach=16, max_height=5) == ""
+    assert dead_time_message(_delayed(25), reach=28, max_height=9) == ""
+    # a max_lag below it: raise that
+    msg = dead_time_message(_delayed(25), reach=10, max_height=9, max_lag=10)
+    assert "raise max_lag to 2" in msg and "max_height" not in msg
+
+
+def test_only_the_late_input_is_named():
+    msg = dead_time_message(_delayed(30, second=True), reach=16, max_height=5)
+    assert "input 'u'" in msg and "input 'v'" not in msg
+
+
+def test_the_fit_warns_before_the_search():
+    from mggp import MGGPRegressor
+    with pytest.warns(UserWarning, match="acts on the output from about lag"):
+        MGGPRegressor(population=20, generations=2, random_state=0).fit(_delayed(25))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        MGGPRegressor(population=20, generations=2, random_state=0, max_height=9,
+                      use_phi=False, constant=False, size="search").fit(_delayed(25))
+
+
+def test_no_dead_time_named_on_the_panel_records():
+    """Control: records whose input acts at once (measured and simulated);
+    the scan's best model beyond reach gains at most a few per cent there."""
+    from benchmarks.panel import RECORDS
+    seen = 0
+    for name, make in RECORDS.items():
+        rec = make()
+        if rec is None:
+            continue
+        d = rec[0]
+        assert dead_time_message(d, reach=16, max_height=5) == "", name
+        for inp in d.inputs:
+            s = onset_scan(d, inp)
+            assert s.best_within(16) < 0.5 * (1 + DEAD_TIME_GAIN) * s.best_rmse, name
+        seen += 1
+    assert seen >= 9
+
+
+def test_a_periodic_input_is_not_taken_for_a_dead_time():
+    """A sine input repeats itself every 50 samples, so lags a period back
+    carry the input of lag 0 (here a direct feedthrough): the scan gains
+    beyond reach, but no dead time is named; control: the same system on
+    a held random input, whose best lag is 1."""
+    n = 3000
+    u = np.sin(2 * np.pi * np.arange(n) / 50)
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.5 * y[k - 1] + u[k] + 0.3 * u[k - 1]
+    d = Data(u, y)
+    scan = onset_scan(d, "u")
+    assert scan.best > 16 and scan.best_within(16) > DEAD_TIME_GAIN * scan.best_rmse
+    assert scan.periodic(u)
+    assert dead_time_message(d, reach=16, max_height=5) == ""
+    rng = np.random.default_rng(0)
+    w = np.repeat(rng.uniform(-1, 1, n // 10), 10)
+    assert not onset_scan(Data(w, y), "u").periodic(w)
+
+
+def test_an_error_that_only_drifts_with_the_lag_is_no_dead_time():
+    """The inverse of the piezo record (input: the output one sample ahead):
+    the scan's error falls slowly from 2.5e-4 at lag 1 to 1.9e-4 at lag
+    176, 1.3 times, with no lag where it drops: no dead time is named."""
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(3000, seed=1)
+    y = piezo_bouc_wen(u)
+    d = Data(np.r_[y[1:], y[-1]], u, inputs=["r"], output="u")
+    scan = onset_scan(d, "r")
+    assert scan.best > 16 and scan.best_within(16) > DEAD_TIME_GAIN * scan.best_rmse
+    assert scan.onset_gain() < 1.05
+    assert dead_time_message(d, reach=16, max_height=5) == ""
+    assert onset_scan(_delayed(25), "u").onset_gain() > 5     # control: a dead time
