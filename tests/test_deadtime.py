@@ -109,3 +109,11 @@ def test_an_error_that_only_drifts_with_the_lag_is_no_dead_time():
     assert scan.onset_gain() < 1.05
     assert dead_time_message(d, reach=16, max_height=5) == ""
     assert onset_scan(_delayed(25), "u").onset_gain() > 5     # control: a dead time
+
+
+def test_the_benchmark_warns_exactly_beyond_reach():
+    from benchmarks.dead_time import DELAYS, REACH, detection
+    rows = [r.split("|")[1:5] for r in detection(seeds=1).splitlines()[2:]]
+    for (d, n, found, warned), delay in zip(rows, DELAYS):
+        assert int(d) == delay and found.strip() == "1"
+        assert warned.strip() == ("1" if delay > REACH else "0"), delay

@@ -1,0 +1,118 @@
+"""A dead time beyond the search's reach: named before the search, and what
+the named height gives (:mod:`narx.deadtime`, ``mggp.precision``).
+
+Typical use::
+
+    python -m benchmarks.dead_time                # about two minutes
+    python -m benchmarks.dead_time --fits 0       # the detection tables only
+
+Three parts, each a Markdown table:
+
+1. **Detection**: y[k] = 0.8 y[k-1] + 0.5 u[k-d] + 0.2 u[k-d]² on a held
+   random input (a step every 10 samples), output noise 0.01, 2,000
+   samples, for dead times d from 3 to 60 and 10 data seeds each: the lag
+   the scan finds, and whether the default search (height 5, lags up to
+   16) warns; it should warn exactly when d lies beyond 16.
+2. **False warnings** on records whose input acts at once: Piroddi's
+   S1-S6 (500 and 2,000 samples, with and without 20 dB output noise, 10
+   seeds each) and both panels' records (:func:`benchmarks.outliers.clean_records`).
+3. **Fits** of the d = 25 record at the default budget: the default
+   (height 5, with the warning) against ``max_height`` as the warning
+   names it; the free-run RMSE on a validation record of the same system
+   (another input draw).
+"""
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+
+import numpy as np
+
+from narx import Data
+from narx.deadtime import onset_scan
+from mggp.precision import dead_time_message
+
+DELAYS = (3, 10, 16, 20, 25, 40, 60)
+REACH, HEIGHT = 16, 5
+
+
+def delayed(d: int, seed: int, n: int = 2000) -> Data:
+    """The record of part 1 with dead time ``d``."""
+    rng = np.random.default_rng(seed)
+    u = np.repeat(rng.uniform(-1, 1, n // 10), 10)
+    y = np.zeros(n)
+    for k in range(d + 1, n):
+        y[k] = 0.8 * y[k - 1] + 0.5 * u[k - d] + 0.2 * u[k - d] ** 2
+    return Data(u, y + 0.01 * rng.standard_normal(n))
+
+
+def detection(seeds: int = 10) -> str:
+    md = ["| dead time d | records | lag found (scan window contains d) | warned (height 5, "
+          "reach 16) |", "|---:|---:|---:|---:|"]
+    for d in DELAYS:
+        found = warned = 0
+        for s in range(seeds):
+            rec = delayed(d, 100 + s)
+            b = onset_scan(rec, "u").best
+            found += b <= d <= b + 3
+            warned += bool(dead_time_message(rec, REACH, HEIGHT))
+        md.append(f"| {d} | {seeds} | {found} | {warned} |")
+    return "\n".join(md)
+
+
+def false_warnings(seeds: int = 10) -> str:
+    from .outliers import clean_records
+    rows = {}
+    for label, rec in clean_records(seeds):
+        group = label.split(":")[0]
+        r = rows.setdefault(group, [0, 0])
+        r[0] += 1
+        r[1] += bool(dead_time_message(rec, REACH, HEIGHT))
+    md = ["| records | count | warned |", "|---|---:|---:|"]
+    md += [f"| {g} | {n} | {k} |" for g, (n, k) in rows.items()]
+    md.append(f"| **all** | **{sum(n for n, _ in rows.values())}** | "
+              f"**{sum(k for _, k in rows.values())}** |")
+    return "\n".join(md)
+
+
+def fits(seeds) -> str:
+    from mggp import MGGPRegressor
+    train, val = delayed(25, 1), delayed(25, 2)
+    md = ["| setting | seed | warned | terms | validation free-run RMSE | fit (s) |",
+          "|---|---:|---|---:|---:|---:|"]
+    for label, kw in (("default (height 5)", {}), ("max_height 9, as the warning names", dict(
+            max_height=9))):
+        for s in seeds:
+            t0 = time.perf_counter()
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                est = MGGPRegressor(random_state=s, n_jobs=1, **kw).fit(train)
+            said = any("acts on the output" in str(w.message) for w in caught)
+            sim = est.simulate(val)
+            rmse = "diverges" if sim.diverged else f"{sim.rmse:.4g}"
+            md.append(f"| {label} | {s} | {'yes' if said else 'no'} | {len(est.terms_)} | "
+                      f"{rmse} | {time.perf_counter() - t0:.0f} |")
+    return "\n".join(md)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.dead_time",
+                                description=__doc__.split("\n\n")[0])
+    p.add_argument("--seeds", type=int, default=10, help="data seeds of parts 1 and 2")
+    p.add_argument("--fits", type=int, default=2, help="fit seeds of part 3 (0: none)")
+    a = p.parse_args(argv)
+    t0 = time.perf_counter()
+    print("## Dead times found and named\n")
+    print(detection(a.seeds))
+    print("\n## False warnings on records whose input acts at once\n")
+    print(false_warnings(a.seeds))
+    if a.fits:
+        print("\n## Fits of the record with a 25-sample dead time (default budget)\n")
+        print(fits(range(1, a.fits + 1)))
+    print(f"\n({time.perf_counter() - t0:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
