@@ -62,22 +62,14 @@ def detection(seeds: int = 10) -> str:
 
 
 def false_warnings(seeds: int = 10) -> str:
-    from .outliers import clean_records
-    rows = {}
-    for label, rec in clean_records(seeds):
-        group = label.split(":")[0]
-        r = rows.setdefault(group, [0, 0])
-        r[0] += 1
-        r[1] += bool(dead_time_message(rec, REACH, HEIGHT))
-    md = ["| records | count | warned |", "|---|---:|---:|"]
-    md += [f"| {g} | {n} | {k} |" for g, (n, k) in rows.items()]
-    md.append(f"| **all** | **{sum(n for n, _ in rows.values())}** | "
-              f"**{sum(k for _, k in rows.values())}** |")
-    return "\n".join(md)
+    from .outliers import clean_records, group_table
+    return group_table(clean_records(seeds),
+                       lambda rec: dead_time_message(rec, REACH, HEIGHT), "warned")
 
 
 def fits(seeds) -> str:
     from mggp import MGGPRegressor
+    from .outliers import validation_cell
     train, val = delayed(25, 1), delayed(25, 2)
     md = ["| setting | seed | warned | terms | validation free-run RMSE | fit (s) |",
           "|---|---:|---|---:|---:|---:|"]
@@ -89,11 +81,20 @@ def fits(seeds) -> str:
                 warnings.simplefilter("always")
                 est = MGGPRegressor(random_state=s, n_jobs=1, **kw).fit(train)
             said = any("acts on the output" in str(w.message) for w in caught)
-            sim = est.simulate(val)
-            rmse = "diverges" if sim.diverged else f"{sim.rmse:.4g}"
             md.append(f"| {label} | {s} | {'yes' if said else 'no'} | {len(est.terms_)} | "
-                      f"{rmse} | {time.perf_counter() - t0:.0f} |")
+                      f"{validation_cell(est, val)} | {time.perf_counter() - t0:.0f} |")
     return "\n".join(md)
+
+
+def report(seeds: int = 10, fit_seeds=(1, 2)) -> str:
+    """The three parts as Markdown sections (part 3 only with ``fit_seeds``)."""
+    parts = [("Dead times found and named", lambda: detection(seeds)),
+             ("False warnings on records whose input acts at once",
+              lambda: false_warnings(seeds))]
+    if fit_seeds:
+        parts.append(("Fits of the record with a 25-sample dead time (default budget)",
+                      lambda: fits(fit_seeds)))
+    return "\n\n".join(f"## {title}\n\n{make()}" for title, make in parts)
 
 
 def main(argv=None) -> int:
@@ -103,13 +104,7 @@ def main(argv=None) -> int:
     p.add_argument("--fits", type=int, default=2, help="fit seeds of part 3 (0: none)")
     a = p.parse_args(argv)
     t0 = time.perf_counter()
-    print("## Dead times found and named\n")
-    print(detection(a.seeds))
-    print("\n## False warnings on records whose input acts at once\n")
-    print(false_warnings(a.seeds))
-    if a.fits:
-        print("\n## Fits of the record with a 25-sample dead time (default budget)\n")
-        print(fits(range(1, a.fits + 1)))
+    print(report(a.seeds, range(1, a.fits + 1)))
     print(f"\n({time.perf_counter() - t0:.0f} s)")
     return 0
 

@@ -82,21 +82,29 @@ def clean_records(seeds: int = 30):
     return out
 
 
-def false_alarms(records) -> str:
-    rows, flagged = {}, []
+def group_table(records, flags, what: str) -> str:
+    """Markdown: per group of ``records`` (the label before its colon) the
+    records and how many ``flags(data)`` is true on, with a total row."""
+    rows = {}
     for label, d in records:
-        group = label.split(":")[0] if ":" in label else label
-        r = rows.setdefault(group, [0, 0])
+        r = rows.setdefault(label.split(":")[0], [0, 0])
         r[0] += 1
-        s = find_spikes(d)
-        if s:
-            r[1] += 1
-            flagged.append((label, s))
-    md = ["| records | count | with a sample taken for a glitch |", "|---|---:|---:|"]
+        r[1] += bool(flags(d))
+    md = [f"| records | count | {what} |", "|---|---:|---:|"]
     md += [f"| {g} | {n} | {k} |" for g, (n, k) in rows.items()]
-    total = sum(n for n, _ in rows.values())
-    md.append(f"| **all** | **{total}** | **{len(flagged)}** |")
+    md.append(f"| **all** | **{sum(n for n, _ in rows.values())}** | "
+              f"**{sum(k for _, k in rows.values())}** |")
     return "\n".join(md)
+
+
+def validation_cell(est, val: Data) -> str:
+    """The free-run RMSE of ``est``'s model on ``val``, or 'diverges'."""
+    sim = est.simulate(val)
+    return "diverges" if sim.diverged else f"{sim.rmse:.4g}"
+
+
+def false_alarms(records) -> str:
+    return group_table(records, find_spikes, "with a sample taken for a glitch")
 
 
 def plant(y, amplitude, rng):
@@ -176,10 +184,9 @@ def fits(seeds) -> str:
                 est = MGGPRegressor(population=100, generations=20, max_height=2,
                                     random_state=s, outliers=how).fit(u, yy)
             terms = {str(t) for t in est.terms_}
-            sim = est.simulate(val)
-            rmse = "diverges" if sim.diverged else f"{sim.rmse:.4g}"
             md.append(f"| {label} | {how} | {s} | {len(TRUE & terms)} of 4"
-                      f"{' (exact)' if terms == TRUE else ''} | {len(terms)} | {rmse} |")
+                      f"{' (exact)' if terms == TRUE else ''} | {len(terms)} | "
+                      f"{validation_cell(est, val)} |")
     return "\n".join(md)
 
 
