@@ -27,6 +27,7 @@ import csv
 import math
 import re
 import os
+import warnings
 from array import array
 from typing import Iterator, List, Optional, Sequence, Tuple
 
@@ -36,7 +37,8 @@ from .atomic import atomic_writer
 from .data import MAX_ABS, Data
 from .exceptions import DataError
 
-__all__ = ["read_csv", "read_columns", "iter_rows", "write_with_column"]
+__all__ = ["read_csv", "read_columns", "iter_rows", "write_with_column", "time_column",
+           "sampling_message", "GAP_FACTOR"]
 
 MAX_FIELD = 1 << 20
 #: field separators recognised in the header row, the first wins a tie
@@ -191,10 +193,54 @@ def read_columns(path, names: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
     return arr.copy() if not arr.flags.writeable else arr, header
 
 
+def time_column(header: Sequence[str], taken: Sequence[str] = ()) -> Optional[str]:
+    """The header's time column, if any: the first field not in ``taken``
+    named ``t`` or with ``time`` in its name (``time``, ``Time (s)``,
+    ``sampling_time``, ``timestamp``; case ignored)."""
+    for h in header:
+        k = h.strip().lower()
+        if h not in taken and (k == "t" or "time" in k):
+            return h
+    return None
+
+
+#: a time step over this many times the median is a gap (samples missing)
+GAP_FACTOR = 1.5
+
+
+def sampling_message(t: np.ndarray, name: str) -> str:
+    """A sentence when the time column ``t`` (named ``name``) says the
+    samples are not consecutive and evenly spaced, which NARX lags assume:
+    a step that is not positive (rows out of order, or records joined), or
+    steps over :data:`GAP_FACTOR` times the median (samples missing); ''
+    when the sampling is even."""
+    t = np.asarray(t, dtype=float)
+    if t.size < 3:
+        return ""
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        i = int(bad[0])
+        return (f"column {name!r} does not increase at data row {i + 2} ({t[i]:g} then "
+                f"{t[i + 1]:g}; {bad.size} such step(s)): the rows may be out of order or "
+                f"several records joined, and a model's lags assume consecutive samples")
+    med = float(np.median(dt))
+    gaps = np.flatnonzero(dt > GAP_FACTOR * med)
+    if not gaps.size:
+        return ""
+    i = int(gaps[np.argmax(dt[gaps])])
+    return (f"column {name!r} has {gaps.size} gap(s) in its sampling (step {med:g}; the "
+            f"largest {dt[i]:g}, {dt[i] / med:.3g} steps, after data row {i + 1}): samples "
+            f"are missing there, and a model's lags across a gap mix samples that are not "
+            f"one step apart; fit the stretches between gaps separately, or fill them")
+
+
 def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str] = "y",
              *, min_samples: int = 2, varying_inputs: bool = False,
              purpose: str = "", varying_output: str = "") -> Data:
-    """Read a record; ``output=None`` reads inputs only.
+    """Read a record; ``output=None`` reads inputs only. A time column
+    (:func:`time_column`) is read too, and a warning names a sampling that
+    is not even (:func:`sampling_message`).
 
     Parameters
     ----------
@@ -217,12 +263,28 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
     """
     inputs = ["u"] if inputs is None else ([inputs] if isinstance(inputs, str) else list(inputs))
     names = inputs + ([output] if output else [])
+    tcol = None
     try:
-        arr, _ = read_columns(path, names)
+        _, header = next(iter_rows(path))
+        tcol = time_column([h.strip() for h in header], names)
+    except Exception:                             # read_columns below says what is wrong
+        pass
+    try:
+        try:
+            arr, _ = read_columns(path, names + ([tcol] if tcol else []))
+        except DataError as exc:                  # a time column of text: not checked
+            if tcol is None or f"column {tcol!r}:" not in str(exc):
+                raise
+            tcol = None
+            arr, _ = read_columns(path, names)
     except DataError as exc:
         if exc.column is not None:                # which signal the missing column holds
             exc.role = "output" if exc.column == output else "input"
         raise
+    said = ""
+    if tcol is not None:                          # said once the record is accepted
+        said = sampling_message(arr[:, -1], tcol)
+        arr = arr[:, :-1]
     n = arr.shape[0]
     if n < min_samples:
         raise DataError(f"{os.fspath(path)}: {n} data row(s); at least {min_samples} are "
@@ -246,6 +308,8 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
             data.require_varying_output(varying_output)
         except DataError as exc:
             raise DataError(f"{os.fspath(path)}: {exc}") from None
+    if said:
+        warnings.warn(f"{os.fspath(path)}: {said}", UserWarning, stacklevel=2)
     return data
 
 

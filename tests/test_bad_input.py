@@ -376,6 +376,7 @@ def _loads_or_says_why(loader, error, content, suffix):
 
 @PROPS
 @given(CSV_TEXT)
+@pytest.mark.filterwarnings("ignore:.*column 't' (does not increase|has)")   # random times
 def test_property_csv_reader_raises_only_data_error(text):
     d = _loads_or_says_why(read_csv, DataError, text, ".csv")
     if d is not None:
@@ -446,3 +447,38 @@ def test_constant_output_names_the_file_and_the_value(files, cmd, why):
     code, err = run(*argv)
     line = one_line(err)
     assert code == 2 and f"flat.csv: output 'y' is constant (every sample 5.0): {why}" in line
+
+
+def _timed(path, t, name="t"):
+    lines = [f"{name},u,y"] + [f"{float(a)!r},{float(b)!r},{float(c)!r}"
+                               for a, b, c in zip(t, _U, _Y)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_a_gap_or_a_backward_step_in_the_time_column_is_named(tmp_path, capsys):
+    """NARX lags assume consecutive, evenly spaced samples: a time column
+    with five samples missing, or two rows swapped, gets one warning line
+    naming the place; the even column (the control) and a column of text
+    timestamps get none, and every file is still read."""
+    t = np.arange(N) * 0.01
+    gap = t.copy()
+    gap[200:] += 0.05
+    swapped = t.copy()
+    swapped[[100, 101]] = swapped[[101, 100]]
+    with pytest.warns(UserWarning, match=r"column 'time' has 1 gap\(s\).*6 steps, after data "
+                      r"row 200"):
+        read_csv(_timed(tmp_path / "gap.csv", gap, "time"))
+    with pytest.warns(UserWarning, match=r"column 't' does not increase at data row 102"):
+        read_csv(_timed(tmp_path / "swap.csv", swapped))
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_csv(_timed(tmp_path / "even.csv", t))
+        stamps = [f"2024-01-01T00:00:{i:04d}" for i in range(N)]
+        (tmp_path / "text.csv").write_text("Time (s),u,y\n" + "".join(
+            f"{s},{float(a)!r},{float(b)!r}\n" for s, a, b in zip(stamps, _U, _Y)))
+        assert read_csv(tmp_path / "text.csv").n == N
+    code = main(["estimate", str(tmp_path / "gap.csv"), "--terms", "y[k-1]", "u[k-1]"])
+    err = capsys.readouterr().err
+    assert code == 0 and err.count("warning:") == 1 and "gap.csv: column 'time'" in err
