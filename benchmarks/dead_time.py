@@ -1,5 +1,6 @@
-"""A dead time beyond the search's reach: named before the search, and what
-the named height gives (:mod:`narx.deadtime`, ``mggp.precision``).
+"""A dead time beyond the search's reach: found before the search, the tree
+height raised to reach it, and what that gives (:mod:`narx.deadtime`,
+:func:`mggp.choices.height_choice`, ``mggp.precision``).
 
 Typical use::
 
@@ -11,14 +12,16 @@ Three parts, each a Markdown table:
 1. **Detection**: y[k] = 0.8 y[k-1] + 0.5 u[k-d] + 0.2 u[k-d]² on a held
    random input (a step every 10 samples), output noise 0.01, 2,000
    samples, for dead times d from 3 to 60 and 10 data seeds each: the lag
-   the scan finds, and whether the default search (height 5, lags up to
-   16) warns; it should warn exactly when d lies beyond 16.
+   the scan finds, whether a search at the fixed height 5 (lags up to 16)
+   warns (it should exactly when d lies beyond 16), and the height
+   ``max_height='auto'`` (the default) takes (5, or the least that
+   reaches d).
 2. **False warnings** on records whose input acts at once: Piroddi's
    S1-S6 (500 and 2,000 samples, with and without 20 dB output noise, 10
    seeds each) and both panels' records (:func:`benchmarks.outliers.clean_records`).
 3. **Fits** of the d = 25 record at the default budget: the default
-   (height 5, with the warning) against ``max_height`` as the warning
-   names it; the free-run RMSE on a validation record of the same system
+   (``max_height='auto'``, which takes 9) against the fixed height 5 (which
+   warns); the free-run RMSE on a validation record of the same system
    (another input draw).
 """
 from __future__ import annotations
@@ -48,16 +51,22 @@ def delayed(d: int, seed: int, n: int = 2000) -> Data:
 
 
 def detection(seeds: int = 10) -> str:
-    md = ["| dead time d | records | lag found (scan window contains d) | warned (height 5, "
-          "reach 16) |", "|---:|---:|---:|---:|"]
+    from mggp.choices import height_choice
+    md = ["| dead time d | records | lag found (scan window contains d) | warned at a fixed "
+          "height 5 (reach 16) | heights `max_height='auto'` takes |",
+          "|---:|---:|---:|---:|---|"]
     for d in DELAYS:
         found = warned = 0
+        heights = {}
         for s in range(seeds):
             rec = delayed(d, 100 + s)
             b = onset_scan(rec, "u").best
             found += b <= d <= b + 3
             warned += bool(dead_time_message(rec, REACH, HEIGHT))
-        md.append(f"| {d} | {seeds} | {found} | {warned} |")
+            h = height_choice(rec).value
+            heights[h] = heights.get(h, 0) + 1
+        said = ", ".join(f"{h} ({k}×)" for h, k in sorted(heights.items()))
+        md.append(f"| {d} | {seeds} | {found} | {warned} | {said} |")
     return "\n".join(md)
 
 
@@ -71,18 +80,19 @@ def fits(seeds) -> str:
     from mggp import MGGPRegressor
     from .outliers import validation_cell
     train, val = delayed(25, 1), delayed(25, 2)
-    md = ["| setting | seed | warned | terms | validation free-run RMSE | fit (s) |",
-          "|---|---:|---|---:|---:|---:|"]
-    for label, kw in (("default (height 5)", {}), ("max_height 9, as the warning names", dict(
-            max_height=9))):
+    md = ["| setting | seed | height | warned | terms | validation free-run RMSE | fit (s) |",
+          "|---|---:|---:|---|---:|---:|---:|"]
+    for label, kw in (("default (`max_height='auto'`)", {}),
+                      ("`max_height=5`, fixed", dict(max_height=5))):
         for s in seeds:
             t0 = time.perf_counter()
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 est = MGGPRegressor(random_state=s, n_jobs=1, **kw).fit(train)
             said = any("acts on the output" in str(w.message) for w in caught)
-            md.append(f"| {label} | {s} | {'yes' if said else 'no'} | {len(est.terms_)} | "
-                      f"{validation_cell(est, val)} | {time.perf_counter() - t0:.0f} |")
+            md.append(f"| {label} | {s} | {est.max_height_} | {'yes' if said else 'no'} | "
+                      f"{len(est.terms_)} | {validation_cell(est, val)} | "
+                      f"{time.perf_counter() - t0:.0f} |")
     return "\n".join(md)
 
 

@@ -52,7 +52,9 @@ from narx.terms import Term
 __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTANT", "GAIN",
            "HELD_EXCITATION", "HOLDOUT", "HOLDOUT_ENDS", "PILOT", "RESOLUTION", "error_floor",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
-           "class_choice", "class_margins", "outliers_choice", "constant_choice", "constant_pays", "constant_pilot_choice",
+           "class_choice", "class_margins", "outliers_choice", "height_choice", "height_for",
+           "HEIGHT",
+           "constant_choice", "constant_pays", "constant_pilot_choice",
            "without_constant",
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
            "holdout_message", "holdout_words", "local_search_kept", "percent", "rmse_text",
@@ -538,6 +540,47 @@ def outliers_choice(spikes, output: str = "y") -> Choice:
                   f"repaired by the line between {'their' if n > 1 else 'its'} neighbours: "
                   f"{spikes_text(spikes, output)}; --outliers keep fits every sample as "
                   f"measured", figs)
+
+
+#: the tree height ``max_height='auto'`` starts from (it reaches lag 16)
+HEIGHT = 5
+
+
+def height_for(scan, least: int):
+    """The least tree height from ``least`` whose trees reach every lag of
+    the scan's best model (:class:`narx.deadtime.OnsetScan`; 1 + 3 ×
+    height), or None beyond :data:`mggp.primitives.MAX_HEIGHT`."""
+    from narx.deadtime import SPAN
+    from .primitives import MAX_HEIGHT, max_lag_for_height
+    last = scan.best + SPAN - 1
+    return next((h for h in range(least, MAX_HEIGHT + 1) if max_lag_for_height(h) >= last),
+                None)
+
+
+def height_choice(data: Data, max_lag=None) -> Choice:
+    """``max_height='auto'``: :data:`HEIGHT`, raised to the least height
+    whose trees reach every input that acts on the output only beyond its
+    lags (:func:`narx.deadtime.late_inputs`, a dead time found by a linear
+    ARX scan), up to :data:`mggp.primitives.MAX_HEIGHT`; not raised beyond what
+    ``max_lag`` allows (the search could not use it)."""
+    from narx.deadtime import late_inputs, late_words
+    from .primitives import reachable_lag
+    reach = reachable_lag(HEIGHT, max_lag)
+    late = late_inputs(data, reach)
+    if not late:
+        return Choice("max_height", HEIGHT, f"max height {HEIGHT}: no input acts on the "
+                      f"output only beyond lag {reach} (a linear ARX scan of dead times)",
+                      {"reach": reach})
+    heights = [height_for(scan, HEIGHT) for _, scan in late]
+    h = HEIGHT if None in heights or max_lag is not None and max_lag <= reach else max(heights)
+    said = "; ".join(late_words(name, scan, reach) for name, scan in late)
+    figs = {"reach": reach, "dead_times": {name: scan.best for name, scan in late}}
+    if h == HEIGHT:
+        return Choice("max_height", h, f"max height {h}, not raised: {said}, beyond what "
+                      f"{'max_lag' if max_lag is not None else 'the highest trees'} "
+                      f"allow", figs)
+    return Choice("max_height", h, f"max height {h}, so that the trees reach lag "
+                  f"{reachable_lag(h, max_lag)}: {said}", figs)
 
 
 def class_margins(classes=None) -> str:

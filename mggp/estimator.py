@@ -46,9 +46,9 @@ from narx.phi import default_registry
 
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
-from .choices import (CONSTANT, Choice, class_choice, constant_pilot_choice,
+from .choices import (CONSTANT, HEIGHT, Choice, class_choice, constant_pilot_choice,
                       constant_searched, front_rows_heldout, heldout_rmse, holdout_message,
-                      outliers_choice, pilot_generations, resolve_screen, resolve_select, search_classes,
+                      height_choice, outliers_choice, pilot_generations, resolve_screen, resolve_select, search_classes,
                       without_constant)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
@@ -186,7 +186,7 @@ class MGGPRegressor:
                  constraints=None, search_constraints=None, population=500,
                  generations=200, cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
-                 max_terms=15, max_height=5, use_phi="auto", phi_names=None,
+                 max_terms=15, max_height="auto", use_phi="auto", phi_names=None,
                  phi_outputs=False, operators="auto", operator_entry="stage",
                  constant="auto", max_lag=None, max_degree=None, select="auto",
                  size="auto", local_search=True, select_candidates=50,
@@ -266,7 +266,7 @@ class MGGPRegressor:
     # -------------------------------------------------------------- fit
     def _validate(self, data: Data):
         check_params(self)
-        start = max_lag_for_height(self.max_height)
+        start = max_lag_for_height(self.max_height_)
         self._check_samples(data.n)
         for name in data.inputs:
             if np.ptp(data.input(name)) == 0:
@@ -277,18 +277,26 @@ class MGGPRegressor:
         data.require_varying_output("nothing can be identified")
         return start
 
+    def _height(self) -> int:
+        """The tree height: ``max_height_`` once ``fit`` resolved it, else
+        ``max_height`` ('auto': :data:`mggp.choices.HEIGHT`, the least it
+        resolves to)."""
+        if hasattr(self, "max_height_"):
+            return self.max_height_
+        return HEIGHT if self.max_height == "auto" else self.max_height
+
     def _check_samples(self, n: int) -> None:
         """Raise :class:`DataError` when ``n`` samples are fewer than the
         largest lag the terms can have (:func:`reachable_lag`: max_height's
         reach, capped by max_lag) plus the rows of the fit, 4 per term of
         max_terms and at least 20; the message names both settings with
         their values and what would fit."""
-        lag = reachable_lag(self.max_height, self.max_lag)
+        lag = reachable_lag(self._height(), self.max_lag)
         rows = max(4 * self.max_terms, 20)
         if n >= lag + rows:
             return
         by = (f"max_lag={self.max_lag}" if lag == self.max_lag else
-              f"what max_height={self.max_height} reaches, 1 + 3 × height")
+              f"what max_height={self._height()} reaches, 1 + 3 × height")
         fits = []
         if n - lag >= 20:
             fits.append(f"max_terms to {(n - lag) // 4}")
@@ -317,10 +325,15 @@ class MGGPRegressor:
         data.require_output("fit")
         spikes = find_spikes(data) if self.outliers == "auto" else []
         data = repaired(data, spikes)
+        height = None
+        if self.max_height == "auto":
+            check_params(self)                  # max_lag before it is used
+            height = height_choice(data, self.max_lag)
+        self.max_height_ = self.max_height if height is None else height.value
         start = self._validate(data)
         for msg, kind in data_warnings(data, self.fitness, self.window, self.k,
-                                       reach=reachable_lag(self.max_height, self.max_lag),
-                                       max_height=self.max_height, max_lag=self.max_lag):
+                                       reach=reachable_lag(self.max_height_, self.max_lag),
+                                       max_height=self.max_height_, max_lag=self.max_lag):
             warnings.warn(msg, kind, stacklevel=2)
         held = ("auto" in (self.use_phi, self.constant, self.size)
                 and holdout_message(data))
@@ -328,7 +341,7 @@ class MGGPRegressor:
             warnings.warn(held, UserWarning, stacklevel=2)
         if self.max_lag is not None and self.max_lag > start:
             warnings.warn(f"max_lag={self.max_lag} has no effect: trees of max_height="
-                          f"{self.max_height} reach lags up to {start} only (1 + 3 × "
+                          f"{self.max_height_} reach lags up to {start} only (1 + 3 × "
                           f"height); raise max_height to reach longer lags",
                           UserWarning, stacklevel=2)
         registry = self.registry or default_registry()
@@ -340,6 +353,8 @@ class MGGPRegressor:
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure)
         if self.outliers == "auto":
             ctx.choices["outliers"] = outliers_choice(spikes, data.output)
+        if height is not None:
+            ctx.choices["max_height"] = height
         if self.screen == "auto":
             ctx.choices["screen"] = resolve_screen(self)
         ctx.screen = self._make_screen(data, start, registry, ctx)
@@ -552,7 +567,7 @@ class MGGPRegressor:
                          high_level_mut_rate=self.high_level_mut_rate,
                          tournament_size=self.tournament_size,
                          elite_fraction=self.elite_fraction, max_terms=self.max_terms,
-                         max_height=self.max_height, on_generation=on_generation,
+                         max_height=self.max_height_, on_generation=on_generation,
                          checkpoint=checkpoint, resume=resume,
                          context=json.loads(json.dumps(context, default=str)),
                          structure=shape)

@@ -32,10 +32,10 @@ from narx.outliers import ARX_SIGMAS, SPIKE_BAND, SPIKE_WIDTH
 from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
 from .checkpoint import CHECKPOINT_SHARE
-from .choices import (GAIN, PILOT, SIZE_TOLERANCE, class_margins, heldout_samples,
+from .choices import (GAIN, HEIGHT, PILOT, SIZE_TOLERANCE, class_margins, heldout_samples,
                       holdout_words, percent, size_tolerance)
 from .operator_stage import OPERATOR_GAIN
-from .primitives import BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS, max_lag_for_height
+from .primitives import MAX_HEIGHT, BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS, max_lag_for_height
 
 __all__ = ["MAX_HEIGHT", "Param", "Rule", "Int", "Real", "OneOf", "Bool", "Seed", "Kind", "PARAMS",
            "DIAGNOSE_PARAMS", "GROUPS", "check_params", "check_value", "context_of",
@@ -92,6 +92,25 @@ class Int(Rule):
             return self.none
         return _integer(v) and ((v >= self.lo and (self.hi is None or v <= self.hi))
                                 or v in self.also)
+
+
+def _int_or_auto(text: str):
+    """A command-line value: 'auto' or an integer."""
+    return "auto" if text == "auto" else int(text)
+
+
+class IntOrAuto(Int):
+    """'auto' or an integer as :class:`Int` takes it."""
+
+    argtype = staticmethod(_int_or_auto)
+
+    def __init__(self, lo: int, hi: Optional[int] = None, why: str = ""):
+        super().__init__(lo, hi=hi, why=why)
+        self.cli_words += ", or auto"
+        self.words += ", or 'auto'"
+
+    def ok(self, v) -> bool:
+        return (isinstance(v, str) and v == "auto") or super().ok(v)
 
 
 class Real(Rule):
@@ -283,12 +302,6 @@ _BOUC_WEN_TEXT = ", ".join(f"{s:g}" for s in dict.fromkeys(s for s, _ in BOUC_WE
 _N_EXAMPLE = heldout_samples(500)
 _SIZE_TEXT = (f"within {percent(SIZE_TOLERANCE)} of the least (2/√n on n held-out samples "
               f"when larger: {percent(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE})")
-#: largest max_height: a back-shift chain q⁻³ per level reaches lag 1 + 3h,
-#: 61 samples at 20, and the trees (products of up to 2^h factors) take
-#: time exponential in h to draw and decode (seconds at 40, a hang at 100);
-#: a longer memory is for hand-written terms (``mggp estimate``) or the
-#: memory operators (--operators)
-MAX_HEIGHT = 20
 _HEIGHT_WHY = (f"trees of height h reach lags up to 1 + 3h, {max_lag_for_height(MAX_HEIGHT)} "
                f"at {MAX_HEIGHT}, and grow exponentially with h")
 _ROWS = (
@@ -328,9 +341,12 @@ _ROWS = (
           "share of each generation copied unchanged (the best)", "budget"),
     Param("max_terms", 15, Int(1), "largest number of terms of a model", "model class",
           "--max-terms", meta=True),
-    Param("max_height", 5, Int(1, hi=MAX_HEIGHT, why=_HEIGHT_WHY), "height of the GP "
-          f"trees; a tree of height h reaches lags up to 1 + 3h; at most {MAX_HEIGHT}",
-          "model class", "--max-height", meta=True),
+    Param("max_height", "auto", IntOrAuto(1, hi=MAX_HEIGHT, why=_HEIGHT_WHY), "height of "
+          f"the GP trees; a tree of height h reaches lags up to 1 + 3h; at most {MAX_HEIGHT}; "
+          f"'auto': {HEIGHT} (lags up to {1 + 3 * HEIGHT}), raised to reach an input that acts "
+          "on the output only beyond them (a dead time found by a linear ARX scan)",
+          "model class", "--max-height", meta=True,
+          default_text=f"auto ({HEIGHT}, or what reaches a dead time)"),
     Param("use_phi", "auto", OneOf((True, False, "auto")), "terms may hold Φ-functions "
           "of lagged inputs (input increments and their signs, which model hysteresis); "
           "'auto': a pilot search of each model class (no Φ, Φ, and with operators='auto' "
@@ -493,7 +509,10 @@ DIAGNOSE_PARAMS: Dict[str, Param] = {p.name: p for p in (
     _diagnose_row("population"),
     _diagnose_row("generations", default=100),
     _diagnose_row("max_terms", group="budget"),
-    _diagnose_row("max_height", group="budget"),
+    _diagnose_row("max_height", group="budget", default=HEIGHT,
+                  rule=Int(1, hi=MAX_HEIGHT, why=_HEIGHT_WHY), default_text=None,
+                  help=f"height of the GP trees; a tree of height h reaches lags up to "
+                  f"1 + 3h; at most {MAX_HEIGHT}"),
     _diagnose_row("max_degree", default=3, group="budget", default_text=None),
     _diagnose_row("window", group="budget", help="multiple-shooting window in samples of "
                   "the baseline search"),

@@ -36,8 +36,7 @@ from .choices import error_floor
 from .exceptions import SearchPrecisionWarning
 
 __all__ = ["SearchPrecisionWarning", "PrecisionCheck", "search_precision", "offsets",
-           "offset_message", "horizon_message", "dead_time_message", "data_warnings",
-           "DEAD_TIME_GAIN"]
+           "offset_message", "horizon_message", "dead_time_message", "data_warnings"]
 
 #: the QR refit scoring this many times better than the search's own fit
 #: counts as lost precision
@@ -142,50 +141,26 @@ def horizon_message(y, horizon: int, what: str, limit: float = 0.99) -> str:
             f"of several of the output's time constants is usual (try a longer one)")
 
 
-#: a dead time is named when its scan predicts over this factor better than any
-#: model whose input lags stay within the search's reach
-DEAD_TIME_GAIN = 1.25
-
-
 def dead_time_message(data, reach: int, max_height: int, max_lag=None) -> str:
-    """A sentence for each input that acts on the output only beyond the
-    lags a search reaches (``reach``: what ``max_height`` reaches, 1 + 3 ×
-    height, capped by ``max_lag``): the best dead time of the linear ARX
-    scan of :func:`narx.deadtime.onset_scan` lies beyond ``reach`` and
-    predicts over :data:`DEAD_TIME_GAIN` times better than any dead time
-    within it and than the model just before it
-    (:meth:`narx.deadtime.OnsetScan.onset_gain`: the effect starts there,
-    the error does not only drift with the lag); the sentence says which
-    ``max_height`` (or ``max_lag``) reaches it. Not for an input that
-    nearly repeats itself at that lag
-    (:meth:`narx.deadtime.OnsetScan.periodic`: a period, not a dead time,
-    would give the gain); '' when no input qualifies."""
-    from narx.deadtime import SPAN, onset_scan
-    from .primitives import max_lag_for_height
-    from .params import MAX_HEIGHT
+    """A sentence for each input of :func:`narx.deadtime.late_inputs` (``reach``: what
+    ``max_height`` reaches, 1 + 3 × height, capped by ``max_lag``), saying
+    which ``max_height`` (or ``max_lag``) reaches it; '' when there is
+    none."""
+    from narx.deadtime import SPAN, late_inputs, late_words
+    from .choices import height_for
+    from .primitives import MAX_HEIGHT, max_lag_for_height
     out = []
-    for name in data.inputs:
-        scan = onset_scan(data, name)
-        if scan.rmse.size == 0:
-            continue
-        d, best, near = scan.best, scan.best_rmse, scan.best_within(reach)
-        if (d <= reach or not near > DEAD_TIME_GAIN * best
-                or not scan.onset_gain() > DEAD_TIME_GAIN or scan.periodic(data.input(name))):
-            continue
-        last = d + SPAN - 1                     # the dead time lies in d..last
-        h = next((h for h in range(max_height, MAX_HEIGHT + 1)
-                  if max_lag_for_height(h) >= last), None)
+    for name, scan in late_inputs(data, reach):
+        last = scan.best + SPAN - 1             # the dead time lies in best..last
+        h = height_for(scan, max_height)
         fix = []
         if max_lag is not None and max_lag < last:
             fix.append(f"raise max_lag to {last} or more (--max-lag)")
         if max_lag_for_height(max_height) < last:
             fix.append(f"raise max_height to {h} (--max-height {h})" if h is not None else
-                       f"remove the dead time (shift {name} by {d - 1} samples: trees "
-                       f"reach lag {max_lag_for_height(MAX_HEIGHT)} at most)")
-        out.append(f"input {name!r} acts on the output from about lag {d}: a linear ARX "
-                   f"model predicts one step ahead with RMSE {best:.4g} from its lags "
-                   f"{d}-{last}, {near / best:.3g} times better than from any lags "
-                   f"starting within {reach}, the largest this search reaches; "
+                       f"remove the dead time (shift {name} by {scan.best - 1} samples: "
+                       f"trees reach lag {max_lag_for_height(MAX_HEIGHT)} at most)")
+        out.append(f"{late_words(name, scan, reach)}, the largest this search reaches; "
                    f"{' and '.join(fix)}")
     return "; ".join(out)
 

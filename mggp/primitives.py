@@ -444,6 +444,14 @@ def max_lag_for_height(height: int) -> int:
     return 1 + max(SHIFTS.values()) * height
 
 
+#: largest max_height: a back-shift chain q⁻³ per level reaches lag 1 + 3h,
+#: 61 samples at 20, and the trees (products of up to 2^h factors) take
+#: time exponential in h to draw and decode (seconds at 40, a hang at 100);
+#: a longer memory is for hand-written terms (``mggp estimate``) or the
+#: memory operators (--operators)
+MAX_HEIGHT = 20
+
+
 def reachable_lag(height: int, max_lag=None) -> int:
     """Largest lag a search's terms can have: what trees of ``height`` reach
     (:func:`max_lag_for_height`), capped by ``max_lag`` when given."""

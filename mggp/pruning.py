@@ -81,5 +81,5 @@ def t_threshold_of(est, n_inputs: int) -> float:
     if est.t_threshold is not None:
         return float(est.t_threshold)
     from .primitives import reachable_lag
-    return bonferroni_t(n_inputs, reachable_lag(est.max_height, est.max_lag),
+    return bonferroni_t(n_inputs, reachable_lag(est.max_height_, est.max_lag),
                         est.max_degree or 3)

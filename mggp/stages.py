@@ -232,7 +232,7 @@ def local_search(terms, data, ctx):
         return terms
     from .local_search import improve, term_moves
     from .primitives import reachable_lag
-    lags = range(1, reachable_lag(est.max_height, est.max_lag) + 1)
+    lags = range(1, reachable_lag(est.max_height_, est.max_lag) + 1)
     degree = est.max_degree or max(3, max((t.degree for t in terms), default=1))
     moves = term_moves(data.signals, lags, degree, est._allowed)
     n = data.n - ctx.start

@@ -32,7 +32,8 @@ import numpy as np
 
 from .data import Data
 
-__all__ = ["MAX_DELAY", "ROWS", "SPAN", "OnsetScan", "onset_scan"]
+__all__ = ["GAIN", "MAX_DELAY", "ROWS", "SPAN", "OnsetScan", "late_inputs", "late_words",
+           "onset_scan"]
 
 #: largest dead time scanned (at most a tenth of the rows scanned)
 MAX_DELAY = 200
@@ -40,6 +41,9 @@ MAX_DELAY = 200
 ROWS = 20_000
 #: input lags of each candidate model: d, d+1, ..., d+SPAN-1
 SPAN = 4
+#: an input is late when its best dead time predicts over this factor better than
+#: any within reach and than the model just before it
+GAIN = 1.25
 
 
 @dataclass(frozen=True)
@@ -111,3 +115,32 @@ def onset_scan(data: Data, name: str, max_delay: int = MAX_DELAY) -> OnsetScan:
         r = t - X @ np.linalg.lstsq(X, t, rcond=None)[0]
         rmse[d - 1] = np.sqrt(np.mean(r * r))
     return OnsetScan(name, np.arange(1, top + 1), rmse)
+
+
+def late_inputs(data: Data, reach: int) -> list:
+    """``(name, scan)`` of each input that acts on the output only beyond
+    the lags ``reach``: the best dead time ``d`` of :func:`onset_scan` lies
+    beyond ``reach`` and predicts over :data:`GAIN` times better than any
+    dead time within it and than the model just before it
+    (:meth:`OnsetScan.onset_gain`: the effect starts there, the error does
+    not only drift with the lag). Not an input that nearly repeats itself
+    at that lag (:meth:`OnsetScan.periodic`: a period, not a dead time,
+    would give the gain)."""
+    out = []
+    for name in data.inputs:
+        scan = onset_scan(data, name)
+        if scan.rmse.size == 0:
+            continue
+        if (scan.best > reach and scan.best_within(reach) > GAIN * scan.best_rmse
+                and scan.onset_gain() > GAIN and not scan.periodic(data.input(name))):
+            out.append((name, scan))
+    return out
+
+
+def late_words(name: str, scan: OnsetScan, reach: int) -> str:
+    """What :func:`late_inputs` found for one input, in words."""
+    d = scan.best
+    return (f"input {name!r} acts on the output from about lag {d}: a linear ARX model "
+            f"predicts one step ahead with RMSE {scan.best_rmse:.4g} from its lags "
+            f"{d}-{d + SPAN - 1}, {scan.best_within(reach) / scan.best_rmse:.3g} times better "
+            f"than from any lags starting within {reach}")

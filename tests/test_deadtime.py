@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from narx import Data
-from narx.deadtime import SPAN, onset_scan
-from mggp.precision import DEAD_TIME_GAIN, dead_time_message
+from narx.deadtime import GAIN as DEAD_TIME_GAIN, SPAN, onset_scan
+from mggp.precision import dead_time_message
 
 
 def _delayed(d, n=2000, seed=5, second=None):
@@ -48,14 +48,23 @@ def test_only_the_late_input_is_named():
     assert "input 'u'" in msg and "input 'v'" not in msg
 
 
-def test_the_fit_warns_before_the_search():
+def test_the_fit_raises_its_height_to_reach_a_dead_time():
+    """max_height='auto' (the default) takes the height that reaches the
+    dead time and says so; an explicit height (the control) keeps it and
+    warns instead; without a dead time 'auto' stays at 5."""
     from mggp import MGGPRegressor
-    with pytest.warns(UserWarning, match="acts on the output from about lag"):
-        MGGPRegressor(population=20, generations=2, random_state=0).fit(_delayed(25))
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
-        MGGPRegressor(population=20, generations=2, random_state=0, max_height=9,
-                      use_phi=False, constant=False, size="search").fit(_delayed(25))
+        est = MGGPRegressor(population=20, generations=2, random_state=0).fit(_delayed(25))
+    c = est.choices_["max_height"]
+    assert est.max_height_ == 9 == c["value"] and "acts on the output from about lag 2" in c["why"]
+    assert est.model_.meta["max_height"] == 9
+    with pytest.warns(UserWarning, match="acts on the output from about lag"):
+        fixed = MGGPRegressor(population=20, generations=2, random_state=0,
+                              max_height=5).fit(_delayed(25))
+    assert fixed.max_height_ == 5 and "max_height" not in fixed.choices_
+    plain = MGGPRegressor(population=20, generations=2, random_state=0).fit(_delayed(10))
+    assert plain.max_height_ == 5 and plain.choices_["max_height"]["value"] == 5
 
 
 def test_no_dead_time_named_on_the_panel_records():
@@ -113,7 +122,9 @@ def test_an_error_that_only_drifts_with_the_lag_is_no_dead_time():
 
 def test_the_benchmark_warns_exactly_beyond_reach():
     from benchmarks.dead_time import DELAYS, REACH, detection
-    rows = [r.split("|")[1:5] for r in detection(seeds=1).splitlines()[2:]]
-    for (d, n, found, warned), delay in zip(rows, DELAYS):
+    rows = [r.split("|")[1:6] for r in detection(seeds=1).splitlines()[2:]]
+    for (d, n, found, warned, heights), delay in zip(rows, DELAYS):
         assert int(d) == delay and found.strip() == "1"
         assert warned.strip() == ("1" if delay > REACH else "0"), delay
+        h = int(heights.split("(")[0])
+        assert (h > 5) == (delay > REACH) and 1 + 3 * h >= delay, delay

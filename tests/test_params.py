@@ -149,7 +149,7 @@ def test_checkpoint_context_and_meta_keep_their_names():
     ("inputs", "u", "inputs must be None or a list of names, got 'u'"),
     ("max_height", 100, "max_height must be an integer between 1 and 20 (trees of height h "
                         "reach lags up to 1 + 3h, 61 at 20, and grow exponentially with h), "
-                        "got 100"),
+                        "or 'auto', got 100"),
 ])
 def test_every_parameter_is_checked_by_its_row(record, param, value, text):
     with pytest.raises(ValueError) as exc:
