@@ -150,26 +150,41 @@ def _side(y: np.ndarray, side: int, excluded: np.ndarray, limit: int) -> np.ndar
     a group, not one run at a time, so that equal glitches do not hide
     each other."""
     n = len(y)
+    free = ~excluded
+    if free.sum() < 2:
+        return np.zeros(n, dtype=bool)
+    far = float(np.min(y[free])) if side > 0 else float(np.max(y[free]))  # the rest's other end
+    order = np.argsort(-side * y, kind="stable")
     taken = np.zeros(n, dtype=bool)
-    best = taken.copy()
-    for k in np.argsort(-side * y, kind="stable"):
+    idx, best, edge, pos = [], 0, None, 0
+    for k in order:
         if excluded[k] or taken[k]:
             continue
         runs = _isolated_runs(y, int(k), SPIKE_WIDTH)
         if not runs:
             break
         a, b = runs[0]
+        new = [j for j in range(a, b) if not taken[j]]
         taken[a:b] = True
-        if taken.sum() > limit:
+        idx += new
+        if len(idx) > limit:
             break
-        rest = ~(taken | excluded)
-        lo, hi = float(np.min(y[rest])), float(np.max(y[rest]))
+        inner = min(y[a:b]) if side > 0 else max(y[a:b])
+        edge = inner if edge is None else (min(edge, inner) if side > 0 else max(edge, inner))
+        while pos < n and (taken[order[pos]] or excluded[order[pos]]):
+            pos += 1                            # the rest's extreme on this side
+        if pos == n:
+            break
+        near = float(y[order[pos]])
+        lo, hi = (far, near) if side > 0 else (near, far)
         if hi <= lo:
             continue
-        gap = (np.min(y[taken]) - hi) if side > 0 else (lo - np.max(y[taken]))
+        gap = (edge - hi) if side > 0 else (lo - edge)
         if gap > SPIKE_BAND * (hi - lo):
-            best = taken.copy()
-    return best
+            best = len(idx)
+    out = np.zeros(n, dtype=bool)
+    out[idx[:best]] = True
+    return out
 
 
 def _spans(mask: np.ndarray):
