@@ -128,3 +128,22 @@ def test_the_benchmark_warns_exactly_beyond_reach():
         assert warned.strip() == ("1" if delay > REACH else "0"), delay
         h = int(heights.split("(")[0])
         assert (h > 5) == (delay > REACH) and 1 + 3 * h >= delay, delay
+
+
+def test_the_diagnosis_reaches_a_dead_time_and_does_not_call_it_hysteresis():
+    """A 25-sample dead time: the diagnosis raises its searches' height to 9,
+    says so, and names no hysteresis; with the dead time hidden from it
+    (the control: late_inputs patched to find none) the baseline at height
+    5 cannot reach lag 25 and the tests name hysteresis."""
+    import narx.deadtime
+    from mggp.diagnose import diagnose
+    from mggp.diagnose.extend import Budget
+    kw = dict(budget=Budget(population=100, generations=15), seed=1)
+    dx = diagnose(_delayed(25), **kw)
+    assert dx.settings["dead_time"]["height"] == 9
+    assert "the searches' trees have height 9" in dx.summary()
+    assert "hysteresis" not in dx.effects
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(narx.deadtime, "late_inputs", lambda data, reach: [])
+        blind = diagnose(_delayed(25), **kw)
+    assert blind.settings["dead_time"] is None and "hysteresis" in blind.effects

@@ -107,6 +107,10 @@ def terminal_summary(dx) -> str:
     if not np.isfinite(g.baseline):
         lines.append("warning: the baseline's free run diverges on the measuring samples, "
                      "so no gain can be measured against it")
+    late = dx.settings.get("dead_time")
+    if late:
+        lines.append(f"note: {late['why']}; the searches' trees have height {late['height']} "
+                     f"to reach it")
     glitches = dx.settings.get("outliers")
     if isinstance(glitches, dict) and any(glitches.values()):
         lines.append("note: isolated glitches of the output repaired before the diagnosis "

@@ -255,6 +255,32 @@ def outside_fit_range(fit: Data, measure: Data, start: int = 0) -> Dict[str, flo
     return out
 
 
+def _reach_dead_time(fit: Data, budget: Budget):
+    """``(budget, said)``: the budget with its tree height raised to the
+    least that reaches every input acting on the output only beyond the
+    lags its height reaches (:func:`narx.deadtime.late_inputs`, the rule
+    of ``max_height='auto'`` in :func:`mggp.choices.height_choice`), and
+    what was found in words (None: no such input). A baseline that cannot
+    reach a dead time misses dynamics that no hysteresis term supplies,
+    and the tests would name the wrong cause. A dead time beyond what
+    :data:`mggp.primitives.MAX_HEIGHT` reaches leaves the height."""
+    from dataclasses import replace
+    from narx.deadtime import late_inputs, late_words
+    from ..choices import height_for
+    from ..primitives import max_lag_for_height
+    reach = max_lag_for_height(budget.max_height)
+    late = late_inputs(fit, reach)
+    if not late:
+        return budget, None
+    heights = [height_for(scan, budget.max_height) for _, scan in late]
+    said = "; ".join(late_words(name, scan, reach) for name, scan in late)
+    if None in heights:
+        return budget, {"height": budget.max_height, "why": said + ": beyond what the "
+                        "highest trees reach; remove the dead time (shift the input)"}
+    h = max(heights)
+    return replace(budget, max_height=h), {"height": h, "why": said}
+
+
 def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Model] = None,
              *, budget: Budget = Budget(), seed: int = 0, jobs: int = 1,
              holdout: float = 0.3, alpha: float = 0.01, resolution: float = 0.005,
@@ -310,6 +336,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     fit, measure, (fit_name, fit_rng), (meas_name, meas_rng) = _split(
         train, validation, holdout, names)
     rec_names = (fit_name, meas_name if validation is not None else f"{fit_name} (tail)")
+    budget, dead_time = _reach_dead_time(fit, budget)
     timings, t0 = {}, time.perf_counter()
     if model is None:
         say(f"baseline: MGGP search, MS fitness, no Φ (population {budget.population}, "
@@ -358,6 +385,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                 else holdout, "budget": dict(budget.__dict__),
                 "baseline": base_source, "extension_search": plan.setting.describe(),
                 "measure_outside_fit_range": outside_fit_range(fit, measure, start),
+                "dead_time": dead_time,
                 "outliers": {label: [sp.to_dict() for sp in found]
                              for label, found in glitches.items()} if outliers == "auto"
                 else "keep",
