@@ -577,8 +577,8 @@ def height_choice(data: Data, max_lag=None) -> Choice:
     figs = {"reach": reach, "dead_times": {name: scan.best for name, scan in late}}
     if h == HEIGHT:
         return Choice("max_height", h, f"max height {h}, not raised: {said}, beyond what "
-                      f"{'max_lag' if max_lag is not None else 'the highest trees'} "
-                      f"allow", figs)
+                      f"{'max_lag allows' if max_lag is not None else 'the highest trees reach'}",
+                      figs)
     return Choice("max_height", h, f"max height {h}, so that the trees reach lag "
                   f"{reachable_lag(h, max_lag)}: {said}", figs)
 
