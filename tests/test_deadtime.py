@@ -147,3 +147,13 @@ def test_the_diagnosis_reaches_a_dead_time_and_does_not_call_it_hysteresis():
         mp.setattr(narx.deadtime, "late_inputs", lambda data, reach: [])
         blind = diagnose(_delayed(25), **kw)
     assert blind.settings["dead_time"] is None and "hysteresis" in blind.effects
+
+
+def test_the_height_is_not_raised_past_what_max_lag_allows():
+    """max_lag below the dead time: raising the height would not let the
+    search use the lags, so the height stays and the line says why; with
+    max_lag above it (the control) the height is raised."""
+    from mggp.choices import height_choice
+    low = height_choice(_delayed(25), max_lag=10)
+    assert low.value == 5 and low.why.endswith("beyond what max_lag allows")
+    assert height_choice(_delayed(25), max_lag=40).value == 9
