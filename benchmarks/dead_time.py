@@ -98,25 +98,17 @@ def fits(seeds) -> str:
 
 def report(seeds: int = 10, fit_seeds=(1, 2)) -> str:
     """The three parts as Markdown sections (part 3 only with ``fit_seeds``)."""
-    parts = [("Dead times found and named", lambda: detection(seeds)),
-             ("False warnings on records whose input acts at once",
-              lambda: false_warnings(seeds))]
-    if fit_seeds:
-        parts.append(("Fits of the record with a 25-sample dead time (default budget)",
-                      lambda: fits(fit_seeds)))
-    return "\n\n".join(f"## {title}\n\n{make()}" for title, make in parts)
+    from .outliers import sections
+    return sections([("Dead times found and named", detection),
+                     ("False warnings on records whose input acts at once", false_warnings)],
+                    seeds, ("Fits of the record with a 25-sample dead time (default budget)",
+                            fits), fit_seeds)
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m benchmarks.dead_time",
-                                description=__doc__.split("\n\n")[0])
-    p.add_argument("--seeds", type=int, default=10, help="data seeds of parts 1 and 2")
-    p.add_argument("--fits", type=int, default=2, help="fit seeds of part 3 (0: none)")
-    a = p.parse_args(argv)
-    t0 = time.perf_counter()
-    print(report(a.seeds, range(1, a.fits + 1)))
-    print(f"\n({time.perf_counter() - t0:.0f} s)")
-    return 0
+    from .outliers import run_study
+    return run_study("python -m benchmarks.dead_time", __doc__, report, argv, 10, 2,
+                     "data seeds of parts 1 and 2")
 
 
 if __name__ == "__main__":

@@ -190,23 +190,43 @@ def fits(seeds) -> str:
     return "\n".join(md)
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m benchmarks.outliers",
-                                description=__doc__.split("\n\n")[0])
-    p.add_argument("--seeds", type=int, default=30, help="data seeds per Piroddi setting")
-    p.add_argument("--fits", type=int, default=3, help="fit seeds of part 3 (0: none)")
+def run_study(prog: str, doc: str, report, argv, seeds: int, fits: int,
+              seeds_help: str) -> int:
+    """The command line both data-check studies share: ``--seeds`` (data
+    seeds) and ``--fits`` (fit seeds of the last part, 0: none); prints
+    ``report(seeds, fit_seeds)`` and the time it took."""
+    p = argparse.ArgumentParser(prog=prog, description=doc.split("\n\n")[0])
+    p.add_argument("--seeds", type=int, default=seeds, help=seeds_help)
+    p.add_argument("--fits", type=int, default=fits, help="fit seeds of the last part "
+                   "(0: none)")
     a = p.parse_args(argv)
     t0 = time.perf_counter()
-    recs = clean_records(a.seeds)
-    print("## False alarms on records without glitches\n")
-    print(false_alarms(recs))
-    print("\n## Planted glitches (S1-S6, 2,000 samples, 20 dB)\n")
-    print(planted(a.seeds))
-    if a.fits:
-        print("\n## Fits of a bilinear record with three glitched samples\n")
-        print(fits(range(1, a.fits + 1)))
+    print(report(a.seeds, range(1, a.fits + 1)))
     print(f"\n({time.perf_counter() - t0:.0f} s)")
     return 0
+
+
+def sections(parts, seeds: int, last=None, fit_seeds=()) -> str:
+    """Markdown sections: ``## title`` and ``make(seeds)`` for each
+    ``(title, make)`` of ``parts``, then ``last`` on ``fit_seeds`` (when
+    there are any)."""
+    done = [(title, make(seeds)) for title, make in parts]
+    if last is not None and fit_seeds:
+        done.append((last[0], last[1](fit_seeds)))
+    return "\n\n".join(f"## {title}\n\n{md}" for title, md in done)
+
+
+def report(seeds: int = 30, fit_seeds=(1, 2, 3)) -> str:
+    """The three parts as Markdown sections (part 3 only with ``fit_seeds``)."""
+    return sections([("False alarms on records without glitches",
+                      lambda n: false_alarms(clean_records(n))),
+                     ("Planted glitches (S1-S6, 2,000 samples, 20 dB)", planted)], seeds,
+                    ("Fits of a bilinear record with three glitched samples", fits), fit_seeds)
+
+
+def main(argv=None) -> int:
+    return run_study("python -m benchmarks.outliers", __doc__, report, argv, 30, 3,
+                     "data seeds per Piroddi setting")
 
 
 if __name__ == "__main__":
