@@ -214,6 +214,8 @@ def _cmd_estimate(args) -> int:
     output = args.output or "y"
     data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True,
                     varying_output="nothing can be identified")
+    from .params import PARAMS, check_options
+    check_options(args, [PARAMS["outliers"]])   # not given: fit's default
     spikes = []
     if args.outliers == "auto":                 # the rule of fit: narx.outliers
         from narx.outliers import find_spikes, repaired
@@ -353,10 +355,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "states conditions (Σ_y = 1, other cluster sums 0) derived from the "
                         "terms (default: none, plain LS)")
     add_refine_args(e, "100")
-    from .params import PARAMS
-    e.add_argument("--outliers", choices=["auto", "keep"], default="auto",
-                   help=PARAMS["outliers"].help.replace("%", "%%") + " (default: auto; said on stderr when "
-                        "it repairs)")
+    from .params import PARAMS, add_options
+    add_options(e, [PARAMS["outliers"]])      # fit's row: its rule, help and default
     e.add_argument("--out", metavar="MODEL.json",
                    help="write the fitted model here (default: not written, only printed)")
     add_signal_args(e)

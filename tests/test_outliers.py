@@ -205,3 +205,17 @@ def test_the_diagnosis_repairs_the_glitches_of_both_records_and_says_so():
     kept = diagnose(Data(u, glitched(y)), Data(uv, yv_glitched), model, outliers="keep", **kw)
     assert kept.settings["outliers"] == "keep" and "glitches" not in kept.summary()
     assert kept.baseline.rmse > 3 * dx.baseline.rmse
+
+
+@pytest.mark.parametrize("cmd", [["fit"], ["estimate", "--terms", "y[k-1]"]])
+def test_a_bad_outliers_value_is_one_error_line(tmp_path, cmd):
+    """fit and estimate take --outliers from the one row of mggp.params:
+    a value not in it gets one error line naming the choices, exit code 2."""
+    u, y = bilinear_record()
+    path = tmp_path / "rec.csv"
+    np.savetxt(path, np.c_[u, y], delimiter=",", header="u,y", comments="")
+    p = subprocess.run([sys.executable, "-m", "mggp", cmd[0], str(path), *cmd[1:],
+                        "--outliers", "drop"], capture_output=True, text=True)
+    assert p.returncode == 2 and p.stdout == ""
+    assert p.stderr.strip() == (f"error: {cmd[0]}: argument --outliers: invalid choice: "
+                                f"'drop' (choose from 'auto', 'keep')")
