@@ -53,6 +53,7 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "HELD_EXCITATION", "HOLDOUT", "HOLDOUT_ENDS", "PILOT", "RESOLUTION", "error_floor",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
            "class_choice", "class_margins", "outliers_choice", "height_choice", "height_for",
+           "dead_time_height",
            "HEIGHT",
            "constant_choice", "constant_pays", "constant_pilot_choice",
            "without_constant",
@@ -557,22 +558,37 @@ def height_for(scan, least: int):
                 None)
 
 
-def height_choice(data: Data, max_lag=None) -> Choice:
+def dead_time_height(data: Data, least: int, max_lag=None, scans=None):
+    """``(height, late, reach)``: the least tree height from ``least`` whose
+    trees reach every input that acts on the output only beyond the lags
+    ``reach`` that ``least`` reaches (capped by ``max_lag``; ``late``:
+    :func:`narx.deadtime.late_inputs`, a dead time found by a linear ARX
+    scan, ``scans`` its :func:`narx.deadtime.onset_scans` when already
+    computed); ``least`` itself when there is none, when one lies beyond
+    what :data:`mggp.primitives.MAX_HEIGHT` reaches, or when ``max_lag``
+    forbids the lags (the search could not use them)."""
+    from narx.deadtime import late_inputs
+    from .primitives import reachable_lag
+    reach = reachable_lag(least, max_lag)
+    late = late_inputs(data, reach, scans)
+    heights = [height_for(scan, least) for _, scan in late]
+    if not late or None in heights or (max_lag is not None and max_lag <= reach):
+        return least, late, reach
+    return max(heights), late, reach
+
+
+def height_choice(data: Data, max_lag=None, scans=None) -> Choice:
     """``max_height='auto'``: :data:`HEIGHT`, raised to the least height
     whose trees reach every input that acts on the output only beyond its
-    lags (:func:`narx.deadtime.late_inputs`, a dead time found by a linear
-    ARX scan), up to :data:`mggp.primitives.MAX_HEIGHT`; not raised beyond what
-    ``max_lag`` allows (the search could not use it)."""
-    from narx.deadtime import late_inputs, late_words
+    lags, up to :data:`mggp.primitives.MAX_HEIGHT`
+    (:func:`dead_time_height`)."""
+    from narx.deadtime import late_words
     from .primitives import reachable_lag
-    reach = reachable_lag(HEIGHT, max_lag)
-    late = late_inputs(data, reach)
+    h, late, reach = dead_time_height(data, HEIGHT, max_lag, scans)
     if not late:
         return Choice("max_height", HEIGHT, f"max height {HEIGHT}: no input acts on the "
                       f"output only beyond lag {reach} (a linear ARX scan of dead times)",
                       {"reach": reach})
-    heights = [height_for(scan, HEIGHT) for _, scan in late]
-    h = HEIGHT if None in heights or max_lag is not None and max_lag <= reach else max(heights)
     said = "; ".join(late_words(name, scan, reach) for name, scan in late)
     figs = {"reach": reach, "dead_times": {name: scan.best for name, scan in late}}
     if h == HEIGHT:

@@ -41,6 +41,7 @@ import numpy as np
 from narx import Model
 from narx.data import Data, DataError, as_data
 from narx.fitness import StructureScorer
+from narx.deadtime import onset_scans
 from narx.outliers import find_spikes, repaired
 from narx.phi import default_registry
 
@@ -265,7 +266,6 @@ class MGGPRegressor:
 
     # -------------------------------------------------------------- fit
     def _validate(self, data: Data):
-        check_params(self)
         start = max_lag_for_height(self.max_height_)
         self._check_samples(data.n)
         for name in data.inputs:
@@ -323,17 +323,18 @@ class MGGPRegressor:
             delattr(self, name)                 # nothing from an earlier fit survives
         data = as_data(u, y, inputs=self.inputs, output=self.output)
         data.require_output("fit")
+        check_params(self)
         spikes = find_spikes(data) if self.outliers == "auto" else []
         data = repaired(data, spikes)
-        height = None
-        if self.max_height == "auto":
-            check_params(self)                  # max_lag before it is used
-            height = height_choice(data, self.max_lag)
+        scans = onset_scans(data)               # the height choice's and the warning's
+        height = (height_choice(data, self.max_lag, scans) if self.max_height == "auto"
+                  else None)
         self.max_height_ = self.max_height if height is None else height.value
         start = self._validate(data)
         for msg, kind in data_warnings(data, self.fitness, self.window, self.k,
                                        reach=reachable_lag(self.max_height_, self.max_lag),
-                                       max_height=self.max_height_, max_lag=self.max_lag):
+                                       max_height=self.max_height_, max_lag=self.max_lag,
+                                       scans=scans):
             warnings.warn(msg, kind, stacklevel=2)
         held = ("auto" in (self.use_phi, self.constant, self.size)
                 and holdout_message(data))

@@ -141,16 +141,17 @@ def horizon_message(y, horizon: int, what: str, limit: float = 0.99) -> str:
             f"of several of the output's time constants is usual (try a longer one)")
 
 
-def dead_time_message(data, reach: int, max_height: int, max_lag=None) -> str:
+def dead_time_message(data, reach: int, max_height: int, max_lag=None, scans=None) -> str:
     """A sentence for each input of :func:`narx.deadtime.late_inputs` (``reach``: what
     ``max_height`` reaches, 1 + 3 × height, capped by ``max_lag``), saying
     which ``max_height`` (or ``max_lag``) reaches it; '' when there is
-    none."""
+    none (``scans``: :func:`narx.deadtime.onset_scans` of ``data``, when
+    already computed)."""
     from narx.deadtime import SPAN, late_inputs, late_words
     from .choices import height_for
     from .primitives import MAX_HEIGHT, max_lag_for_height
     out = []
-    for name, scan in late_inputs(data, reach):
+    for name, scan in late_inputs(data, reach, scans):
         last = scan.best + SPAN - 1             # the dead time lies in best..last
         h = height_for(scan, max_height)
         fix = []
@@ -166,17 +167,17 @@ def dead_time_message(data, reach: int, max_height: int, max_lag=None) -> str:
 
 
 def data_warnings(data, fitness: str, window: int, k: int, reach: Optional[int] = None,
-                  max_height: int = 5, max_lag=None) -> list:
+                  max_height: int = 5, max_lag=None, scans=None) -> list:
     """``(message, category)`` of what in the data will mislead a search
     with this fitness: a dominating offset, a horizon that sees little, an
-    input that acts beyond the lags ``reach`` (:func:`dead_time_message`;
-    not checked when None)."""
+    input that acts beyond the lags ``reach`` (:func:`dead_time_message`,
+    on ``scans`` when given; not checked when ``reach`` is None)."""
     out = []
     off = offset_message(data)
     if off:
         out.append((off, SearchPrecisionWarning))
     if reach is not None:
-        late = dead_time_message(data, reach, max_height, max_lag)
+        late = dead_time_message(data, reach, max_height, max_lag, scans)
         if late:
             out.append((late, UserWarning))
     if fitness in ("ms", "ksa"):

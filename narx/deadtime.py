@@ -31,9 +31,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .data import Data
+from .regressors import regressor_matrix
+from .terms import parse_terms
 
 __all__ = ["GAIN", "MAX_DELAY", "ROWS", "SPAN", "OnsetScan", "late_inputs", "late_words",
-           "onset_scan"]
+           "onset_scan", "onset_scans"]
 
 #: largest dead time scanned (at most a tenth of the rows scanned)
 MAX_DELAY = 200
@@ -95,29 +97,32 @@ class OnsetScan:
 
 def onset_scan(data: Data, name: str, max_delay: int = MAX_DELAY) -> OnsetScan:
     """The scan of input ``name`` of ``data`` (see the module)."""
-    y = np.asarray(data.require_output("scanning dead times"), dtype=float)[:ROWS]
-    n = len(y)
+    data.require_output("scanning dead times")
+    rec = data.slice(0, ROWS) if data.n > ROWS else data
+    n = rec.n
     top = max(1, min(int(max_delay), n // 10))
     p0 = top + SPAN
     if n - p0 < 4 * (2 + 2 * SPAN + SPAN * len(data.inputs)):
         return OnsetScan(name, np.arange(1, 1), np.zeros(0))
-    u = np.asarray(data.input(name), dtype=float)[:ROWS]
-    base = [y[p0 - i:n - i] for i in (1, 2)] + [np.ones(n - p0)]
-    for other in data.inputs:
-        if other != name:
-            v = np.asarray(data.input(other), dtype=float)[:ROWS]
-            base += [v[p0 - i:n - i] for i in range(1, SPAN + 1)]
-    t = y[p0:]
+    base = ["1", f"{data.output}[k-1]", f"{data.output}[k-2]"] + [
+        f"{v}[k-{i}]" for v in data.inputs if v != name for i in range(1, SPAN + 1)]
     rmse = np.empty(top)
     for d in range(1, top + 1):
-        lagged = [u[p0 - d - j:n - d - j] for j in range(SPAN)]
-        X = np.column_stack(base + lagged + [c * c for c in lagged])
+        lagged = [f"{name}[k-{d + j}]" for j in range(SPAN)]
+        terms = parse_terms(base + lagged + [f"{x}*{x}" for x in lagged], rec.signals)
+        X, t, _ = regressor_matrix(terms, rec, start=p0)
         r = t - X @ np.linalg.lstsq(X, t, rcond=None)[0]
         rmse[d - 1] = np.sqrt(np.mean(r * r))
     return OnsetScan(name, np.arange(1, top + 1), rmse)
 
 
-def late_inputs(data: Data, reach: int) -> list:
+def onset_scans(data: Data) -> dict:
+    """``{input name: OnsetScan}`` of every input of ``data``: the scans of a
+    record, computed once for each check that uses them."""
+    return {name: onset_scan(data, name) for name in data.inputs}
+
+
+def late_inputs(data: Data, reach: int, scans=None) -> list:
     """``(name, scan)`` of each input that acts on the output only beyond
     the lags ``reach``: the best dead time ``d`` of :func:`onset_scan` lies
     beyond ``reach`` and predicts over :data:`GAIN` times better than any
@@ -125,10 +130,12 @@ def late_inputs(data: Data, reach: int) -> list:
     (:meth:`OnsetScan.onset_gain`: the effect starts there, the error does
     not only drift with the lag). Not an input that nearly repeats itself
     at that lag (:meth:`OnsetScan.periodic`: a period, not a dead time,
-    would give the gain)."""
+    would give the gain). ``scans``: :func:`onset_scans` of ``data``, when
+    already computed."""
+    scans = onset_scans(data) if scans is None else scans
     out = []
     for name in data.inputs:
-        scan = onset_scan(data, name)
+        scan = scans[name]
         if scan.rmse.size == 0:
             continue
         if (scan.best > reach and scan.best_within(reach) > GAIN * scan.best_rmse

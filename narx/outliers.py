@@ -66,6 +66,8 @@ from typing import List
 import numpy as np
 
 from .data import Data
+from .regressors import regressor_matrix
+from .terms import parse_terms
 
 __all__ = ["ARX_ORDER", "ARX_SIGMAS", "MAX_SHARE", "SPIKE_BAND", "SPIKE_WIDTH", "Spike",
            "find_spikes", "repaired", "spikes_text"]
@@ -126,13 +128,11 @@ def _arx_sigmas(data: Data, runs) -> np.ndarray:
     """Largest residual of each run's samples from a linear ARX model of
     ``data`` (θ by least squares on every row: an input that explains a run
     is learnt from it), in robust standard deviations of the residuals."""
-    y, n, p = data.y, data.n, ARX_ORDER
-    cols = [y[p - i:n - i] for i in range(1, p + 1)]
-    for name in data.inputs:
-        u = data.input(name)
-        cols += [u[p - i:n - i] for i in range(1, p + 1)]
-    X = np.column_stack(cols + [np.ones(n - p)])
-    e = y[p:] - X @ np.linalg.lstsq(X, y[p:], rcond=None)[0]
+    p = ARX_ORDER
+    terms = parse_terms(["1"] + [f"{v}[k-{i}]" for v in (data.output, *data.inputs)
+                                 for i in range(1, p + 1)], data.signals)
+    X, t, _ = regressor_matrix(terms, data, start=p)
+    e = t - X @ np.linalg.lstsq(X, t, rcond=None)[0]
     scale = 1.4826 * float(np.median(np.abs(e - np.median(e)))) or float(np.std(e))
     out = []
     for a, b in runs:

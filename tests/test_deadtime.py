@@ -144,7 +144,7 @@ def test_the_diagnosis_reaches_a_dead_time_and_does_not_call_it_hysteresis():
     assert "the searches' trees have height 9" in dx.summary()
     assert "hysteresis" not in dx.effects
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(narx.deadtime, "late_inputs", lambda data, reach: [])
+        mp.setattr(narx.deadtime, "late_inputs", lambda data, reach, scans=None: [])
         blind = diagnose(_delayed(25), **kw)
     assert blind.settings["dead_time"] is None and "hysteresis" in blind.effects
 

@@ -258,26 +258,22 @@ def outside_fit_range(fit: Data, measure: Data, start: int = 0) -> Dict[str, flo
 def _reach_dead_time(fit: Data, budget: Budget):
     """``(budget, said)``: the budget with its tree height raised to the
     least that reaches every input acting on the output only beyond the
-    lags its height reaches (:func:`narx.deadtime.late_inputs`, the rule
-    of ``max_height='auto'`` in :func:`mggp.choices.height_choice`), and
-    what was found in words (None: no such input). A baseline that cannot
-    reach a dead time misses dynamics that no hysteresis term supplies,
-    and the tests would name the wrong cause. A dead time beyond what
-    :data:`mggp.primitives.MAX_HEIGHT` reaches leaves the height."""
+    lags its height reaches (:func:`mggp.choices.dead_time_height`, the
+    rule of ``max_height='auto'``), and what was found in words (None: no
+    such input). A baseline that cannot reach a dead time misses dynamics
+    that no hysteresis term supplies, and the tests would name the wrong
+    cause. A dead time beyond what :data:`mggp.primitives.MAX_HEIGHT`
+    reaches leaves the height."""
     from dataclasses import replace
-    from narx.deadtime import late_inputs, late_words
-    from ..choices import height_for
-    from ..primitives import max_lag_for_height
-    reach = max_lag_for_height(budget.max_height)
-    late = late_inputs(fit, reach)
+    from narx.deadtime import late_words
+    from ..choices import dead_time_height
+    h, late, reach = dead_time_height(fit, budget.max_height)
     if not late:
         return budget, None
-    heights = [height_for(scan, budget.max_height) for _, scan in late]
     said = "; ".join(late_words(name, scan, reach) for name, scan in late)
-    if None in heights:
-        return budget, {"height": budget.max_height, "why": said + ": beyond what the "
-                        "highest trees reach; remove the dead time (shift the input)"}
-    h = max(heights)
+    if h == budget.max_height:
+        return budget, {"height": h, "why": said + ": beyond what the highest trees "
+                        "reach; remove the dead time (shift the input)"}
     return replace(budget, max_height=h), {"height": h, "why": said}
 
 
