@@ -32,7 +32,7 @@ from typing import Optional
 
 import numpy as np
 
-from .choices import error_floor
+from .choices import HEIGHT, error_floor
 from .exceptions import SearchPrecisionWarning
 
 __all__ = ["SearchPrecisionWarning", "PrecisionCheck", "search_precision", "offsets",
@@ -167,7 +167,7 @@ def dead_time_message(data, reach: int, max_height: int, max_lag=None, scans=Non
 
 
 def data_warnings(data, fitness: str, window: int, k: int, reach: Optional[int] = None,
-                  max_height: int = 5, max_lag=None, scans=None) -> list:
+                  max_height: int = HEIGHT, max_lag=None, scans=None) -> list:
     """``(message, category)`` of what in the data will mislead a search
     with this fitness: a dominating offset, a horizon that sees little, an
     input that acts beyond the lags ``reach`` (:func:`dead_time_message`,
