@@ -526,18 +526,21 @@ def _key(label: str) -> str:
     return _LABELS.get(label, (label, label))[1]
 
 
-def outliers_choice(spikes, output: str = "y") -> Choice:
+def outliers_choice(spikes, output: str = "y", inputs=()) -> Choice:
     """``outliers='auto'``: the spikes :func:`narx.outliers.find_spikes` found
-    in the output (:class:`narx.outliers.Spike`), repaired before the
-    search; the value is their ``[start, stop]`` sample spans."""
+    in the output and the ``inputs`` (:class:`narx.outliers.Spike`), repaired
+    before the search; the value is their ``[signal, start, stop]`` spans."""
     figs = {"spikes": [s.to_dict() for s in spikes]}
     if not spikes:
-        return Choice("outliers", [], f"outliers: none in {output} (no run of at most "
+        names = ", ".join((output, *inputs))
+        return Choice("outliers", [], f"outliers: none in {names} (no run of at most "
                       f"{SPIKE_WIDTH} samples beyond the rest of its range by over "
-                      f"{percent(SPIKE_BAND)} that a linear ARX model cannot explain)", figs)
+                      f"{percent(SPIKE_BAND)} that a linear ARX model cannot explain, or, "
+                      f"in an input, that the output does not answer)", figs)
     n = len(spikes)
-    return Choice("outliers", [[s.start, s.stop] for s in spikes],
-                  f"outliers: {n} isolated glitch{'es' if n > 1 else ''} of {output} "
+    where = ", ".join(dict.fromkeys(s.signal for s in spikes))
+    return Choice("outliers", [s.span for s in spikes],
+                  f"outliers: {n} isolated glitch{'es' if n > 1 else ''} of {where} "
                   f"repaired by the line between {'their' if n > 1 else 'its'} neighbours: "
                   f"{spikes_text(spikes, output)}; --outliers keep fits every sample as "
                   f"measured", figs)

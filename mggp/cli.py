@@ -223,7 +223,7 @@ def _cmd_estimate(args) -> int:
         spikes = find_spikes(data)
         data = repaired(data, spikes)
         if spikes:
-            print(f"auto: {outliers_choice(spikes, output).why}", file=sys.stderr)
+            print(f"auto: {outliers_choice(spikes, output, inputs).why}", file=sys.stderr)
     model = Model(args.terms, inputs=inputs, output=output)
     need = model.max_lag + model.n_terms
     if data.n <= need:
@@ -247,7 +247,7 @@ def _cmd_estimate(args) -> int:
     osa = model.simulate(data, mode="osa")
     fr = model.simulate(data, mode="freerun")
     if args.outliers == "auto":
-        model.meta["outliers"] = [[sp.start, sp.stop] for sp in spikes]
+        model.meta["outliers"] = [sp.span for sp in spikes]
     model.meta.update({"command": "estimate", "data": str(args.data), "n_samples": data.n,
                        "constraints": args.constraints,
                        "train": {"osa_rmse": osa.rmse, "freerun_rmse": fr.rmse,

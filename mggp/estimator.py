@@ -177,8 +177,8 @@ class MGGPRegressor:
     (``model_.meta['estimation'] == 'ls-search'``). A
     :class:`mggp.SearchPrecisionWarning` names an offset that dominates a
     signal before the search (its normal equations lose precision on such
-    data). ``outliers_`` holds the isolated glitches of the output that
-    ``outliers='auto'`` repaired before the search
+    data). ``outliers_`` holds the isolated glitches of the output and the
+    inputs that ``outliers='auto'`` repaired before the search
     (:class:`narx.outliers.Spike`; the models are fitted on the repaired
     record).
     """
@@ -353,7 +353,7 @@ class MGGPRegressor:
                                  registry=registry, estimator=self.estimator)
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure)
         if self.outliers == "auto":
-            ctx.choices["outliers"] = outliers_choice(spikes, data.output)
+            ctx.choices["outliers"] = outliers_choice(spikes, data.output, data.inputs)
         if height is not None:
             ctx.choices["max_height"] = height
         if self.screen == "auto":

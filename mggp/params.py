@@ -468,13 +468,16 @@ _ROWS = (
     Param("output", "y", Kind("a name", lambda v: isinstance(v, str)), "output column "
           "name", "data", "--output", metavar="NAME"),
     Param("outliers", "auto", OneOf(("auto", "keep")), "isolated glitches of the "
-          f"measured output: 'auto' repairs every run of at most {SPIKE_WIDTH} samples that "
-          "lies on one side of both its neighbours, beyond the rest of the output's range "
-          f"by over {percent(SPIKE_BAND)} of it, and over {ARX_SIGMAS:g} robust standard "
-          "deviations from a linear ARX prediction (the straight line between its "
-          "neighbours replaces it; narx.outliers); 'keep': fit every sample as measured",
+          f"measured signals: 'auto' repairs every run of at most {SPIKE_WIDTH} samples that "
+          "lies on one side of both its neighbours, beyond the rest of its signal's range "
+          f"by over {percent(SPIKE_BAND)} of it, and, in the output, over {ARX_SIGMAS:g} "
+          "robust standard deviations from a linear ARX prediction, in an input, one the "
+          f"output does not answer (a linear ARX prediction over {ARX_SIGMAS:g} standard "
+          "deviations worse with it than with values inside the input's range, which fit "
+          "the output); the straight line between its neighbours replaces it "
+          "(narx.outliers); 'keep': fit every sample as measured",
           "data", "--outliers", context="if set", meta=True,
-          default_text="auto (repair isolated glitches of the output)"),
+          default_text="auto (repair isolated glitches of the output and inputs)"),
     Param("checkpoint", None, PATH, "save the search state to this file after a "
           "generation, as often as "
           f"keeps the writes within about {percent(CHECKPOINT_SHARE)} of the run's time; "

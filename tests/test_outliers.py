@@ -1,5 +1,5 @@
-"""Isolated glitches of the output: found, repaired, and the fit that follows
-(narx.outliers, MGGPRegressor(outliers=...), mggp fit --outliers)."""
+"""Isolated glitches of the output and inputs: found, repaired, and the fit
+that follows (narx.outliers, MGGPRegressor(outliers=...), mggp fit --outliers)."""
 import json
 import subprocess
 import sys
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import narx.outliers as outliers
-from benchmarks.outliers import TRUE, bilinear_record, glitched
+from benchmarks.outliers import (RECEIVERS, TRUE, bilinear_record, glitched, glitched_input,
+                                 received)
 from narx import Data, Model
 from narx.outliers import find_spikes, repaired
 
@@ -77,6 +78,41 @@ def test_repair_draws_the_line_between_the_neighbours_and_copies():
     assert repaired(d, []) is d
 
 
+def test_input_glitches_are_found_where_the_output_does_not_answer():
+    """Glitched input samples the output never answered are found exactly,
+    after the output's own glitch; the clean record (control) has none."""
+    u, y = bilinear_record()
+    spikes = find_spikes(Data(glitched_input(u), glitched(y)))
+    assert [(s.signal, s.start, s.stop) for s in spikes] == [
+        ("y", 300, 301), ("y", 431, 433), ("u", 300, 301), ("u", 431, 433)]
+    assert all(s.sigmas > outliers.ARX_SIGMAS for s in spikes)
+    assert find_spikes(Data(u, y)) == []
+    r = repaired(Data(glitched_input(u), y), spikes[2:])
+    assert r.input("u")[300] == pytest.approx((u[299] + u[301]) / 2)
+    assert np.array_equal(r.y, y)
+
+
+def _taken_pulses(seeds):
+    return sum(bool([s for s in find_spikes(received(name, seed)) if s.signal == "u"])
+               for name in RECEIVERS for seed in seeds)
+
+
+def test_pulses_the_system_received_are_kept():
+    """Five systems (a saturating one among them) driven through real input
+    pulses one to two ranges out: none is taken for a glitch. Controls: the
+    same pulses are taken when the output's answer is not looked at (tests
+    3'b and 3'c off), and the saturating system's with 3'c alone off."""
+    seeds = range(10)
+    assert _taken_pulses(seeds) == 0
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(outliers, "QUIET_SIGMAS", np.inf)
+        mp.setattr(outliers, "EDGE_SIGMAS", -np.inf)
+        assert _taken_pulses(seeds) >= 30
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(outliers, "EDGE_SIGMAS", -np.inf)
+        assert sum(bool(find_spikes(received("saturating", s))) for s in range(30)) >= 1
+
+
 def test_no_spike_on_the_panel_records():
     """Control on real and simulated records without glitches: the measured
     cascaded tanks, buck converter and MR damper, the simulated piezo,
@@ -114,8 +150,8 @@ def test_the_fit_repairs_the_glitches_and_finds_the_true_terms(seed):
     assert TRUE <= {str(t) for t in est.terms_}
     assert [(s.start, s.stop) for s in est.outliers_] == [(300, 301), (431, 433)]
     c = est.choices_["outliers"]
-    assert c["value"] == [[300, 301], [431, 433]] and "y[300]" in c["why"]
-    assert est.model_.meta["outliers"] == [[300, 301], [431, 433]]
+    assert c["value"] == [["y", 300, 301], ["y", 431, 433]] and "y[300]" in c["why"]
+    assert est.model_.meta["outliers"] == [["y", 300, 301], ["y", 431, 433]]
     clean = _fit(u, y, seed, "auto")
     assert clean.choices_["outliers"]["value"] == []
     val = Data(uv, yv)
@@ -125,6 +161,20 @@ def test_the_fit_repairs_the_glitches_and_finds_the_true_terms(seed):
     assert "outliers" not in kept.choices_ and kept.outliers_ == ()
     assert not TRUE <= {str(t) for t in kept.terms_}
     assert kept.simulate(val).rmse > 3 * e_auto
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_fit_repairs_a_glitched_input(seed):
+    """Three glitched input samples: the default repairs them and finds the
+    exact structure; with outliers='keep' (the control) it does not."""
+    u, y = bilinear_record()
+    us = glitched_input(u)
+    est = _fit(us, y, seed, "auto")
+    assert {str(t) for t in est.terms_} == TRUE
+    assert est.choices_["outliers"]["value"] == [["u", 300, 301], ["u", 431, 433]]
+    assert "2 isolated glitches of u" in est.choices_["outliers"]["why"]
+    kept = _fit(us, y, seed, "keep")
+    assert {str(t) for t in kept.terms_} != TRUE
 
 
 def test_mggp_fit_says_what_it_repaired(tmp_path):
@@ -139,7 +189,7 @@ def test_mggp_fit_says_what_it_repaired(tmp_path):
     line = [ln for ln in p.stderr.splitlines() if ln.startswith("auto: outliers:")]
     assert len(line) == 1 and "2 isolated glitches of y" in line[0] and "y[431:433]" in line[0]
     meta = json.loads(out.read_text())["meta"]
-    assert meta["outliers"] == [[300, 301], [431, 433]]
+    assert meta["outliers"] == [["y", 300, 301], ["y", 431, 433]]
     m = Model.load(str(out))
     assert m.meta["choices"]["outliers"]["figures"]["spikes"][0]["start"] == 300
     p = subprocess.run([sys.executable, "-m", "mggp", "fit", str(path), "--seed", "1",

@@ -113,7 +113,7 @@ def terminal_summary(dx) -> str:
                      f"to reach it")
     glitches = dx.settings.get("outliers")
     if isinstance(glitches, dict) and any(glitches.values()):
-        lines.append("note: isolated glitches of the output repaired before the diagnosis "
+        lines.append("note: isolated glitches repaired before the diagnosis "
                      "(--outliers keep: none): " + "; ".join(
                          f"{label}: " + spikes_text([Spike.from_dict(d) for d in found],
                                                     dx.fit_data.output)

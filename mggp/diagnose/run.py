@@ -308,7 +308,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
         ``search_callbacks(generations)`` returns the per-generation
         callbacks of each MGGP search (e.g. the progress line of ``mggp fit``).
     outliers : {'auto', 'keep'}
-        'auto': isolated glitches of each record's output are repaired
+        'auto': isolated glitches of each record's output and inputs are repaired
         first (:mod:`narx.outliers`, the rule of ``mggp fit``; listed in
         ``settings['outliers']`` and the summary); 'keep': every sample as
         measured.
