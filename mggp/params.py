@@ -472,7 +472,7 @@ _ROWS = (
           "lies on one side of both its neighbours, beyond the rest of its signal's range "
           f"by over {percent(SPIKE_BAND)} of it, and, in the output, over {ARX_SIGMAS:g} "
           "robust standard deviations from a linear ARX prediction, in an input, one the "
-          f"output does not answer (a linear ARX prediction over {ARX_SIGMAS:g} standard "
+          f"output does not answer (an ARX prediction over {ARX_SIGMAS:g} standard "
           "deviations worse with it than with values inside the input's range, which fit "
           "the output); the straight line between its neighbours replaces it "
           "(narx.outliers); 'keep': fit every sample as measured",
