@@ -11,6 +11,8 @@ Typical use::
     # the same, its simulation error whitened by a noise model (Box-Jenkins)
     python -m benchmarks.recovery --noise-snr 20 --n 2000 --fitness freerun \
         --estimator bj --vary-data
+    # what `mggp fit DATA.csv` does with no options on the same records
+    python -m benchmarks.recovery --noise-snr 20 --n 2000 --vary-data --default
 
 Setup (issue 3): 500 samples, candidate terms with lags up to 4 and degree
 up to 3, one-step-ahead (PEM) fitness with the BIC criterion, population
@@ -28,7 +30,9 @@ measurement noise on the output at that SNR in dB
 ``--estimator`` (:mod:`narx.output_error`). With ``--vary-data`` a data
 realisation on which the system itself diverges (S3 has a cubic output
 term: at 2,000 samples data seeds 0, 7 and 10 of 0–19 diverge) is
-replaced by the next seed not yet used.
+replaced by the next seed not yet used. ``--default`` replaces the
+protocol by the defaults of :class:`mggp.MGGPRegressor` (every choice
+automatic, the default budget: what ``mggp fit`` does without options).
 """
 from __future__ import annotations
 
@@ -44,11 +48,15 @@ SETTINGS = dict(fitness="pem", criterion="bic", population=200, generations=40,
                 max_degree=3, constant=False)
 
 
-def run(name, seed, data_seed, n=500, snr=None, **changes):
+def run(name, seed, data_seed, n=500, snr=None, default=False, **changes):
     """(hit, estimator) of one search on data realisation ``data_seed``;
-    ``changes`` override :data:`SETTINGS`."""
+    ``changes`` override :data:`SETTINGS`; ``default``: the estimator's own
+    defaults instead (``changes`` must then be empty)."""
     d = system_by_name(name, n=n, seed=data_seed, output_snr=snr)
-    est = MGGPRegressor(random_state=seed, **dict(SETTINGS, **changes)).fit(d.u, d.y)
+    kw = {} if default else dict(SETTINGS, **changes)
+    if default and changes:
+        raise ValueError(f"default=True takes no settings, got {sorted(changes)}")
+    est = MGGPRegressor(random_state=seed, **kw).fit(d.u, d.y)
     true = sorted(t for t in d.terms if "e[" not in t)
     return sorted(est.model_.term_texts) == true, est
 
@@ -81,7 +89,17 @@ def main(argv=None):
                    help="the search's structure without the one-term local search")
     p.add_argument("--show-misses", action="store_true",
                    help="print the structure of every miss (stderr)")
+    p.add_argument("--default", action="store_true",
+                   help="every setting at MGGPRegressor's default (what `mggp fit` does "
+                        "without options) instead of the protocol's; --fitness, --estimator "
+                        "and --no-local-search cannot be given with it")
     a = p.parse_args(argv)
+    changes = dict(fitness=a.fitness, estimator=a.estimator, local_search=not a.no_local_search)
+    if a.default:
+        if (a.fitness, a.estimator, a.no_local_search) != (SETTINGS["fitness"], "ls", False):
+            p.error("--default takes every setting at its default: drop --fitness, "
+                    "--estimator and --no-local-search")
+        changes = {}
     print("| system | exact structure | seconds per run |")
     print("|---|---:|---:|")
     for name in a.systems:
@@ -89,8 +107,7 @@ def main(argv=None):
         ds = data_seeds(name, a.seeds, a.n, a.noise_snr) if a.vary_data else [0] * a.seeds
         hits = 0
         for s, d in zip(range(a.seeds), ds):
-            hit, est = run(name, s, d, a.n, a.noise_snr, fitness=a.fitness,
-                           estimator=a.estimator, local_search=not a.no_local_search)
+            hit, est = run(name, s, d, a.n, a.noise_snr, default=a.default, **changes)
             hits += hit
             if not hit and a.show_misses:
                 print(f"  {name} seed {s} data seed {d}: {', '.join(est.model_.term_texts)}",

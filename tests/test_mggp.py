@@ -37,6 +37,17 @@ def test_recovery_control_wrong_with_tiny_budget():
     assert found != true
 
 
+def test_recovery_benchmark_default_takes_no_settings(capsys):
+    """benchmarks.recovery --default runs MGGPRegressor's own defaults, so a
+    protocol setting given with it is refused (command line and function)."""
+    from benchmarks import recovery
+    with pytest.raises(SystemExit) as e:
+        recovery.main(["--default", "--fitness", "freerun"])
+    assert e.value.code == 2 and "--default takes every setting" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="default=True takes no settings"):
+        recovery.run("S1", 0, 0, default=True, fitness="freerun")
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SYSTEMS)
 def test_structure_recovery_nine_of_ten_seeds(name):
