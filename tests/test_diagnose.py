@@ -139,25 +139,24 @@ def test_true_model_of_a_control_gets_no_finding():
     assert dx.findings == []
 
 
-#: the one known miss at this small budget: hysteresis is named, but the
-#: extension chosen on the fitting samples (14 terms, tail hold-out RMSE 0.84
-#: against the baseline's 2.11) loses on the validation sine (2.095 against
-#: 1.105), and the summary recommends the baseline
-_PI_SEED_2 = pytest.mark.xfail(strict=True, reason="extension generalises worse on the sine")
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("system,seed", [
-    (piezo_bouc_wen, 1), (piezo_bouc_wen, 2), (piezo_bouc_wen, 3),
-    (prandtl_ishlinskii, 1), pytest.param(prandtl_ishlinskii, 2, marks=_PI_SEED_2),
-    (prandtl_ishlinskii, 3)])
-def test_hysteresis_more_seeds(system, seed):
+@pytest.mark.parametrize("system,seed,extension_wins", [
+    (piezo_bouc_wen, 1, True), (piezo_bouc_wen, 2, True), (piezo_bouc_wen, 3, True),
+    (prandtl_ishlinskii, 1, True), (prandtl_ishlinskii, 2, False),
+    (prandtl_ishlinskii, 3, True)])
+def test_hysteresis_more_seeds(system, seed, extension_wins):
+    """Hysteresis is named on every seed. The one known miss at this small
+    budget (Prandtl-Ishlinskii, seed 2): the extension chosen on the fitting
+    samples (14 terms, tail hold-out RMSE 0.84 against the baseline's 2.11)
+    loses on the validation sine (2.095 against 1.105), and the summary then
+    recommends the baseline; should it start to win, this test says so."""
     train, val = hysteretic(system, seed)
     dx = diagnose(train, val, budget=SMALL, seed=seed)
-    assert "hysteresis" in dx.effects               # named on every seed, the miss included
-    if dx.gain.ratio <= 1:
-        assert "recommended: the baseline" in dx.summary()
-    assert_named_and_fixed(dx, "hysteresis")
+    if extension_wins:
+        assert_named_and_fixed(dx, "hysteresis")
+    else:
+        assert "hysteresis" in dx.effects and dx.gain.ratio < 1
+        assert "recommended: the baseline, which is kept" in dx.summary()
 
 
 @pytest.mark.slow
