@@ -62,11 +62,23 @@ def register(sub):
                                               {"report": "--report"}))
 
 
+def _duration(seconds: float) -> str:
+    """'42 s', '3 min 5 s' or '1 h 12 min'."""
+    s = int(round(seconds))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60} s"
+    return f"{s // 3600} h {s % 3600 // 60} min"
+
+
 class _Progress:
     """The progress line on ``stream``: which search runs (a model class's
     pilot or the full search, :meth:`phase`), its generation, the best
-    fitness and the time since the start; without a terminal one line every
-    twentieth of the full run's generations."""
+    fitness, the time since the start and, once the run's plan is known
+    (:meth:`plan`: the generations of every search of the fit), the time
+    left at the pace so far; without a terminal one line every twentieth of
+    the full run's generations."""
 
     def __init__(self, total, stream, quiet):
         self.total, self.stream, self.quiet = total, stream, quiet
@@ -74,21 +86,35 @@ class _Progress:
         self.label = "search"
         self.t0 = time.perf_counter()
         self.tty = hasattr(stream, "isatty") and stream.isatty()
+        self.planned, self.done, self.last = None, 0, None
+
+    def plan(self, generations: int) -> None:
+        """The generations of all the fit's searches together."""
+        self.planned = generations
 
     def phase(self, label: str, generations: int) -> None:
-        self.label, self.total = label, generations
+        self.label, self.total, self.last = label, generations, None
+
+    def left(self, elapsed: float) -> str:
+        """' (about 3 min 5 s left)' at the pace so far, or ''."""
+        if not self.planned or self.done < 3 or self.done >= self.planned:
+            return ""
+        return f" (about {_duration(elapsed / self.done * (self.planned - self.done))} left)"
 
     def __call__(self, state):
+        g = state.generation
+        self.done += 1 if self.last is None else max(g - self.last, 0)
+        self.last = g
         if self.quiet:
             return
-        g = state.generation
         rec = state.logbook[-1] if len(state.logbook) else {}
         best = rec.get("best", float("nan"))
         width = 24
         done = int(width * min(g, self.total) / max(self.total, 1))
         bar = "#" * done + "." * (width - done)
+        elapsed = time.perf_counter() - self.t0
         msg = (f"{self.label}: gen {g:>4d}/{self.total} [{bar}] best {fmt(best)} "
-               f"terms {rec.get('best_terms', '?')} {time.perf_counter() - self.t0:6.1f}s")
+               f"terms {rec.get('best_terms', '?')} {elapsed:6.1f}s{self.left(elapsed)}")
         if self.tty:
             self.stream.write("\r" + msg)
             if g >= self.total:

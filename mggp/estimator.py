@@ -399,6 +399,7 @@ class MGGPRegressor:
                 "not compared with other model classes", {})
         if len(classes) == 1 and not piloted:
             c = classes[0]
+            self._plan(self.generations + 1)    # generation 0 is the first population
             self._phase(f"search {c.label}", self.generations)
             ctx.search_class = c
             ctx.seed, ctx.result = self._search(ctx, c, self.generations, ctx.screen,
@@ -407,6 +408,7 @@ class MGGPRegressor:
             return ctx.result.evaluations
         pilot = pilot_generations(self.generations)
         n = len(classes) + piloted
+        self._plan(n * (pilot + 1) + max(self.generations - pilot, 0))
         seed, runs = None, []
         if self.resume and self.checkpoint is not None and os.path.exists(self.checkpoint):
             check_context(self.checkpoint, self._context(ctx.data))   # before the pilots
@@ -511,6 +513,13 @@ class MGGPRegressor:
         for cb in self.callbacks or []:
             if hasattr(cb, "phase"):
                 cb.phase(label, generations)
+
+    def _plan(self, generations: int) -> None:
+        """Tell the callbacks that have a ``plan`` method how many
+        generations the fit's searches run together."""
+        for cb in self.callbacks or []:
+            if hasattr(cb, "plan"):
+                cb.plan(generations)
 
     def _held_candidate(self, ctx: FitContext, res, shape):
         """The structure of ``res`` (scored as ``shape`` makes it) the hold

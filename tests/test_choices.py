@@ -94,7 +94,10 @@ class _Phases:
     """A callback that records the searches it is told of and their generations."""
 
     def __init__(self):
-        self.phases, self.generations = [], []
+        self.phases, self.generations, self.planned = [], [], None
+
+    def plan(self, generations):
+        self.planned = generations
 
     def phase(self, label, generations):
         self.phases.append((label, generations))
@@ -115,10 +118,32 @@ def test_callbacks_are_told_which_search_runs():
     # pilot's run continues from its last generation
     assert [g for lab, g in cb.generations if lab == f"search {chosen}"] == [2, 3, 4, 5]
     assert len(plain) == len(cb.generations)        # a plain callable still runs
+    assert cb.planned == len(cb.generations) == 12  # the plan: every report of the fit
     # control: one class asked for, one search
     one = _Phases()
     MGGPRegressor(**dict(kw, use_phi=False, callbacks=[one])).fit(d.u, d.y)
     assert one.phases == [("search no Φ", 5)]
+    assert one.planned == len(one.generations) == 6
+
+
+def test_the_progress_line_says_the_time_left_once_it_knows_the_plan():
+    """With the fit's plan the progress line adds the time left at the pace
+    so far; without a plan (a diagnosis's searches) it does not."""
+    import io
+    from types import SimpleNamespace
+    from mggp.cli_fit import _Progress, _duration
+    for plan, expect in ((12, True), (None, False)):
+        out = io.StringIO()
+        p = _Progress(5, out, False)
+        if plan:
+            p.plan(plan)
+        p.phase("search no Φ", 5)
+        for g in range(6):
+            p(SimpleNamespace(generation=g, logbook=[{"best": 1.0, "best_terms": 3}]))
+        assert ("left)" in out.getvalue()) == expect
+    assert p.left(10.0) == "" and _duration(75) == "1 min 15 s" and _duration(4000) == "1 h 6 min"
+    p.plan(12)
+    assert p.left(12.0) == " (about 12 s left)"  # 6 of 12 reports in 12 s
 
 
 def test_constant_kept_for_an_offset_only():
