@@ -111,9 +111,9 @@ from .data import Data
 from .regressors import regressor_matrix
 from .terms import parse_terms
 
-__all__ = ["ARX_ORDER", "ARX_SIGMAS", "EDGE_SHARE", "EDGE_SIGMAS", "FIT_ROWS", "GRID", "INPUT_LAGS",
-           "MAX_SHARE", "QUIET_SIGMAS", "SPIKE_BAND", "SPIKE_WIDTH", "Spike", "find_spikes",
-           "repaired", "spikes_text"]
+__all__ = ["ARX_ORDER", "ARX_SIGMAS", "EDGE_SHARE", "EDGE_SIGMAS", "FIT_ROWS", "GRID",
+           "INPUT_LAGS", "MAX_SHARE", "QUIET_SIGMAS", "SPIKE_BAND", "SPIKE_WIDTH", "Spike",
+           "find_spikes", "repaired", "spikes_text"]
 
 #: a spike's extreme lies beyond the rest of the output's range by more than this share of it
 SPIKE_BAND = 0.4
