@@ -36,7 +36,8 @@ from .choices import HEIGHT, error_floor
 from .exceptions import SearchPrecisionWarning
 
 __all__ = ["SearchPrecisionWarning", "PrecisionCheck", "search_precision", "offsets",
-           "offset_message", "horizon_message", "dead_time_message", "data_warnings"]
+           "offset_message", "horizon_message", "dead_time_message", "saturation",
+           "saturation_message", "data_warnings"]
 
 #: the QR refit scoring this many times better than the search's own fit
 #: counts as lost precision
@@ -95,6 +96,56 @@ def offset_message(data) -> str:
               "normal equations square the regressors' condition number); if its models "
               "are poor, subtract the offset (e.g. the mean or the first sample) before "
               "fitting")
+
+
+#: an output value held at an extreme of the record on at least this share
+#: of the samples (and :data:`HELD_MIN` of them) ...
+HELD_SHARE = 0.005
+HELD_MIN = 5
+#: ... at least this many times as often as any other value of the output
+HELD_RATIO = 3
+#: ... in a run of at least this many consecutive samples
+HELD_RUN = 3
+
+
+def saturation(y) -> list:
+    """``(side, value, count, longest run)`` of each extreme of ``y`` at which
+    it sits far more often than at any other value: a sensor or a system
+    that saturates writes one value there. The extreme counts when it is
+    held on at least :data:`HELD_SHARE` of the samples (and
+    :data:`HELD_MIN`), :data:`HELD_RATIO` times as often as any other value
+    (a quantised output repeats every level: its extremes are not singled
+    out) and in a run of :data:`HELD_RUN` samples or more."""
+    y = np.asarray(y, dtype=float)
+    out = []
+    for side, value in (("largest", float(np.max(y))), ("smallest", float(np.min(y)))):
+        at = y == value
+        count = int(at.sum())
+        if count < max(HELD_MIN, HELD_SHARE * y.size) or count == y.size:
+            continue
+        others = int(np.unique(y[~at], return_counts=True)[1].max())
+        d = np.diff(np.r_[0, at.astype(np.int8), 0])
+        run = int(np.max(np.flatnonzero(d == -1) - np.flatnonzero(d == 1)))
+        if count >= HELD_RATIO * others and run >= HELD_RUN:
+            out.append((side, value, count, run))
+    return out
+
+
+def saturation_message(data) -> str:
+    """A sentence when the output sits at an extreme value far more often
+    than at any other (:func:`saturation`); '' otherwise."""
+    held = saturation(data.y)
+    if not held:
+        return ""
+    n = len(data.y)
+    parts = [f"its {side} value, {value:.6g}, on {count} of {n} samples "
+             f"({100 * count / n:.2g} %; runs of up to {run})"
+             for side, value, count, run in held]
+    return (f"{data.output} sits at " + " and at ".join(parts) + f", over {HELD_RATIO} "
+            "times as often as at any other value: a sensor or the system saturates there. "
+            "A polynomial model can only imitate a saturation with its other terms; if the "
+            "sensor clipped, those samples do not show what the system did (fit a part of "
+            "the record without them)")
 
 
 def search_precision(scorer, terms, theta, start: Optional[int] = None) -> PrecisionCheck:
@@ -169,13 +220,17 @@ def dead_time_message(data, reach: int, max_height: int, max_lag=None, scans=Non
 def data_warnings(data, fitness: str, window: int, k: int, reach: Optional[int] = None,
                   max_height: int = HEIGHT, max_lag=None, scans=None) -> list:
     """``(message, category)`` of what in the data will mislead a search
-    with this fitness: a dominating offset, a horizon that sees little, an
-    input that acts beyond the lags ``reach`` (:func:`dead_time_message`,
-    on ``scans`` when given; not checked when ``reach`` is None)."""
+    with this fitness: a dominating offset, an output that saturates, a
+    horizon that sees little, an input that acts beyond the lags ``reach``
+    (:func:`dead_time_message`, on ``scans`` when given; not checked when
+    ``reach`` is None)."""
     out = []
     off = offset_message(data)
     if off:
         out.append((off, SearchPrecisionWarning))
+    held = saturation_message(data)
+    if held:
+        out.append((held, UserWarning))
     if reach is not None:
         late = dead_time_message(data, reach, max_height, max_lag, scans)
         if late:

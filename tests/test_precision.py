@@ -1,4 +1,6 @@
 """The search's normal-equation fits against the final QR refit (mggp.precision)."""
+import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -126,3 +128,47 @@ def test_on_a_short_record_both_thetas_are_compared_on_the_models_own_rows():
     assert m.fit_info_["start"] < 16
     written = m.simulate(u, y, mode="freerun").rmse
     assert written <= 1.25 * qr.simulate(u, y, mode="freerun").rmse, (written, m.equation())
+
+
+def _bilinear():
+    from benchmarks.outliers import bilinear_record
+    return bilinear_record(n=1000)
+
+
+def test_an_output_held_at_its_extreme_is_named_and_a_quantised_one_is_not(tmp_path):
+    """A bilinear record clipped at 80 % of its largest value is named with
+    the clip, its count and its longest run; the record unclipped and the
+    same record quantised to 40 levels (every level repeats, the extremes
+    no more than others) are not (controls)."""
+    from mggp.precision import saturation, saturation_message
+    u, y = _bilinear()
+    top = 0.8 * float(np.max(y))
+    clipped = np.minimum(y, top)
+    held = saturation(clipped)
+    assert len(held) == 1 and held[0][:3] == ("largest", top, int(np.sum(y >= top)))
+    assert held[0][3] >= 3
+    assert saturation(y) == []
+    step = float(np.ptp(y)) / 40
+    assert saturation(np.round(y / step) * step) == []
+    msg = saturation_message(as_data(u, clipped))
+    assert msg.startswith(f"y sits at its largest value, {top:.6g}, on ")
+    path = tmp_path / "clipped.csv"
+    np.savetxt(path, np.c_[u, clipped], delimiter=",", header="u,y", comments="")
+    p = subprocess.run([sys.executable, "-m", "mggp", "fit", str(path), "--population", "20",
+                        "--generations", "2", "--seed", "1"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert sum(ln.startswith("warning: y sits at its largest value") for ln in
+               p.stderr.splitlines()) == 1
+
+
+def test_the_cascaded_tanks_saturation_is_named():
+    """The measured cascaded tanks sit at 10 V on 47 of 1,024 training
+    samples (the overflow of the benchmark); the quantised buck converter
+    (every 0.2 V level repeats) is not named (control)."""
+    from benchmarks.real_data import load_record
+    from mggp.precision import saturation
+    tanks, buck = load_record("cascaded tanks"), load_record("buck converter")
+    if tanks is None or buck is None:
+        pytest.skip("shared data not found")
+    assert [h[:3] for h in saturation(tanks[0].y)] == [("largest", 10.0, 47)]
+    assert saturation(buck[0].y) == [] and saturation(buck[1].y) == []
