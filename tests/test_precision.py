@@ -172,3 +172,7 @@ def test_the_cascaded_tanks_saturation_is_named():
         pytest.skip("shared data not found")
     assert [h[:3] for h in saturation(tanks[0].y)] == [("largest", 10.0, 47)]
     assert saturation(buck[0].y) == [] and saturation(buck[1].y) == []
+    from benchmarks.panel import RECORDS
+    named = {name for name, make in RECORDS.items() for part in (make() or ())
+             if saturation(part.y)}
+    assert named == {"cascaded tanks"}                          # no other panel record
