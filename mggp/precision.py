@@ -108,24 +108,32 @@ HELD_RATIO = 3
 HELD_RUN = 3
 
 
-def saturation(y) -> list:
+def saturation(y, inputs=()) -> list:
     """``(side, value, count, longest run)`` of each extreme of ``y`` at which
-    it sits far more often than at any other value: a sensor or a system
-    that saturates writes one value there. The extreme counts when it is
-    held on at least :data:`HELD_SHARE` of the samples (and
-    :data:`HELD_MIN`), :data:`HELD_RATIO` times as often as any other value
-    (a quantised output repeats every level: its extremes are not singled
-    out) and in a run of :data:`HELD_RUN` samples or more."""
+    it sits far more often than at any other value while ``inputs`` (arrays
+    like ``y``) move: a sensor or a system that saturates writes one value
+    there. The extreme counts when it is held on at least
+    :data:`HELD_SHARE` of the samples (and :data:`HELD_MIN`),
+    :data:`HELD_RATIO` times as often as any other value (a quantised
+    output repeats every level: its extremes are not singled out) and in a
+    run of :data:`HELD_RUN` samples or more; runs of two samples or more
+    during which no input changes (a held input the output settles at) do
+    not count."""
     y = np.asarray(y, dtype=float)
+    U = [np.asarray(x, dtype=float) for x in inputs]
     out = []
     for side, value in (("largest", float(np.max(y))), ("smallest", float(np.min(y)))):
         at = y == value
-        count = int(at.sum())
-        if count < max(HELD_MIN, HELD_SHARE * y.size) or count == y.size:
+        if at.all():
+            continue
+        d = np.diff(np.r_[0, at.astype(np.int8), 0])
+        runs = [(a, b) for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1))
+                if b - a < 2 or not U or any(np.ptp(x[a:b]) > 0 for x in U)]
+        count = sum(b - a for a, b in runs)
+        if not runs or count < max(HELD_MIN, HELD_SHARE * y.size):
             continue
         others = int(np.unique(y[~at], return_counts=True)[1].max())
-        d = np.diff(np.r_[0, at.astype(np.int8), 0])
-        run = int(np.max(np.flatnonzero(d == -1) - np.flatnonzero(d == 1)))
+        run = int(max(b - a for a, b in runs))
         if count >= HELD_RATIO * others and run >= HELD_RUN:
             out.append((side, value, count, run))
     return out
@@ -134,7 +142,7 @@ def saturation(y) -> list:
 def saturation_message(data) -> str:
     """A sentence when the output sits at an extreme value far more often
     than at any other (:func:`saturation`); '' otherwise."""
-    held = saturation(data.y)
+    held = saturation(data.y, [data.input(v) for v in data.inputs])
     if not held:
         return ""
     n = len(data.y)

@@ -150,6 +150,11 @@ def test_an_output_held_at_its_extreme_is_named_and_a_quantised_one_is_not(tmp_p
     assert saturation(y) == []
     step = float(np.ptp(y)) / 40
     assert saturation(np.round(y / step) * step) == []
+    from narx.systems import piezo_bouc_wen, training_input
+    uh = training_input(3000, seed=1)
+    uh[:1000] = uh[1000]                        # a held input: the output settles, exactly
+    yh = piezo_bouc_wen(uh)
+    assert saturation(yh) != [] and saturation(yh, [uh]) == []
     msg = saturation_message(as_data(u, clipped))
     assert msg.startswith(f"y sits at its largest value, {top:.6g}, on ")
     path = tmp_path / "clipped.csv"
