@@ -54,7 +54,7 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
            "class_choice", "class_margins", "outliers_choice", "height_choice", "height_for",
            "dead_time_height",
-           "HEIGHT",
+           "HEIGHT", "SEARCH_SAMPLES", "SEARCH_PLACES", "search_span", "search_part_choice",
            "constant_choice", "constant_pays", "constant_pilot_choice",
            "without_constant",
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
@@ -652,3 +652,47 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     rule = "" if n < 2 else "; " + class_margins(classes)
     why += f" ({holdout_words()}{rule}{'; ' + pilot if pilot else ''})"
     return Choice("use_phi", c.use_phi, why, figs)
+
+
+#: ``search_samples='auto'``: a longer record is searched on a part this long
+SEARCH_SAMPLES = 100_000
+#: places tried for that part, evenly spread over the record
+SEARCH_PLACES = 10
+
+
+def search_span(data: Data, samples: int) -> tuple:
+    """``(start, stop)`` of the part of ``samples`` samples of ``data`` that
+    the search runs on: of :data:`SEARCH_PLACES` parts evenly spread over
+    the record, the one whose signals cover most of their range over the
+    record, judged by the signal it covers least,
+
+    .. math:: \\max_{\\text{part}} \\min_{x \\in (u_1, \\dots, y)}
+              \\frac{\\max_{\\text{part}} x - \\min_{\\text{part}} x}{\\max x - \\min x}
+
+    (the first of equals), so that the search sees the operating range the
+    model is fitted for; ``(0, n)`` when the record is not longer."""
+    n = data.n
+    if n <= samples:
+        return 0, n
+    signals = [np.asarray(data.input(v), dtype=float) for v in data.inputs]
+    signals.append(np.asarray(data.y, dtype=float))
+    spans = [float(np.ptp(x)) or 1.0 for x in signals]
+    best, at = -1.0, 0
+    for a in np.unique(np.linspace(0, n - samples, SEARCH_PLACES).round().astype(int)):
+        cover = min(float(np.ptp(x[a:a + samples])) / s for x, s in zip(signals, spans))
+        if cover > best + 1e-12:
+            best, at = cover, int(a)
+    return at, at + samples
+
+
+def search_part_choice(data: Data, samples: int) -> Choice:
+    """``search_samples``: the part of ``data`` the search and every other
+    automatic choice run on (:func:`search_span`); its value is ``[start,
+    stop]``."""
+    a, b = search_span(data, samples)
+    return Choice("search_samples", [a, b],
+                  f"search on samples {a:,}–{b - 1:,} of {data.n:,} (a part of {samples:,}, "
+                  f"placed where the signals cover most of their range; every structure's θ "
+                  f"is estimated there, and the free-run figures below are on the whole "
+                  f"record; --search-samples all searches the whole record)",
+                  {"start": a, "stop": b, "n_samples": data.n})

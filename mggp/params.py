@@ -32,8 +32,8 @@ from narx.outliers import ARX_SIGMAS, SPIKE_BAND, SPIKE_WIDTH
 from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
 from .checkpoint import CHECKPOINT_SHARE
-from .choices import (GAIN, HEIGHT, PILOT, SIZE_TOLERANCE, class_margins, heldout_samples,
-                      holdout_words, percent, size_tolerance)
+from .choices import (GAIN, HEIGHT, PILOT, SEARCH_SAMPLES, SIZE_TOLERANCE, class_margins,
+                      heldout_samples, holdout_words, percent, size_tolerance)
 from .operator_stage import OPERATOR_GAIN
 from .primitives import MAX_HEIGHT, BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS, max_lag_for_height
 
@@ -94,23 +94,24 @@ class Int(Rule):
                                 or v in self.also)
 
 
-def _int_or_auto(text: str):
-    """A command-line value: 'auto' or an integer."""
-    return "auto" if text == "auto" else int(text)
+class IntOrWords(Int):
+    """One of ``names`` (e.g. 'auto') or an integer as :class:`Int` takes it."""
 
-
-class IntOrAuto(Int):
-    """'auto' or an integer as :class:`Int` takes it."""
-
-    argtype = staticmethod(_int_or_auto)
-
-    def __init__(self, lo: int, hi: Optional[int] = None, why: str = ""):
+    def __init__(self, lo: int, hi: Optional[int] = None, why: str = "",
+                 names: Tuple[str, ...] = ("auto",)):
         super().__init__(lo, hi=hi, why=why)
-        self.cli_words += ", or auto"
-        self.words += ", or 'auto'"
+        self.names = tuple(names)
+
+        def argtype(text: str):
+            return text if text in self.names else int(text)
+        argtype.__name__ = " or ".join(self.names) + " or integer"   # argparse's message
+        self.argtype = argtype
+        self.cli_words += (", or " if len(self.names) == 1 else ", ") + " or ".join(self.names)
+        self.words += (", or " if len(self.names) == 1 else ", ") + " or ".join(
+            f"'{w}'" for w in self.names)
 
     def ok(self, v) -> bool:
-        return (isinstance(v, str) and v == "auto") or super().ok(v)
+        return (isinstance(v, str) and v in self.names) or super().ok(v)
 
 
 class Real(Rule):
@@ -330,6 +331,13 @@ _ROWS = (
           meta=True),
     Param("generations", 200, Int(0), "generations after the initial population",
           "budget", "--generations", meta=True),
+    Param("search_samples", "auto", IntOrWords(1000, names=("auto", "all")), "samples of the record the structure "
+          f"search runs on: 'auto' searches a record of up to {SEARCH_SAMPLES:,} samples whole "
+          f"and a longer one on a part of {SEARCH_SAMPLES:,} (of ten evenly spread parts, the "
+          "one whose signals cover most of their range), N on a part of N, 'all' on the whole "
+          "record; θ is estimated on the same part, free-run figures are on the whole record",
+          "budget", "--search-samples", meta=True,
+          default_text=f"auto (the whole record up to {SEARCH_SAMPLES:,} samples)"),
     Param("cxpb", 0.8, Real(0, 1), "crossover probability", "budget"),
     Param("mutpb", 0.2, Real(0, 1), "mutation probability", "budget"),
     Param("high_level_cx_rate", 0.5, Real(0, 1),
@@ -341,7 +349,7 @@ _ROWS = (
           "share of each generation copied unchanged (the best)", "budget"),
     Param("max_terms", 15, Int(1), "largest number of terms of a model", "model class",
           "--max-terms", meta=True),
-    Param("max_height", "auto", IntOrAuto(1, hi=MAX_HEIGHT, why=_HEIGHT_WHY), "height of "
+    Param("max_height", "auto", IntOrWords(1, hi=MAX_HEIGHT, why=_HEIGHT_WHY), "height of "
           f"the GP trees; a tree of height h reaches lags up to 1 + 3h; at most {MAX_HEIGHT}; "
           f"'auto': {HEIGHT} (lags up to {1 + 3 * HEIGHT}), raised to reach an input that acts "
           "on the output only beyond them (a dead time found by a linear ARX scan)",

@@ -1,6 +1,8 @@
 """Automatic choices of MGGPRegressor (mggp.choices): the model class (no Φ,
 Φ, memory operators) and the constant term by held-out free-run error, the
 selection by the constraints; recorded in choices_ and meta."""
+import warnings
+
 import numpy as np
 import pytest
 
@@ -467,3 +469,41 @@ def test_a_held_out_part_without_excitation_is_said():
         warnings.simplefilter("always")
         MGGPRegressor(use_phi=False, constant=False, size="search", **kw).fit(step)
     assert not any("barely moves the input" in str(x.message) for x in w)
+
+
+def test_a_long_record_is_searched_on_the_part_that_covers_its_range():
+    """With search_samples=1000 a 3,000-sample record whose first third holds
+    its input is searched on a part from the moving two thirds, said in
+    choices_ and the meta; the model's θ comes from that part, so it
+    differs from the whole-record search's. Controls: 'all' and a record no
+    longer than the part (the default on 3,000 samples) search it whole."""
+    from mggp.choices import search_span
+    from narx.data import Data
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(3000, seed=1)
+    u[:1000] = u[1000]
+    y = piezo_bouc_wen(u)
+    a, b = search_span(Data(u, y), 1000)
+    assert b - a == 1000 and a >= 1000
+    kw = dict(population=20, generations=2, random_state=1, use_phi=False, constant=False,
+              size="search", local_search=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        part = MGGPRegressor(search_samples=1000, **kw).fit(u, y)
+        whole = MGGPRegressor(search_samples="all", **kw).fit(u, y)
+        default = MGGPRegressor(**kw).fit(u, y)
+    assert part.search_samples_ == (a, b)
+    c = part.choices_["search_samples"]
+    assert c["value"] == [a, b] and f"search on samples {a:,}–{b - 1:,} of 3,000" in c["why"]
+    assert part.model_.meta["search_samples"] == [a, b]          # the part, not "1000"
+    assert whole.search_samples_ == default.search_samples_ == (0, 3000)
+    assert "search_samples" not in whole.choices_ and "search_samples" not in default.choices_
+    same = part.model_.term_texts == whole.model_.term_texts
+    assert not same or not np.allclose(part.model_.theta, whole.model_.theta)
+
+
+def test_search_samples_takes_auto_all_or_at_least_1000():
+    for bad in (999, "some", 0):
+        with pytest.raises(ValueError, match="search_samples must be an integer >= 1000, "
+                                             "'auto' or 'all'"):
+            MGGPRegressor(search_samples=bad).fit(np.zeros(100), np.zeros(100))
