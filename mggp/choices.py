@@ -54,7 +54,7 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
            "class_choice", "class_margins", "outliers_choice", "height_choice", "height_for",
            "dead_time_height",
-           "HEIGHT", "SEARCH_SAMPLES", "SEARCH_PLACES", "search_span", "search_part_choice",
+           "HEIGHT", "SEARCH_PLACES", "search_span", "search_part_choice",
            "constant_choice", "constant_pays", "constant_pilot_choice",
            "without_constant",
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
@@ -654,9 +654,8 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     return Choice("use_phi", c.use_phi, why, figs)
 
 
-#: ``search_samples='auto'``: a longer record is searched on a part this long
-SEARCH_SAMPLES = 100_000
-#: places tried for that part, evenly spread over the record
+#: ``search_samples=N``: places tried for the part of N samples, evenly spread
+#: over the record
 SEARCH_PLACES = 10
 
 
@@ -686,13 +685,13 @@ def search_span(data: Data, samples: int) -> tuple:
 
 
 def search_part_choice(data: Data, samples: int) -> Choice:
-    """``search_samples``: the part of ``data`` the search and every other
-    automatic choice run on (:func:`search_span`); its value is ``[start,
-    stop]``."""
+    """``search_samples=samples`` on a longer record: the part of ``data``
+    the search and every automatic choice run on (:func:`search_span`); its
+    value is ``[start, stop]``."""
     a, b = search_span(data, samples)
     return Choice("search_samples", [a, b],
                   f"search on samples {a:,}–{b - 1:,} of {data.n:,} (a part of {samples:,}, "
                   f"placed where the signals cover most of their range; every structure's θ "
                   f"is estimated there, and the free-run figures below are on the whole "
-                  f"record; --search-samples all searches the whole record)",
+                  f"record)",
                   {"start": a, "stop": b, "n_samples": data.n})

@@ -47,7 +47,7 @@ from narx.phi import default_registry
 
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
-from .choices import (CONSTANT, HEIGHT, SEARCH_SAMPLES, Choice, class_choice,
+from .choices import (CONSTANT, HEIGHT, Choice, class_choice,
                       constant_pilot_choice, constant_searched, front_rows_heldout,
                       heldout_rmse, holdout_message, search_part_choice,
                       height_choice, outliers_choice, pilot_generations, resolve_screen, resolve_select, search_classes,
@@ -182,15 +182,15 @@ class MGGPRegressor:
     inputs that ``outliers='auto'`` repaired before the search
     (:class:`narx.outliers.Spike`; the models are fitted on the repaired
     record). ``search_samples_`` is ``(start, stop)``, the samples the
-    search, every automatic choice and every θ used: a record longer than
-    ``search_samples`` ('auto': 100,000) is searched on the part of that
-    length whose signals cover most of their range
-    (:func:`mggp.choices.search_span`).
+    search, every automatic choice and every θ used: with ``search_samples``
+    an integer, a longer record is searched on the part of that length
+    whose signals cover most of their range
+    (:func:`mggp.choices.search_span`); the default 'all' searches it whole.
     """
 
     def __init__(self, *, fitness="ms", window=100, k=10, criterion="mse",
                  constraints=None, search_constraints=None, population=500,
-                 generations=200, search_samples="auto", cxpb=0.8, mutpb=0.2,
+                 generations=200, search_samples="all", cxpb=0.8, mutpb=0.2,
                  high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height="auto", use_phi="auto", phi_names=None,
@@ -344,11 +344,9 @@ class MGGPRegressor:
                                        scans=scans):
             warnings.warn(msg, kind, stacklevel=2)
         part = None
-        if self.search_samples != "all":
-            samples = SEARCH_SAMPLES if self.search_samples == "auto" else self.search_samples
-            if data.n > samples:
-                part = search_part_choice(data, samples)
-                data = data.slice(*part.value)
+        if self.search_samples != "all" and data.n > self.search_samples:
+            part = search_part_choice(data, self.search_samples)
+            data = data.slice(*part.value)
         self.search_samples_ = (0, data.n) if part is None else tuple(part.value)
         held = ("auto" in (self.use_phi, self.constant, self.size)
                 and holdout_message(data))

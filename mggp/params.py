@@ -32,8 +32,8 @@ from narx.outliers import ARX_SIGMAS, SPIKE_BAND, SPIKE_WIDTH
 from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
 from .checkpoint import CHECKPOINT_SHARE
-from .choices import (GAIN, HEIGHT, PILOT, SEARCH_SAMPLES, SIZE_TOLERANCE, class_margins,
-                      heldout_samples, holdout_words, percent, size_tolerance)
+from .choices import (GAIN, HEIGHT, PILOT, SIZE_TOLERANCE, class_margins, heldout_samples,
+                      holdout_words, percent, size_tolerance)
 from .operator_stage import OPERATOR_GAIN
 from .primitives import MAX_HEIGHT, BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS, max_lag_for_height
 
@@ -331,13 +331,13 @@ _ROWS = (
           meta=True),
     Param("generations", 200, Int(0), "generations after the initial population",
           "budget", "--generations", meta=True),
-    Param("search_samples", "auto", IntOrWords(1000, names=("auto", "all")), "samples of the record the structure "
-          f"search runs on: 'auto' searches a record of up to {SEARCH_SAMPLES:,} samples whole "
-          f"and a longer one on a part of {SEARCH_SAMPLES:,} (of ten evenly spread parts, the "
-          "one whose signals cover most of their range), N on a part of N, 'all' on the whole "
-          "record; θ is estimated on the same part, free-run figures are on the whole record",
-          "budget", "--search-samples", meta=True,
-          default_text=f"auto (the whole record up to {SEARCH_SAMPLES:,} samples)"),
+    Param("search_samples", "all", IntOrWords(1000, names=("all",)), "samples of the record "
+          "the structure search runs on: 'all' the whole record; N a part of N samples (of ten "
+          "evenly spread parts, the one whose signals cover most of their range), for a long "
+          "record: every θ is estimated on that part, free-run figures are on the whole "
+          "record (a simulated piezo record of 10⁶ samples searched on 100,000: 16× faster, "
+          "validation error 1.8× larger)", "budget", "--search-samples", meta=True,
+          metavar="all|N"),
     Param("cxpb", 0.8, Real(0, 1), "crossover probability", "budget"),
     Param("mutpb", 0.2, Real(0, 1), "mutation probability", "budget"),
     Param("high_level_cx_rate", 0.5, Real(0, 1),
