@@ -47,11 +47,10 @@ from narx.phi import default_registry
 
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
-from .choices import (CONSTANT, HEIGHT, Choice, class_choice,
-                      constant_pilot_choice, constant_searched, front_rows_heldout,
-                      heldout_rmse, holdout_message, search_part_choice,
-                      height_choice, outliers_choice, pilot_generations, resolve_screen, resolve_select, search_classes,
-                      without_constant)
+from .choices import (CONSTANT, HEIGHT, Choice, class_choice, constant_pilot_choice,
+                      constant_searched, front_rows_heldout, heldout_rmse, height_choice,
+                      holdout_message, outliers_choice, pilot_generations, resolve_screen,
+                      resolve_select, search_classes, search_part_choice, without_constant)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import check_context, evolve
@@ -413,8 +412,8 @@ class MGGPRegressor:
                 "not compared with other model classes", {})
         if len(classes) == 1 and not piloted:
             c = classes[0]
-            self._plan(self.generations + 1)    # generation 0 is the first population
-            self._phase(f"search {c.label}", self.generations)
+            self._tell("plan", self.generations + 1)    # generation 0: the first population
+            self._tell("phase", f"search {c.label}", self.generations)
             ctx.search_class = c
             ctx.seed, ctx.result = self._search(ctx, c, self.generations, ctx.screen,
                                                 checkpoint=self.checkpoint,
@@ -422,7 +421,7 @@ class MGGPRegressor:
             return ctx.result.evaluations
         pilot = pilot_generations(self.generations)
         n = len(classes) + piloted
-        self._plan(n * (pilot + 1) + max(self.generations - pilot, 0))
+        self._tell("plan", n * (pilot + 1) + max(self.generations - pilot, 0))
         seed, runs = None, []
         if self.resume and self.checkpoint is not None and os.path.exists(self.checkpoint):
             check_context(self.checkpoint, self._context(ctx.data))   # before the pilots
@@ -470,7 +469,7 @@ class MGGPRegressor:
                               if r.result is not None and i != go)
             path = self._continued(path, tag)
             if pilot < self.generations:
-                self._phase(f"search {classes[win].label}", self.generations)
+                self._tell("phase", f"search {classes[win].label}", self.generations)
                 _, res = self._search(ctx, classes[win], self.generations, scr, seed,
                                       checkpoint=path, resume=True, tag=tag)
         if len(classes) > 1:
@@ -487,7 +486,7 @@ class MGGPRegressor:
         (:class:`PilotRun`)."""
         scr = screen if screen is not None else self._make_screen(
             ctx.data, ctx.start, ctx.registry, ctx)
-        self._phase(label, generations)
+        self._tell("phase", label, generations)
         seed, res = self._search(ctx, cls, generations, scr, seed, checkpoint=path,
                                  resume=self.resume, require_finite=False, shape=shape,
                                  tag=tag)
@@ -521,19 +520,13 @@ class MGGPRegressor:
         copy_checkpoint(pilot_path, self.checkpoint)
         return self.checkpoint
 
-    def _phase(self, label: str, generations: int) -> None:
-        """Tell the callbacks that have a ``phase`` method which search runs
-        next (``label``) and its number of generations."""
+    def _tell(self, method: str, *args) -> None:
+        """Call ``method(*args)`` of the callbacks that have it: ``phase``
+        (which search runs next and its generations) and ``plan`` (the
+        generations of the fit's searches together)."""
         for cb in self.callbacks or []:
-            if hasattr(cb, "phase"):
-                cb.phase(label, generations)
-
-    def _plan(self, generations: int) -> None:
-        """Tell the callbacks that have a ``plan`` method how many
-        generations the fit's searches run together."""
-        for cb in self.callbacks or []:
-            if hasattr(cb, "plan"):
-                cb.plan(generations)
+            if hasattr(cb, method):
+                getattr(cb, method)(*args)
 
     def _held_candidate(self, ctx: FitContext, res, shape):
         """The structure of ``res`` (scored as ``shape`` makes it) the hold

@@ -192,6 +192,12 @@ def _isolated_runs(y: np.ndarray, k: int, width: int):
     return out
 
 
+def _robust_scale(e: np.ndarray) -> float:
+    """Robust standard deviation of residuals ``e``: 1.4826 times their median
+    absolute deviation (the standard deviation when that is 0)."""
+    return 1.4826 * float(np.median(np.abs(e - np.median(e)))) or float(np.std(e))
+
+
 def _arx_sigmas(data: Data, runs) -> np.ndarray:
     """Largest residual of each run's samples from a linear ARX model of
     ``data`` (θ by least squares on every row: an input that explains a run
@@ -201,7 +207,7 @@ def _arx_sigmas(data: Data, runs) -> np.ndarray:
                                  for i in range(1, p + 1)], data.signals)
     X, t, _ = regressor_matrix(terms, data, start=p)
     e = t - X @ np.linalg.lstsq(X, t, rcond=None)[0]
-    scale = 1.4826 * float(np.median(np.abs(e - np.median(e)))) or float(np.std(e))
+    scale = _robust_scale(e)
     out = []
     for a, b in runs:
         worst = max((abs(e[k - p]) for k in range(a, b) if k >= p), default=np.inf)
@@ -303,8 +309,11 @@ def _beyond(x: np.ndarray, a: int, b: int, lo: float, hi: float) -> float:
     return max(float(np.max(x[a:b])) - hi, lo - float(np.min(x[a:b]))) / (hi - lo)
 
 
-def _with_inputs(data: Data, U: np.ndarray) -> Data:
-    return Data(U.T, data.y, inputs=data.inputs, output=data.output, noise=data.signals.noise)
+def _rebuilt(data: Data, U: np.ndarray, y=None) -> Data:
+    """``data`` with the inputs ``U`` (one row each) and the output ``y``
+    (default: ``data``'s)."""
+    return Data(U.T, data.y if y is None else y, inputs=data.inputs, output=data.output,
+                noise=data.signals.noise)
 
 
 def _interpolated(x: np.ndarray, a: int, b: int) -> None:
@@ -333,12 +342,12 @@ def _answer(data: Data, candidates: dict) -> dict:
     for j, a, b in candidates:
         _interpolated(U[j], a, b)
     terms = parse_terms(names, data.signals)
-    lined = _with_inputs(data, U)
+    lined = _rebuilt(data, U)
     X, t, _ = regressor_matrix(terms, lined.slice(0, FIT_ROWS) if data.n > FIT_ROWS
                                else lined, start=start)
     theta = np.linalg.lstsq(X, t, rcond=None)[0]
     e = t - X @ theta
-    scale = 1.4826 * float(np.median(np.abs(e - np.median(e)))) or float(np.std(e))
+    scale = _robust_scale(e)
     out = {}
     for (j, a, b), (lo, hi) in candidates.items():
         k = np.arange(max(a + 1, start), min(b + q, data.n))   # rows that hold the run
@@ -422,7 +431,7 @@ def repaired(data: Data, spikes) -> Data:
     for s in spikes:
         x = y if s.signal == data.output else U[data.inputs.index(s.signal)]
         _interpolated(x, s.start, s.stop)
-    return Data(U.T, y, inputs=data.inputs, output=data.output, noise=data.signals.noise)
+    return _rebuilt(data, U, y)
 
 
 def spikes_text(spikes, output: str = "y") -> str:
