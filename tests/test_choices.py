@@ -502,8 +502,20 @@ def test_a_long_record_is_searched_on_the_part_that_covers_its_range():
     assert not same or not np.allclose(part.model_.theta, whole.model_.theta)
 
 
-def test_search_samples_takes_all_or_at_least_1000():
+def test_search_samples_takes_all_or_at_least_1000(capsys, tmp_path):
     for bad in (999, "some", 0, "auto"):
         with pytest.raises(ValueError, match="search_samples must be an integer >= 1000, "
                                              "or 'all'"):
             MGGPRegressor(search_samples=bad).fit(np.zeros(100), np.zeros(100))
+    from mggp.cli import main
+    path = tmp_path / "d.csv"
+    np.savetxt(path, np.c_[np.arange(300.0) % 7, np.arange(300.0) % 5], delimiter=",",
+               header="u,y", comments="")
+    for bad, said in (("10", "error: --search-samples must be >= 1000, or all, got 10"),
+                      ("lots", "invalid all or integer value: 'lots'")):
+        try:
+            rc = main(["fit", str(path), "--search-samples", bad])
+        except SystemExit as e:                 # argparse's own type error
+            rc = e.code
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2 and len(err) == 1 and said in err[0]
