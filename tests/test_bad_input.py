@@ -478,7 +478,8 @@ def test_a_gap_or_a_backward_step_in_the_time_column_is_named(tmp_path, capsys):
         stamps = [f"2024-01-01T00:00:{i:04d}" for i in range(N)]
         (tmp_path / "text.csv").write_text("Time (s),u,y\n" + "".join(
             f"{s},{float(a)!r},{float(b)!r}\n" for s, a, b in zip(stamps, _U, _Y)))
-        assert read_csv(tmp_path / "text.csv").n == N
+        text = read_csv(tmp_path / "text.csv")
+        assert text.n == N and np.array_equal(text.y, read_csv(tmp_path / "even.csv").y)
     code = main(["estimate", str(tmp_path / "gap.csv"), "--terms", "y[k-1]", "u[k-1]"])
     err = capsys.readouterr().err
     assert code == 0 and err.count("warning:") == 1 and "gap.csv: column 'time'" in err
