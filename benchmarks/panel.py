@@ -5,6 +5,8 @@ Typical use::
     python -m benchmarks.panel --seeds 1 --population 60 --generations 10 --jobs 2
     python -m benchmarks.panel --seeds 1 2 3 --jobs 2 --json panel.json   # default budget
     python -m benchmarks.panel --from-json panel.json panel456.json       # tabulate, seeds pooled
+    python -m benchmarks.panel --seeds 1 2 3 --grid-from panel.json --json panel.json
+                                         # the default row again, the grid's rows kept
 
 For every record, :class:`mggp.MGGPRegressor` with its defaults (what
 ``mggp fit DATA.csv --seed S --jobs J`` runs; the budget of ``--population``
@@ -13,7 +15,10 @@ of :data:`GRID`, the expert flag combinations the studies set by hand. Each
 model runs free on the record's validation part from its first measured
 samples; the figure is the RMSE there (``inf``: diverged). Goals: the
 default's median over the seeds within 10 % of the best grid setting's
-median, and no default model diverging.
+median, and no default model diverging. The grid settings fix every
+automatic choice, so a change of the defaults leaves their rows as they
+are: ``--grid-from`` fits the default row only and takes the grid's rows of
+the same seeds from a saved run.
 
 Records (:data:`RECORDS`): the shared measured records (cascaded tanks, buck
 converter, MR damper; :mod:`benchmarks.real_data`,
@@ -175,8 +180,10 @@ def _fit(tr, va, seed, kw, budget, jobs):
             "choices": {k: v["why"] for k, v in getattr(est, "choices_", {}).items()}}
 
 
-def run(records, seeds, budget, jobs, log=print) -> dict:
-    """``{record: {setting: [row per seed]}}``."""
+def run(records, seeds, budget, jobs, log=print, grid=None) -> dict:
+    """``{record: {setting: [row per seed]}}``; with ``grid`` (a saved run
+    of the same seeds) only the default is fitted, the grid's rows are
+    ``grid``'s."""
     out = {}
     for name in records:
         pair = RECORDS[name]()
@@ -185,7 +192,9 @@ def run(records, seeds, budget, jobs, log=print) -> dict:
             continue
         tr, va = pair
         out[name] = {}
-        for label, kw in (("default", {}),) + tuple(GRID.items()):
+        if grid is not None:
+            out[name].update({k: v for k, v in grid[name].items() if k != "default"})
+        for label, kw in (("default", {}),) + (() if grid is not None else tuple(GRID.items())):
             rows = out[name][label] = []
             for seed in seeds:
                 rows.append(_fit(tr, va, seed, kw, budget, jobs))
@@ -279,6 +288,9 @@ def main(argv=None) -> int:
     p.add_argument("--from-json", nargs="+", metavar="FILE",
                    help="no fits: tabulate the runs saved by --json (several files: "
                    "their seeds pooled, e.g. seeds 1-3 and 4-6)")
+    p.add_argument("--grid-from", metavar="FILE",
+                   help="fit the default only; the grid settings' rows are this saved "
+                   "run's (the same seeds and budget)")
     a = p.parse_args(argv)
     if a.from_json:
         try:
@@ -300,8 +312,25 @@ def main(argv=None) -> int:
         return 2
     budget = {k: v for k, v in (("population", a.population),
                                 ("generations", a.generations)) if v is not None}
+    grid = None
+    if a.grid_from:
+        try:
+            with open(a.grid_from) as f:
+                grid = json.load(f)
+            for name in a.records:
+                held = {len(v) for k, v in grid[name].items() if k != "default"}
+                if held != {len(a.seeds)} or set(grid[name]) - {"default"} != set(GRID):
+                    raise ValueError(f"record {name!r} holds {sorted(held)} rows per grid "
+                                     f"setting, {len(a.seeds)} seeds asked for, or other "
+                                     f"settings than the grid's")
+        except (OSError, ValueError) as exc:
+            print(f"error: --grid-from {a.grid_from}: {exc}", file=sys.stderr)
+            return 2
+        except KeyError as exc:
+            print(f"error: --grid-from {a.grid_from}: no record {exc}", file=sys.stderr)
+            return 2
     t0 = time.perf_counter()
-    res = run(a.records, a.seeds, budget, a.jobs)
+    res = run(a.records, a.seeds, budget, a.jobs, grid=grid)
     print()
     print(markdown(res))
     print(f"({time.perf_counter() - t0:.0f} s)")

@@ -64,3 +64,33 @@ def test_markdown_shows_the_best_settings_divergences():
     table says so beside it."""
     rows = _rows([1.05, 1.05, 1.05], a=[1.0, np.inf, 1.0], b=[2.0, 2.0, 2.0])
     assert "| rec | 1.05 | 0/3 | `a` | 1 | 1/3 | 1.050 | yes |" in markdown({"rec": rows})
+
+
+def test_grid_from_fits_the_default_only_and_keeps_the_grid_rows(tmp_path, monkeypatch, capsys):
+    """--grid-from: the default row is fitted again (here a stand-in fit),
+    every grid setting's rows are the saved run's; a saved run of other
+    seeds is one error line and exit code 2."""
+    import benchmarks.panel as panel
+    fitted = []
+
+    def fake_fit(tr, va, seed, kw, budget, jobs):
+        fitted.append((seed, kw))
+        return {"rmse": 0.5 + seed, "terms": 3, "seconds": 0.0, "choices": {}}
+    monkeypatch.setattr(panel, "RECORDS", {"rec": lambda: ("tr", "va")})
+    monkeypatch.setattr(panel, "_fit", fake_fit)
+    saved = {"rec": {"default": [{"rmse": 9.0}, {"rmse": 9.0}],
+                     **{k: [{"rmse": 1.0 + i}, {"rmse": 2.0 + i}]
+                        for i, k in enumerate(panel.GRID)}}}
+    src, out = tmp_path / "saved.json", tmp_path / "new.json"
+    src.write_text(json.dumps(saved))
+    assert main(["--seeds", "1", "2", "--records", "rec", "--grid-from", str(src),
+                 "--json", str(out)]) == 0
+    assert fitted == [(1, {}), (2, {})]                   # the default only
+    new = json.loads(out.read_text())["rec"]
+    assert [r["rmse"] for r in new["default"]] == [1.5, 2.5]
+    assert {k: v for k, v in new.items() if k != "default"} == \
+        {k: v for k, v in saved["rec"].items() if k != "default"}
+    capsys.readouterr()
+    assert main(["--seeds", "1", "2", "3", "--records", "rec", "--grid-from", str(src)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: --grid-from") and "3 seeds" in err[0]
