@@ -12,8 +12,11 @@ classes (no Φ, Φ, memory operators, Bouc–Wen variables), each is searched fo
 the one whose structure has the least held-out free-run error (a richer
 class only when over :data:`CLASS_GAIN` lower) and its pilot continues to the
 full budget. The constant term (``constant='auto'``): offered to every
-structure (:func:`constant_searched`), kept by :func:`constant_choice`
-when the held-out error is over :data:`GAIN` lower with it.
+structure (:func:`constant_searched`) when a pilot with it beats one
+without it by :data:`GAIN`, or ties it with a simpler structure
+(:func:`constant_pilot_choice`, :func:`fewest_terms`); kept by
+:func:`constant_choice` when the held-out error is over :data:`GAIN` lower
+with it.
 
 Each choice is a :class:`Choice`: the value taken and the figures it was
 taken on, in one line ("no Φ: held-out free-run RMSE 0.41 against 0.58 with
@@ -55,7 +58,7 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "class_choice", "class_margins", "outliers_choice", "height_choice", "height_for",
            "dead_time_height",
            "HEIGHT", "SEARCH_PLACES", "search_span", "search_part_choice",
-           "constant_choice", "constant_pays", "constant_pilot_choice",
+           "constant_choice", "constant_pays", "constant_pilot_choice", "fewest_terms",
            "without_constant",
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
            "holdout_message", "holdout_words", "local_search_kept", "percent", "rmse_text",
@@ -413,37 +416,95 @@ def constant_choice(terms, data: Data, registry=None):
     return Choice("constant", keep, why, figs), (terms if keep else plain)
 
 
+def fewest_terms(rows_constant, rows_plain, data: Data, registry=None) -> Optional[dict]:
+    """Parsimony between two pilots that their held-out errors cannot tell
+    apart: among the rows ``(n_terms, held-out error, terms)`` of the pilot
+    with the constant term and of the one without, those within
+    :func:`size_tolerance` of the least error of all count as equal, as in
+    :func:`size_choice`. On each side the simplest of them is the one with
+    the fewest terms and, among those, the least total degree (the constant
+    has degree 0, y[k-1]² degree 2). The figures of the simplest on each
+    side, whether the one with the constant is simpler (``simpler``), and
+    the held-out error of that structure once its constant is taken out
+    (``own``). None when no row with the constant is within the tolerance."""
+    finite = [r for r in (*rows_constant, *rows_plain) if np.isfinite(r[1])]
+    if not finite:
+        return None
+    tol = size_tolerance(heldout_samples(data.n))
+    limit = (1.0 + tol) * min(r[1] for r in finite)
+    near_c = [r for r in rows_constant if np.isfinite(r[1]) and r[1] <= limit]
+    near_p = [r for r in rows_plain if np.isfinite(r[1]) and r[1] <= limit]
+    if not near_c:
+        return None
+    def simplest(rows):
+        return min(((r[0], sum(t.degree for t in r[2]), r[1], r[2]) for r in rows),
+                   default=(np.inf, np.inf, np.inf, ()))
+    n_c, deg_c, err_c, terms_c = simplest(near_c)
+    n_p, deg_p, err_p, _ = simplest(near_p)
+    simpler = (n_c, deg_c) < (n_p, deg_p)
+    own = without_constant(terms_c, data, registry)[1] if simpler else np.inf
+    return {"terms_constant": n_c, "terms_no_constant": n_p, "degree_constant": deg_c,
+            "degree_no_constant": deg_p, "tolerance": tol, "simpler": simpler,
+            "heldout_rmse_constant": err_c, "heldout_rmse_no_constant": err_p,
+            "heldout_rmse_own_no_constant": own, "limit": limit}
+
+
 def constant_pilot_choice(err_constant: float, err_plain: float, err_own: float,
-                          pilot: str) -> Choice:
+                          pilot: str, fewest: Optional[dict] = None) -> Choice:
     """``constant='auto'``: whether the search continues with the constant
     term offered to every structure, from two pilots of the chosen model
     class, one with it and one without (``err_*``: each pilot's least
     held-out free-run error, as :func:`class_choice` takes them;
     ``err_own``: that of the structure behind ``err_constant`` without its
-    constant). The constant is kept only when its pilot's error is more
+    constant). The constant is kept when its pilot's error is more
     than :data:`GAIN` lower than both (:func:`constant_pays`): lower than
     the other pilot's, and earned by the constant itself, not by a structure
     the pilot with the constant happened to find, which the search without
-    it may find as well (the simpler search wins what the pilots cannot tell
-    apart).
+    it may find as well.
 
     With :math:`e_c`, :math:`e_p` and :math:`e_o` the three errors, the
     search keeps the constant when
     :math:`e_c < (1 - g)\\,\\min(e_p, e_o)` (:math:`g` = :data:`GAIN`).
+
+    When the errors cannot tell the pilots apart, the simpler search wins,
+    and simpler means fewer terms, then lower total degree (``fewest``,
+    :func:`fewest_terms`): the constant is kept when the simplest structure
+    within the size tolerance τ of the least error holds it, and that
+    structure without its constant falls outside the tolerance. A record
+    that sits at an offset from zero is such a case: without the constant
+    its level is held by a power of the output (−0.0006·y[k-1]² at
+    y ≈ 1000, in as many terms), which fits as well inside the record's
+    range and extrapolates worse.
     """
     beats_plain = constant_pays(err_constant, err_plain)
     keep = beats_plain and constant_pays(err_constant, err_own)
     figs = {"pilot_heldout_rmse_constant": err_constant,
             "pilot_heldout_rmse_no_constant": err_plain,
             "pilot_heldout_rmse_own_no_constant": err_own}
+    fewer = (not keep and not beats_plain and fewest is not None and fewest["simpler"]
+             and fewest["heldout_rmse_own_no_constant"] > fewest["limit"])
     if keep:
         why = (f"searched with the constant term: held-out free-run RMSE "
                f"{rmse_text(err_constant)} against {rmse_text(err_plain)} without it and "
                f"{rmse_text(err_own)} for the same structure without it ({pilot})")
+    elif fewer:
+        keep = True
+        figs.update({f"pilot_{k}": v for k, v in fewest.items()
+                     if k not in ("limit", "simpler")})
+        plain = ("none without it" if np.isinf(fewest["terms_no_constant"]) else
+                 f"{terms_text(fewest['terms_no_constant'])} of total degree "
+                 f"{fewest['degree_no_constant']} without it (RMSE "
+                 f"{rmse_text(fewest['heldout_rmse_no_constant'])})")
+        why = (f"searched with the constant term: {terms_text(fewest['terms_constant'])} "
+               f"of total degree {fewest['degree_constant']} with it (held-out free-run "
+               f"RMSE {rmse_text(fewest['heldout_rmse_constant'])}) against {plain} at "
+               f"errors within {percent(fewest['tolerance'])} of the least, and "
+               f"{rmse_text(fewest['heldout_rmse_own_no_constant'])} for the same "
+               f"structure without it: as accurate and simpler ({pilot})")
     elif not beats_plain:
         why = (f"no constant term: held-out free-run RMSE {rmse_text(err_plain)} against "
-               f"{rmse_text(err_constant)} with it (kept only when over {percent(GAIN)} lower; "
-               f"{pilot})")
+               f"{rmse_text(err_constant)} with it (kept only when over {percent(GAIN)} lower, "
+               f"or as accurate and simpler; {pilot})")
     else:
         why = (f"no constant term: held-out free-run RMSE {rmse_text(err_constant)} with it "
                f"against {rmse_text(err_plain)} without it, but {rmse_text(err_own)} for the "

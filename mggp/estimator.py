@@ -48,9 +48,10 @@ from narx.phi import default_registry
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
 from .choices import (CONSTANT, HEIGHT, Choice, class_choice, constant_pilot_choice,
-                      constant_searched, front_rows_heldout, heldout_rmse, height_choice,
-                      holdout_message, outliers_choice, pilot_generations, resolve_screen,
-                      resolve_select, search_classes, search_part_choice, without_constant)
+                      constant_searched, fewest_terms, front_rows_heldout, heldout_rmse,
+                      height_choice, holdout_message, outliers_choice, pilot_generations,
+                      resolve_screen, resolve_select, search_classes, search_part_choice,
+                      without_constant)
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import check_context, evolve
@@ -76,7 +77,9 @@ class PilotRun(NamedTuple):
     checkpoint ``path`` and search ``tag``; ``error``, the held-out free-run
     error of the structure the hold selection takes (``holds`` True/False)
     or the least over the pilot's best structure and the smaller ones of its
-    Pareto front (``holds`` None); ``terms``, the structure that error is of."""
+    Pareto front (``holds`` None); ``terms``, the structure that error is of;
+    ``rows``, ``(n_terms, held-out error, terms)`` of every structure
+    weighed (:func:`mggp.choices.front_rows_heldout`)."""
 
     result: object
     screen: object
@@ -85,6 +88,7 @@ class PilotRun(NamedTuple):
     holds: Optional[bool]
     tag: str
     terms: Tuple[str, ...]
+    rows: Tuple[tuple, ...] = ()
 
 
 class MGGPRegressor:
@@ -111,10 +115,11 @@ class MGGPRegressor:
     and continues that pilot to the
     full generations; ``constant`` runs one more pilot of the chosen class
     (or of the one class asked for) without the constant term and searches
-    with the constant offered to every structure only when that pilot's
+    with the constant offered to every structure when that pilot's
     held-out error, and that of the other pilot's structure refitted without
-    its constant, are over 5 % higher (never with the steady-state
-    constraints, which it would break), then keeps it in the result only
+    its constant, are over 5 % higher, or when the pilots tie and the
+    simplest structure that ties holds the constant and needs it (never with
+    the steady-state constraints, which it would break), then keeps it in the result only
     when it lowers the held-out free-run RMSE by over 5 %; ``size`` takes
     the fewest terms of the run's Pareto front within 5 % of the least
     held-out free-run RMSE (2/√n on
@@ -398,10 +403,12 @@ class MGGPRegressor:
         uninterrupted search of that class). With ``constant='auto'`` (and
         the constant searched: :func:`mggp.choices.constant_searched`) the
         chosen class also has a pilot without the constant term, and the
-        search continues with the constant only when its pilot's held-out
+        search continues with the constant when its pilot's held-out
         error is over :data:`mggp.choices.GAIN` lower than both that pilot's
-        and its own structure's without the constant
-        (:func:`mggp.choices.constant_pilot_choice`). Sets ``ctx.seed``,
+        and its own structure's without the constant, or when they tie and
+        the constant's structure is the simpler
+        (:func:`mggp.choices.constant_pilot_choice`,
+        :func:`mggp.choices.fewest_terms`). Sets ``ctx.seed``,
         ``ctx.result``, ``ctx.screen``, ``ctx.search_class``, ``ctx.shape``
         and the choices; returns the structures evaluated."""
         classes = search_classes(self)
@@ -460,7 +467,8 @@ class MGGPRegressor:
                 kept = constant_pilot_choice(
                     runs[win].error, run.error,
                     without_constant(runs[win].terms, ctx.data, ctx.registry)[1],
-                    f"{words}, class {classes[win].label}")
+                    f"{words}, class {classes[win].label}",
+                    fewest_terms(runs[win].rows, run.rows, ctx.data, ctx.registry))
                 ctx.choices["constant"] = kept
                 if not kept.value and run.result is not None:
                     go, ctx.shape = len(runs) - 1, plain
@@ -494,11 +502,11 @@ class MGGPRegressor:
             return seed, PilotRun(None, scr, path, float("inf"), False, tag, ())
         terms, holds = self._held_candidate(ctx, res, shape)
         if holds is not None:
-            err = heldout_rmse(terms, ctx.data, ctx.registry)
+            rows = [(len(terms), heldout_rmse(terms, ctx.data, ctx.registry), tuple(terms))]
         else:
-            _, err, terms = min(front_rows_heldout(terms, res, shape, ctx.data, ctx.registry),
-                                key=lambda r: r[1])
-        return seed, PilotRun(res, scr, path, err, holds, tag, tuple(terms))
+            rows = front_rows_heldout(terms, res, shape, ctx.data, ctx.registry)
+        _, err, terms = min(rows, key=lambda r: r[1])
+        return seed, PilotRun(res, scr, path, err, holds, tag, tuple(terms), tuple(rows))
 
     def _continued(self, pilot_path: str, tag: str) -> str:
         """The checkpoint the chosen pilot continues in: its own file, or

@@ -393,14 +393,17 @@ _ROWS = (
           "lag terms cannot express; 'auto': a pilot search with it and one without "
           f"({_PILOT}); offered to every structure only when its pilot's held-out free-run "
           f"error is lower {_KEPT_GAIN} than both the other pilot's and its own "
-          "structure's without the constant, then kept in the result on the same rule; never "
+          "structure's without the constant, or when the pilots tie and the simplest "
+          "structure that ties (fewest terms, then lowest total degree) needs the constant "
+          "(powers of y holding an offset), then kept in the result on the first rule; never "
           "with the steady-state constraints (it breaks the continuum of steady states)",
           "model class", "--constant", context="if set", meta=True, const=True,
           flag_help="every structure holds the constant term 1 (an intercept) "
           "(--no-constant: never; neither: searched with it when a pilot with it has "
           f"a held-out free-run error lower {_KEPT_GAIN} than one without and than its "
-          "own structure without the constant, and kept on "
-          "the same rule; never with --constraints steady-state)",
+          "own structure without the constant, or when the pilots tie and the simplest "
+          "structure that ties needs the constant, and kept on the first rule; never with "
+          "--constraints steady-state)",
           default_text="chosen by held-out free-run error"),
     Param("max_lag", None, Int(1, none=True), "largest lag a term may use, in samples",
           "model class", "--max-lag", context=True, meta=True,

@@ -519,3 +519,59 @@ def test_search_samples_takes_all_or_at_least_1000(capsys, tmp_path):
             rc = e.code
         err = capsys.readouterr().err.strip().splitlines()
         assert rc == 2 and len(err) == 1 and said in err[0]
+
+
+def level_record(seed=0, level=20.0):
+    """y = 0.4·level + 0.6 y[k-1] + 0.5 u[k-1] (+ white noise on y), u ~ U(-1, 1):
+    the output stays within about ±1.5 of ``level``."""
+    from benchmarks.offset import level_record as record
+    return record(n=500, seed=seed, level=level, hold=1, square=0.0, lag2=0.0)
+
+
+@pytest.mark.filterwarnings("ignore:an offset dominates")
+@pytest.mark.parametrize("seed", [5, 7])
+def test_an_output_at_a_level_keeps_the_constant_not_powers_of_y(seed):
+    """At y ≈ 20 ± 1.5 a power of y[k-1] holds the level as well as the
+    constant inside the record (y[k-1]² ≈ 40 y[k-1] − 400), so the held-out
+    errors tie; the simpler structure, the constant's, is searched and the
+    exact one found (these seeds took y[k-1]² without the constant before).
+    Control: the same system at level 0 has no constant."""
+    kw = dict(_KW, population=40, generations=6, use_phi=False, random_state=seed)
+    est = MGGPRegressor(**kw).fit(level_record(seed=seed))
+    c = est.choices_["constant"]
+    assert c["value"] is True and sorted(est.model_.term_texts) == ["1", "u[k-1]", "y[k-1]"]
+    assert c["why"].startswith("searched with the constant term")
+    ctl = MGGPRegressor(**kw).fit(level_record(seed=seed, level=0.0))
+    assert ctl.choices_["constant"]["value"] is False
+    assert sorted(ctl.model_.term_texts) == ["u[k-1]", "y[k-1]"]
+
+
+def test_constant_parsimony_rule_by_hand():
+    """fewest_terms and constant_pilot_choice on rows built by hand
+    (n_terms, held-out error, terms): the constant is kept on a tie when its
+    structure is simpler and needs the constant; controls: the plain one is
+    as simple, and the constant's structure does as well without it."""
+    import narx
+    from mggp.choices import constant_pilot_choice, fewest_terms
+    data = level_record()
+
+    def row(texts, err):
+        return (len(texts), err, tuple(narx.parse_terms(texts)))
+    with_c = [row(["1", "y[k-1]", "u[k-1]"], 0.0100)]
+    plain = [row(["y[k-1]*y[k-1]", "y[k-1]", "u[k-1]"], 0.0101),
+             row(["y[k-1]", "u[k-1]", "y[k-2]", "y[k-1]*y[k-1]"], 0.0100)]
+    f = fewest_terms(with_c, plain, data)
+    assert f["simpler"] and (f["degree_constant"], f["degree_no_constant"]) == (2, 4)
+    assert f["heldout_rmse_own_no_constant"] > f["limit"]     # y[k-1], u[k-1] alone: far off
+    c = constant_pilot_choice(0.0100, 0.0100, f["heldout_rmse_own_no_constant"], "p", f)
+    assert c.value is True and "3 terms of total degree 2 with it" in c.why
+    # control: a plain structure as accurate and simpler (2 terms)
+    even = fewest_terms(with_c, plain + [row(["y[k-1]", "u[k-1]"], 0.0102)], data)
+    assert not even["simpler"] and even["terms_no_constant"] == 2
+    assert constant_pilot_choice(0.0100, 0.0100, 1.0, "p", even).value is False
+    # control: the constant's structure without its constant is within the tolerance
+    f2 = dict(f, heldout_rmse_own_no_constant=0.0101)
+    assert constant_pilot_choice(0.0100, 0.0100, 0.0101, "p", f2).value is False
+    # control: the rows' errors differ by more than the tolerance: plain is better
+    worse = fewest_terms([row(["1", "y[k-1]", "u[k-1]"], 0.0200)], plain, data)
+    assert worse is None
