@@ -74,21 +74,32 @@ NO_FINITE = ("no structure with a finite fitness was found: every candidate dive
 class PilotRun(NamedTuple):
     """One pilot search of :meth:`MGGPRegressor._searches`: its ``result``
     (None when no structure of the class has a finite fitness), ``screen``,
-    checkpoint ``path`` and search ``tag``; ``error``, the held-out free-run
-    error of the structure the hold selection takes (``holds`` True/False)
-    or the least over the pilot's best structure and the smaller ones of its
-    Pareto front (``holds`` None); ``terms``, the structure that error is of;
-    ``rows``, ``(n_terms, held-out error, terms)`` of every structure
-    weighed (:func:`mggp.choices.front_rows_heldout`)."""
+    checkpoint ``path`` and search ``tag``; ``rows``, ``(n_terms, held-out
+    free-run error, terms)`` of the structures weighed: the one the hold
+    selection takes (``holds`` True/False), or the pilot's best structure
+    and the smaller ones of its Pareto front (``holds`` None;
+    :func:`mggp.choices.front_rows_heldout`); none without a result.
+    ``error`` and ``terms``: the least error of the rows (``inf`` without
+    any) and its structure."""
 
     result: object
     screen: object
     path: str
-    error: float
     holds: Optional[bool]
     tag: str
-    terms: Tuple[str, ...]
     rows: Tuple[tuple, ...] = ()
+
+    @property
+    def _least(self) -> tuple:
+        return min(self.rows, key=lambda r: r[1], default=(0, float("inf"), ()))
+
+    @property
+    def error(self) -> float:
+        return self._least[1]
+
+    @property
+    def terms(self) -> tuple:
+        return tuple(self._least[2])
 
 
 class MGGPRegressor:
@@ -499,14 +510,13 @@ class MGGPRegressor:
                                  resume=self.resume, require_finite=False, shape=shape,
                                  tag=tag)
         if res.best is None or not np.isfinite(res.best.fitness):
-            return seed, PilotRun(None, scr, path, float("inf"), False, tag, ())
+            return seed, PilotRun(None, scr, path, False, tag)
         terms, holds = self._held_candidate(ctx, res, shape)
         if holds is not None:
             rows = [(len(terms), heldout_rmse(terms, ctx.data, ctx.registry), tuple(terms))]
         else:
             rows = front_rows_heldout(terms, res, shape, ctx.data, ctx.registry)
-        _, err, terms = min(rows, key=lambda r: r[1])
-        return seed, PilotRun(res, scr, path, err, holds, tag, tuple(terms), tuple(rows))
+        return seed, PilotRun(res, scr, path, holds, tag, tuple(rows))
 
     def _continued(self, pilot_path: str, tag: str) -> str:
         """The checkpoint the chosen pilot continues in: its own file, or
