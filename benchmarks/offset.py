@@ -74,12 +74,14 @@ def run(levels, seeds, budget, jobs, log=print, settings=tuple(SETTINGS)) -> dic
     out = {}
     for level in levels:
         out[level] = {}
+        records = {seed: (level_record(seed=seed, level=level),
+                          level_record(seed=1000 + seed, level=level, amplitude=2.0))
+                   for seed in seeds}
         for label in settings:
             kw = SETTINGS[label]
             rows = out[level][label] = []
             for seed in seeds:
-                tr = level_record(seed=seed, level=level)
-                va = level_record(seed=1000 + seed, level=level, amplitude=2.0)
+                tr, va = records[seed]
                 t0 = time.perf_counter()
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
