@@ -40,6 +40,8 @@ import numpy as np
 
 from narx import Data, Model
 
+from .budget import add_budget_args, budget
+
 __all__ = ["TRUTH", "GOAL", "stage", "records", "oracle", "run", "main"]
 
 #: the true structure of the sampled stage (F -> q)
@@ -179,14 +181,9 @@ def markdown(rows) -> str:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks.friction_stage",
                                 description=__doc__.split("\n")[0])
-    p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
-    p.add_argument("--population", type=int, help="default: mggp fit's")
-    p.add_argument("--generations", type=int, help="default: mggp fit's")
-    p.add_argument("--jobs", type=int, default=2)
+    add_budget_args(p, seeds=[1, 2, 3])
     a = p.parse_args(argv)
-    budget = {k: getattr(a, k) for k in ("population", "generations")
-              if getattr(a, k) is not None}
-    print(markdown(run(a.seeds, budget, a.jobs, log=lambda s: print(s, flush=True))))
+    print(markdown(run(a.seeds, budget(a), a.jobs, log=lambda s: print(s, flush=True))))
     return 0
 
 

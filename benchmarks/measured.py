@@ -50,6 +50,8 @@ import numpy as np
 
 from narx import Data
 
+from .budget import add_budget_args, budget
+
 __all__ = ["RECORDS", "explodes", "run", "markdown", "main"]
 
 #: the band a free run must stay in: this many times the validation
@@ -202,17 +204,12 @@ def markdown(res: dict) -> str:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks.measured",
                                 description=__doc__.split("\n")[0])
-    p.add_argument("--seeds", type=int, nargs="+", default=[1])
-    p.add_argument("--population", type=int, help="default: mggp fit's")
-    p.add_argument("--generations", type=int, help="default: mggp fit's")
+    add_budget_args(p, seeds=[1])
     p.add_argument("--records", nargs="+", choices=list(RECORDS), default=list(RECORDS),
                    metavar="NAME")
-    p.add_argument("--jobs", type=int, default=2)
     p.add_argument("--json", help="also write the rows here")
     a = p.parse_args(argv)
-    budget = {k: getattr(a, k) for k in ("population", "generations")
-              if getattr(a, k) is not None}
-    res = run(a.records, a.seeds, budget, a.jobs, log=lambda s: print(s, flush=True))
+    res = run(a.records, a.seeds, budget(a), a.jobs, log=lambda s: print(s, flush=True))
     if not res:
         print("error: no record's data found (set MGGP_SHARED_DATA)", file=sys.stderr)
         return 2
