@@ -11,6 +11,13 @@ quick case study (:mod:`benchmarks.pem_vs_ms`: free-run screen, MS with the
 hold selection and the CLS refit) and a diagnosis of the published PEM
 model (32) with the held sine as validation record. Every float is stored as ``float.hex`` so the comparison is bit
 for bit.
+
+Bit for bit holds for one BLAS kernel: OpenBLAS picks its kernel from the
+processor (``threadpoolctl`` names it, e.g. ``Haswell``, ``SkylakeX``), and
+another kernel sums in another order, which moves last bits and, through
+the search's ties, even a Pareto row. The file therefore holds one record
+per kernel (:func:`blas_kernel`), and ``--write`` adds or replaces the
+current kernel's record, leaving the others.
 """
 from __future__ import annotations
 
@@ -88,6 +95,15 @@ def diagnosis():
                       parse_float=lambda s: float(s).hex())
 
 
+def blas_kernel() -> str:
+    """The OpenBLAS kernel numpy's BLAS runs here (``"unknown"`` when none is named)."""
+    from threadpoolctl import threadpool_info
+    for lib in threadpool_info():
+        if lib.get("user_api") == "blas":
+            return str(lib.get("architecture") or lib.get("internal_api") or "unknown")
+    return "unknown"
+
+
 def record():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -98,9 +114,14 @@ def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m tests.golden_cases")
     p.add_argument("--write", required=True, help="JSON file to write")
     a = p.parse_args(argv)
-    doc = record()
-    with open(a.write, "w") as fh:
-        json.dump(doc, fh, indent=1, sort_keys=True)
+    try:
+        with open(a.write) as fh:
+            doc = json.load(fh)
+    except FileNotFoundError:
+        doc = {}
+    doc[blas_kernel()] = record()
+    from narx.atomic import atomic_write_text
+    atomic_write_text(a.write, json.dumps(doc, indent=1, sort_keys=True))
 
 
 if __name__ == "__main__":
