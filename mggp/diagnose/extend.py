@@ -71,6 +71,7 @@ from narx.estimate import EstimationError
 from narx.model import ignore_rank_warnings
 from narx.terms import Signals, parse_term
 
+from ..primitives import AUTO_OPERATORS
 from ..selection import CLSRejectedWarning
 from .augmentation import bouc_wen_terms, direction_terms, operator_terms
 from .budget import Budget
@@ -84,7 +85,7 @@ __all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search",
 
 _SPECIFIC = ("hysteresis", "prediction-bias", "steady-state-drift")
 #: memory operators of the hysteresis search (:mod:`narx.memory`)
-OPERATORS = ("play", "dengtan")
+OPERATORS = AUTO_OPERATORS
 
 
 def _linear_dynamics(data: Data) -> List[str]:
