@@ -554,7 +554,6 @@ def search_classes(est) -> list:
     says);
     otherwise the one class asked for (``operators='auto'``: none). Φ of
     outputs is one search with Φ."""
-    from .primitives import AUTO_OPERATORS
     ops = _explicit_operators(est.operators)
     entry = est.operator_entry == "search"
     if est.use_phi != "auto" or est.phi_outputs:
@@ -562,9 +561,18 @@ def search_classes(est) -> list:
         return [SearchClass("Φ" if phi else "no Φ", phi, ops, entry)]
     out = [SearchClass("no Φ", False, ops, entry), SearchClass("Φ", True, ops, entry)]
     if est.operators == "auto":
-        out.append(SearchClass("operators", False, AUTO_OPERATORS, True))
-        out.append(SearchClass("Bouc–Wen", False, ("boucwen",), True, BOUC_WEN_CLASS_GAIN))
+        out += _operator_classes()
     return out
+
+
+def _operator_classes() -> list:
+    """The operator classes of ``operators='auto'``, one per ``auto_class``
+    of the operator table (:func:`mggp.primitives.auto_classes`), each with
+    its margin (:data:`BOUC_WEN_CLASS_GAIN` for the Bouc–Wen variables)."""
+    from .primitives import auto_classes
+    return [SearchClass(label, False, names, True,
+                        BOUC_WEN_CLASS_GAIN if label == "Bouc–Wen" else CLASS_GAIN)
+            for label, names in auto_classes().items()]
 
 
 def pilot_generations(generations: int) -> int:
@@ -670,8 +678,7 @@ def class_margins(classes=None) -> str:
     every class ``use_phi='auto'`` can compare)."""
     if classes is None:
         classes = [SearchClass("no Φ", False, (), gain=CLASS_GAIN),
-                   SearchClass("Φ", True, (), gain=CLASS_GAIN),
-                   SearchClass("Bouc–Wen", False, ("boucwen",), True, BOUC_WEN_CLASS_GAIN)]
+                   SearchClass("Φ", True, (), gain=CLASS_GAIN)] + _operator_classes()
     return (f"a richer class only when its error is over {percent(CLASS_GAIN)} lower"
             + "".join(f", {_with(cl.label).removeprefix('with ')} over {percent(cl.gain)}"
                       for cl in classes[1:] if cl.gain != CLASS_GAIN))

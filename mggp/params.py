@@ -28,6 +28,7 @@ import textwrap
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, Iterable, Optional, Sequence, Tuple
 
+from narx.memory import OPERATOR_BUILTINS
 from narx.outliers import ARX_SIGMAS, SPIKE_BAND, SPIKE_WIDTH
 from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
@@ -35,7 +36,7 @@ from .checkpoint import CHECKPOINT_SHARE
 from .choices import (GAIN, HEIGHT, PILOT, SIZE_TOLERANCE, class_margins, heldout_samples,
                       holdout_words, percent, size_tolerance)
 from .operator_stage import OPERATOR_GAIN
-from .primitives import MAX_HEIGHT, BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS, max_lag_for_height
+from .primitives import MAX_HEIGHT, auto_classes, max_lag_for_height
 
 __all__ = ["MAX_HEIGHT", "Param", "Rule", "Int", "Real", "OneOf", "Bool", "Seed", "Kind", "PARAMS",
            "DIAGNOSE_PARAMS", "GROUPS", "check_params", "check_value", "context_of",
@@ -202,22 +203,51 @@ def _path(v) -> bool:
     return v is None or isinstance(v, (str, os.PathLike))
 
 
-def _operators(v) -> bool:
-    from .primitives import operator_names
-    if v in ("auto", "none"):
+class OperatorNames(Rule):
+    """'auto', None, 'none' or names of registered memory operators that
+    the search can offer (:func:`mggp.primitives.operator_names`); the
+    names listed are those registered when the rule is checked."""
+
+    argtype = str
+
+    def ok(self, v) -> bool:
+        from .primitives import operator_names
+        if v in ("auto", "none"):
+            return True
+        try:
+            operator_names(v, searchable=False)
+        except ValueError:
+            return False
         return True
-    try:
-        operator_names(v)
-    except ValueError:
-        return False
-    return True
+
+    @staticmethod
+    def _names() -> str:
+        from .primitives import operator_choices
+        return ", ".join(operator_choices())
+
+    @property
+    def words(self) -> str:
+        return (f"'auto', None, 'none' or names among {self._names()} (a list, or "
+                "comma-separated text)")
+
+    @property
+    def cli_words(self) -> str:
+        return f"auto, none, or comma-separated names among {self._names()}"
+
+    def check(self, name: str, v, cli: bool = False) -> None:
+        """As :meth:`Rule.check`; a registered operator without a search
+        grid is refused with the reason."""
+        super().check(name, v, cli)
+        if v not in ("auto", "none"):
+            from .primitives import operator_names
+            try:
+                operator_names(v)
+            except ValueError as exc:
+                raise ValueError(f"{name}: {exc}") from None
 
 
 ANY = Kind("anything", lambda v: True)
-OPERATORS = Kind("'auto', None, 'none' or names among play, dengtan, boucwen (a list, or "
-                 "comma-separated text)",
-                 _operators, cli_words="auto, none, or comma-separated names among play, "
-                                       "dengtan, boucwen")
+OPERATORS = OperatorNames()
 NAMES = Kind("None or a list of names", _names)
 PATH = Kind("None or a path", _path)
 
@@ -298,8 +328,9 @@ _HELD_OUT = holdout_words()
 _PILOT = f"{percent(PILOT)} of the generations"
 _CLASS_MARGINS = class_margins()
 _KEPT_GAIN = f"by over {percent(GAIN)}"
-_PLAY_TEXT = ", ".join(f"{f:g}" for f in PLAY_RADIUS_FRACTIONS)
-_BOUC_WEN_TEXT = ", ".join(f"{s:g}" for s in dict.fromkeys(s for s, _ in BOUC_WEN_SHAPES))
+_OPERATOR_TEXT = ", ".join(f"{op.name.lower()} ({op.search_text()})"
+                           for op in OPERATOR_BUILTINS)
+_AUTO_TEXT = ", or ".join("with " + " and ".join(names) for names in auto_classes().values())
 _N_EXAMPLE = heldout_samples(500)
 _SIZE_TEXT = (f"within {percent(SIZE_TOLERANCE)} of the least (2/√n on n held-out samples "
               f"when larger: {percent(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE})")
@@ -374,11 +405,10 @@ _ROWS = (
           "--phi-outputs", context="if set", meta=True, const=True,
           default_text="inputs only"),
     Param("operators", "auto", OPERATORS, "memory operators of the inputs, "
-          f"comma-separated: play (plays of radii {_PLAY_TEXT} × the input range), "
-          f"dengtan (Deng–Tan operator) and boucwen (Bouc–Wen variables, β = {_BOUC_WEN_TEXT}"
-          " / the input range, γ = β or 0), entering as --operator-entry says; none: no "
-          "operators; auto: two model classes of the automatic choice of --phi/--no-phi "
-          "(searches with play and dengtan, or with boucwen, in the primitive set, without "
+          f"comma-separated: {_OPERATOR_TEXT}, or a plug-in's name in lower case (one "
+          "registered by --phi-module with a search grid), entering as --operator-entry "
+          "says; none: no operators; auto: the model classes of the automatic choice of "
+          f"--phi/--no-phi (searches {_AUTO_TEXT}, in the primitive set, without "
           "Φ), none when --phi or "
           "--no-phi is given", "model class", "--operators", context="if set",
           metavar="NAMES", default_text="a class of the automatic choice"),

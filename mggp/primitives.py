@@ -82,7 +82,8 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 from deap import gp
 
-from narx.memory import default_operators
+from narx.memory import OPERATOR_BUILTINS, default_operators, operator_table
+from narx.memory import BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS  # noqa: F401 (re-exported)
 from narx.phi import PhiRegistry, default_registry
 from narx.terms import Lag, OpCall, PhiCall, Signals, Term, format_param
 
@@ -91,65 +92,84 @@ __all__ = ["Expr", "InputLag", "input_lag_type", "LagSymbol", "SHIFTS", "make_ps
            "decode_individual", "max_lag_for_height", "reachable_lag", "play_radii",
            "OPERATOR_CHOICES",
            "operator_node_name", "search_operators", "operator_names", "bouc_wen_shapes",
-           "BOUC_WEN_SHAPES", "AUTO_OPERATORS",
+           "BOUC_WEN_SHAPES", "PLAY_RADIUS_FRACTIONS", "AUTO_OPERATORS", "auto_classes",
+           "operator_choices", "operator_grid",
            "operator_arg_type"]
 
-#: operators ``make_pset(operators=...)`` accepts, by their command-line name
-OPERATOR_CHOICES = {"play": "Play", "dengtan": "DengTan", "boucwen": "BoucWen"}
+#: the built-in operators by their command-line name (the operator's name in
+#: lower case); :func:`operator_choices` adds the registered plug-ins
+OPERATOR_CHOICES = {op.name.lower(): op.name for op in OPERATOR_BUILTINS}
+
+
+def _class_names(label: str) -> Tuple[str, ...]:
+    """Command-line names of the built-ins whose ``auto_class`` is ``label``."""
+    return tuple(op.name.lower() for op in OPERATOR_BUILTINS if op.auto_class == label)
+
 
 #: operators of the model class "operators" that ``operators='auto'`` pilots:
-#: the rate-independent ones. The Bouc–Wen variables are a class of their
-#: own (:func:`mggp.choices.search_classes`): in this one they won the pilots
-#: on Prandtl–Ishlinskii, MR damper and Bouc–Wen oscillator records whose
-#: validation they then simulated worse (``benchmarks/results/defaults.md``)
-AUTO_OPERATORS = ("play", "dengtan")
+#: the rate-independent ones (``auto_class`` 'operators' in
+#: :data:`narx.memory.OPERATOR_BUILTINS`). The Bouc–Wen variables are a
+#: class of their own (:func:`mggp.choices.search_classes`): in this one they
+#: won the pilots on Prandtl–Ishlinskii, MR damper and Bouc–Wen oscillator
+#: records whose validation they then simulated worse
+#: (``benchmarks/results/defaults.md``)
+AUTO_OPERATORS = _class_names("operators")
 
-#: play radii as fractions of the input's range (max - min)
-PLAY_RADIUS_FRACTIONS = (0.05, 0.1, 0.2, 0.35)
+
+def auto_classes() -> Dict[str, Tuple[str, ...]]:
+    """Model class -> command-line names of the operators it pilots, for
+    ``operators='auto'`` (``auto_class`` of the operator table, classes in
+    the order of their first operator): ``{'operators': ('play', 'dengtan'),
+    'Bouc–Wen': ('boucwen',)}``."""
+    out: Dict[str, Tuple[str, ...]] = {}
+    for op in OPERATOR_BUILTINS:
+        if op.auto_class is not None:
+            out[op.auto_class] = _class_names(op.auto_class)
+    return out
+
+
+def operator_choices() -> Dict[str, str]:
+    """Command-line name -> operator name of every registered operator
+    (:func:`narx.memory.operator_table`: built-ins, then plug-ins)."""
+    return {op.name.lower(): op.name for op in operator_table()}
+
+
+def _span(u) -> float:
+    import numpy as np
+    return float(np.max(u) - np.min(u))
+
+
+def operator_grid(name: str, u) -> Tuple[Tuple[float, ...], ...]:
+    """Parameter tuples the search offers of operator ``name`` (its name
+    or command-line name) for an input ``u``: the operator table's
+    :meth:`narx.memory.MemoryOperator.search_grid` of its range
+    ``max(u) - min(u)``."""
+    return default_operators().get(operator_choices().get(name, name)).search_grid(_span(u))
 
 
 def play_radii(u) -> Tuple[float, ...]:
-    """Play radii of the search for an input ``u``: the fractions
-    :data:`PLAY_RADIUS_FRACTIONS` of its range ``max(u) - min(u)``, each
-    rounded to two significant digits (0.1, 0.2, 0.4, 0.7 for an input
-    spanning [-1, 1]); empty for a constant input."""
-    import numpy as np
-    span = float(np.max(u) - np.min(u))
-    if not span > 0:
-        return ()
-    return tuple(float(f"{f * span:.2g}") for f in PLAY_RADIUS_FRACTIONS)
-
-
-#: shapes (β·range of the input, γ/β) of the Bouc–Wen variables
-#: :func:`bouc_wen_shapes` offers: a geometric grid of how far a sweep over
-#: the whole range drives the variable into its saturation at 1/(β + γ),
-#: each with the loop shapes γ = β (the piezo law's) and γ = 0
-BOUC_WEN_SHAPES = tuple((s, g) for s in (0.5, 1.5, 4.5) for g in (1.0, 0.0))
+    """Play radii of the search for an input ``u``
+    (:func:`operator_grid`: :data:`narx.memory.PLAY_RADIUS_FRACTIONS` of
+    its range, two significant digits; empty for a constant input)."""
+    return tuple(p[0] for p in operator_grid("Play", u))
 
 
 def bouc_wen_shapes(u) -> Tuple[Tuple[float, float], ...]:
-    """Bouc–Wen parameters (β, γ) for an input ``u``, one pair per shape of
-    :data:`BOUC_WEN_SHAPES`: β = s / (max(u) − min(u)) and γ = (γ/β)·β,
-    β rounded to two significant digits; empty for a constant input."""
-    import numpy as np
-    span = float(np.max(u) - np.min(u))
-    if not span > 0:
-        return ()
-    out = []
-    for s, ratio in BOUC_WEN_SHAPES:
-        beta = float(f"{s / span:.2g}")
-        out.append((beta, ratio * beta))
-    return tuple(out)
+    """Bouc–Wen parameters (β, γ) of the search for an input ``u``
+    (:func:`operator_grid`: one pair per shape of
+    :data:`narx.memory.BOUC_WEN_SHAPES`; empty for a constant input)."""
+    return operator_grid("BoucWen", u)
 
 
-def operator_names(names) -> Tuple[str, ...]:
-    """Operator names (keys of :data:`OPERATOR_CHOICES`) from None, a
-    sequence of names or comma-separated text, lower-cased.
+def operator_names(names, searchable: bool = True) -> Tuple[str, ...]:
+    """Command-line operator names (keys of :func:`operator_choices`) from
+    None, a sequence of names or comma-separated text, lower-cased.
 
     Raises
     ------
     ValueError
-        An unknown name, or a value of another kind.
+        An unknown name, with ``searchable`` an operator the search cannot
+        offer (parameters and no search grid), or a value of another kind.
     """
     if names is None:
         return ()
@@ -159,36 +179,36 @@ def operator_names(names) -> Tuple[str, ...]:
         raise ValueError(f"operators must be None, names or comma-separated text, "
                          f"got {names!r}")
     out = tuple(n.strip().lower() for n in names)
-    bad = [n for n in out if n not in OPERATOR_CHOICES]
+    choices = operator_choices()
+    bad = [n for n in out if n not in choices]
     if bad:
-        raise ValueError(f"operators must name some of {', '.join(OPERATOR_CHOICES)}, "
+        raise ValueError(f"operators must name some of {', '.join(choices)}, "
                          f"got {bad[0]!r}")
+    for n in out if searchable else ():
+        op = default_operators().get(choices[n])
+        if not op.searchable:
+            op.search_grid(1.0)                   # raises: no search grid
     return out
 
 
 def search_operators(names, U):
     """The ``operators`` argument of :func:`make_pset` for operator names
-    (:func:`operator_names`) and the inputs ``U`` (rows): plays of
-    :func:`play_radii` and Bouc-Wen variables of :func:`bouc_wen_shapes` of
-    the widest input range, Deng-Tan once.
+    (:func:`operator_names`) and the inputs ``U`` (rows): each operator's
+    :func:`operator_grid` of the widest input (plays of
+    :func:`play_radii`, Bouc-Wen variables of :func:`bouc_wen_shapes`,
+    Deng-Tan once).
 
     Raises
     ------
     ValueError
-        An unknown name.
+        An unknown name, an operator without a search grid.
     """
     import numpy as np
     U = np.atleast_2d(U)
     widest = U[int(np.argmax(np.ptp(U, axis=1)))]
-    out = {}
-    for n in operator_names(names):
-        if n == "play":
-            out["Play"] = [(r,) for r in play_radii(widest)]
-        elif n == "boucwen":
-            out["BoucWen"] = list(bouc_wen_shapes(widest))
-        else:
-            out[OPERATOR_CHOICES[n]] = [()]
-    return out
+    choices = operator_choices()
+    return {choices[n]: list(operator_grid(choices[n], widest))
+            for n in operator_names(names)}
 
 
 def operator_node_name(name: str, params: Sequence[float]) -> str:

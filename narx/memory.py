@@ -87,6 +87,17 @@ Plug-ins
 step function and a steady-state rule. Model files and term texts only
 *name* operators (with numeric parameters); they never carry code.
 
+Search grids
+------------
+Each row of the operator table also says what the structure search
+(:mod:`mggp`) offers of it: ``search(span)``, the parameter tuples for an
+input of range ``span`` = max − min (plays of radii
+:data:`PLAY_RADIUS_FRACTIONS` × span, Bouc-Wen variables of the shapes
+:data:`BOUC_WEN_SHAPES`), and ``auto_class``, the model class of the
+automatic choice that pilots it. The search names an operator by its name
+in lower case (``play``, ``dengtan``, ``boucwen``); a plug-in registered
+with ``search=`` is searched the same way (``mggp fit --operators stop``).
+
 Steady states
 -------------
 With its argument held at :math:`\bar x`, an operator holds its value; the
@@ -127,7 +138,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import Callable, Optional, Sequence, Tuple
+from typing import Callable, Optional, Sequence, Tuple, Union
 
 import numpy as np
 from numba import njit
@@ -139,7 +150,7 @@ __all__ = ["MemoryOperator", "OperatorRegistry", "register_operator",
            "play", "deng_tan", "bouc_wen", "play_step", "deng_tan_step", "bouc_wen_step",
            "deng_tan_state", "play_reference", "deng_tan_reference", "bouc_wen_reference",
            "DENG_TAN_DEPTH", "OPERATOR_BUILTINS", "BUILTIN_OPERATOR_CODES",
-           "operator_step"]
+           "operator_step", "PLAY_RADIUS_FRACTIONS", "BOUC_WEN_SHAPES", "operator_table"]
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
@@ -311,6 +322,45 @@ def _unbounded(xbar, params):
 
 def _no_params(params):
     return None
+
+
+# ------------------------------------------------------- search grids
+#: play radii of the structure search, as fractions of the input's range
+#: (max - min); read when the grid is made (:func:`_play_search`)
+PLAY_RADIUS_FRACTIONS = (0.05, 0.1, 0.2, 0.35)
+
+#: shapes (β·range of the input, γ/β) of the Bouc–Wen variables of the
+#: structure search (:func:`_bouc_wen_search`): a geometric grid of how
+#: far a sweep over the whole range drives the variable into its
+#: saturation at 1/(β + γ), each with the loop shapes γ = β (the piezo
+#: law's) and γ = 0
+BOUC_WEN_SHAPES = tuple((s, g) for s in (0.5, 1.5, 4.5) for g in (1.0, 0.0))
+
+
+def _play_search(span):
+    """Radii :data:`PLAY_RADIUS_FRACTIONS` × ``span``, each rounded to two
+    significant digits (0.1, 0.2, 0.4, 0.7 for an input spanning [-1, 1])."""
+    return tuple((float(f"{f * span:.2g}"),) for f in PLAY_RADIUS_FRACTIONS)
+
+
+def _play_search_words():
+    return ("plays of radii " + ", ".join(f"{f:g}" for f in PLAY_RADIUS_FRACTIONS)
+            + " × the input range")
+
+
+def _bouc_wen_search(span):
+    """(β, γ) per shape of :data:`BOUC_WEN_SHAPES`: β = s / ``span``
+    rounded to two significant digits, γ = (γ/β)·β."""
+    out = []
+    for s, ratio in BOUC_WEN_SHAPES:
+        beta = float(f"{s / span:.2g}")
+        out.append((beta, ratio * beta))
+    return tuple(out)
+
+
+def _bouc_wen_search_words():
+    betas = ", ".join(f"{s:g}" for s in dict.fromkeys(s for s, _ in BOUC_WEN_SHAPES))
+    return f"Bouc–Wen variables, β = {betas} / the input range, γ = β or 0"
 
 
 # ------------------------------------------------------- sequences
@@ -495,6 +545,20 @@ class MemoryOperator:
     code : int or None
         Kernel code of a built-in (its branch of :func:`operator_step`);
         None for a plug-in.
+    search : callable, optional
+        ``search(span) -> sequence of parameter tuples``: the parameters the
+        structure search offers for an input whose range ``max - min`` is
+        ``span`` > 0 (:meth:`search_grid`). An operator without parameters
+        needs none; one with parameters and no ``search`` cannot be
+        searched (a model may still name it).
+    search_words : str or callable
+        What the search offers, for help texts (a callable of no argument
+        is read when the text is made); default :attr:`doc`.
+    auto_class : str, optional
+        The model class of the automatic choice (``operators='auto'``,
+        :func:`mggp.choices.search_classes`) whose pilot searches it:
+        ``'operators'`` (rate-independent memory), ``'Bouc–Wen'``; None:
+        searched only when named.
     """
 
     name: str
@@ -505,6 +569,9 @@ class MemoryOperator:
     check: Optional[Callable] = None
     doc: str = ""
     code: Optional[int] = None
+    search: Optional[Callable] = None
+    search_words: Union[str, Callable] = ""
+    auto_class: Optional[str] = None
 
     @property
     def builtin(self) -> bool:
@@ -572,18 +639,56 @@ class MemoryOperator:
         lo, hi = self.steady(float(xbar), self.check_params(params))
         return float(lo), float(hi)
 
+    @property
+    def searchable(self) -> bool:
+        """True when the structure search can offer it (no parameters, or
+        a :attr:`search` grid)."""
+        return not self.params or self.search is not None
+
+    def search_grid(self, span) -> Tuple[Tuple[float, ...], ...]:
+        """Parameter tuples the structure search offers for an input of
+        range ``span`` (max − min): ``((),)`` without parameters; the
+        checked tuples of :attr:`search` when ``span`` > 0, none for a
+        constant input.
+
+        Raises
+        ------
+        ValueError
+            Parameters and no :attr:`search`, or a tuple outside the
+            operator's domain.
+        """
+        if not self.params:
+            return ((),)
+        if self.search is None:
+            raise ValueError(f"memory operator {self.name} has parameters "
+                             f"({', '.join(self.params)}) and no search grid: register it "
+                             f"with search=f, f(input range) giving the parameter tuples")
+        span = float(span)
+        if not span > 0:
+            return ()
+        return tuple(self.check_params(tuple(p)) for p in self.search(span))
+
+    def search_text(self) -> str:
+        """What the search offers, in words (:attr:`search_words`)."""
+        words = self.search_words() if callable(self.search_words) else self.search_words
+        return words or self.doc or self.name
+
 
 #: the built-in operators, one row each; :func:`operator_step` steps the
 #: row's code in the compiled kernels
 OPERATOR_BUILTINS = (
     MemoryOperator("Play", ("r",), _play_init, play_step, _play_steady, _play_check,
-                   "play (backlash) operator of radius r", code=_PLAY),
+                   "play (backlash) operator of radius r", code=_PLAY,
+                   search=_play_search, search_words=_play_search_words,
+                   auto_class="operators"),
     MemoryOperator("DengTan", (), _deng_tan_init, deng_tan_step, _unbounded, _no_params,
-                   "Deng-Tan operator (dominant-extremum memory)", code=_DENG_TAN),
+                   "Deng-Tan operator (dominant-extremum memory)", code=_DENG_TAN,
+                   search_words="Deng–Tan operator", auto_class="operators"),
     MemoryOperator("BoucWen", ("beta", "gamma"), _bouc_wen_init, bouc_wen_step,
                    _bouc_wen_steady, _bouc_wen_check,
                    "Bouc-Wen hysteretic variable of unit gain (shape beta, gamma)",
-                   code=_BOUC_WEN),
+                   code=_BOUC_WEN, search=_bouc_wen_search,
+                   search_words=_bouc_wen_search_words, auto_class="Bouc–Wen"),
 )
 
 #: built-in operator name -> kernel code
@@ -602,15 +707,19 @@ class OperatorRegistry(NamedRegistry):
 
     def register(self, name: str, params: Sequence[str], init: Callable,
                  step: Callable, steady: Callable, *, check: Optional[Callable] = None,
-                 doc: str = "", overwrite: bool = False) -> MemoryOperator:
-        """Register a user operator and return it.
+                 doc: str = "", search: Optional[Callable] = None,
+                 search_words: str = "", overwrite: bool = False) -> MemoryOperator:
+        """Register a user operator and return it (``search``,
+        ``search_words``: see :class:`MemoryOperator`).
 
         Raises
         ------
         ValueError
             On an invalid name or parameter name, a non-callable ``init``,
-            ``step``, ``steady`` or ``check``, or a clash with an existing
-            operator (unless ``overwrite``; built-ins never).
+            ``step``, ``steady``, ``check`` or ``search``, a name that equals
+            another operator's but for case (the command line names
+            operators in lower case), or a clash with an existing operator
+            (unless ``overwrite``; built-ins never).
         """
         if not isinstance(name, str) or not _NAME.match(name) or name == "k":
             raise ValueError(f"operator name must be an identifier (letters, digits, _; "
@@ -622,9 +731,15 @@ class OperatorRegistry(NamedRegistry):
         for what, f in (("init", init), ("step", step), ("steady", steady)):
             if not callable(f):
                 raise ValueError(f"{what} must be callable, got {type(f).__name__}")
-        if check is not None and not callable(check):
-            raise ValueError(f"check must be callable or None, got {type(check).__name__}")
-        return self._add(MemoryOperator(name, params, init, step, steady, check, doc),
+        for what, f in (("check", check), ("search", search)):
+            if f is not None and not callable(f):
+                raise ValueError(f"{what} must be callable or None, got {type(f).__name__}")
+        twin = [n for n in self._items if n.lower() == name.lower() and n != name]
+        if twin:
+            raise ValueError(f"operator name {name!r} differs from the registered "
+                             f"{twin[0]!r} only by case")
+        return self._add(MemoryOperator(name, params, init, step, steady, check, doc,
+                                        search=search, search_words=search_words),
                          overwrite)
 
     def user_operators(self):
@@ -640,8 +755,8 @@ def default_operators() -> OperatorRegistry:
 
 
 def register_operator(name, params, init, step, steady, *, check=None, doc="",
-                      overwrite=False, registry: Optional[OperatorRegistry] = None
-                      ) -> MemoryOperator:
+                      search=None, search_words="", overwrite=False,
+                      registry: Optional[OperatorRegistry] = None) -> MemoryOperator:
     """Register a user memory operator in ``registry`` (default: process-wide).
 
     Example, a Bouc-Wen hysteretic variable with its gain as a parameter
@@ -659,9 +774,23 @@ def register_operator(name, params, init, step, steady, *, check=None, doc="",
             return s[1]
         register_operator("BoucWenEuler", ("A", "beta", "gamma"), init, step,
                           steady=lambda xbar, p: (-np.inf, np.inf))
+
+    With ``search``, a function of the input's range giving the parameter
+    tuples to try, the structure search can offer it (``mggp fit
+    --operators boucweneuler``, ``MGGPRegressor(operators=["BoucWenEuler"])``),
+    e.g. ``search=lambda span: [(1.0, b / span, b / span) for b in (0.5, 2)]``
+    (a module-level function when the search runs in several processes).
     """
     return (registry or _DEFAULT).register(name, params, init, step, steady,
-                                           check=check, doc=doc, overwrite=overwrite)
+                                           check=check, doc=doc, search=search,
+                                           search_words=search_words, overwrite=overwrite)
+
+
+def operator_table(registry: Optional[OperatorRegistry] = None):
+    """Every operator of ``registry`` (default: process-wide): the
+    built-ins in the order of :data:`OPERATOR_BUILTINS`, then the plug-ins
+    in the order they were registered."""
+    return list(OPERATOR_BUILTINS) + (registry or _DEFAULT).user_operators()
 
 
 def unregister_operator(name: str, registry: Optional[OperatorRegistry] = None) -> None:

@@ -5,9 +5,16 @@ imported first; importing each module alone, first, in an interpreter that
 has loaded no module of the project, finds such failures. The interpreter
 is forked from one that has loaded only the third-party dependencies, so
 the check takes seconds, not a minute. The cycle check reads every import
-statement of narx and of mggp with ``ast``, also those inside functions
-(they run when the function does); imports under ``if TYPE_CHECKING:``
-never run and are left out.
+statement of narx and of mggp with ``ast`` in two graphs: the imports
+that run (also those inside functions, which run when the function does;
+imports under ``if TYPE_CHECKING:`` never run and are left out), and the
+top-level imports alone (module and class bodies, those under ``if
+TYPE_CHECKING:`` included: a type checker follows them, and a cycle there
+is a tangle of the modules however it is imported). Run as a script it
+prints the cycles of each kind, and those that only imports inside
+functions close::
+
+    python tests/test_imports.py
 """
 from __future__ import annotations
 
@@ -31,12 +38,21 @@ def _modules(package):
     return out
 
 
-def _imports(module, path):
-    """Project modules that ``module`` (file ``path``) imports, anywhere in it."""
+#: which import statements a graph holds: those that run (anywhere but under
+#: ``if TYPE_CHECKING:``), or those at top level (outside function bodies,
+#: ``if TYPE_CHECKING:`` included)
+SCOPES = ("run-time", "top-level")
+
+
+def _imports(module, path, scope="run-time"):
+    """Project modules that ``module`` (file ``path``) imports in ``scope``
+    (:data:`SCOPES`)."""
     is_pkg = path.name == "__init__.py"
     base = module if is_pkg else module.rpartition(".")[0]
     out = set()
-    for node in _run_time_nodes(ast.parse(path.read_text(encoding="utf-8"))):
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    nodes = _run_time_nodes(tree) if scope == "run-time" else _top_level_nodes(tree)
+    for node in nodes:
         if isinstance(node, ast.ImportFrom):
             if node.level:
                 parts = base.split(".")
@@ -65,6 +81,16 @@ def _run_time_nodes(node):
         children = ast.iter_child_nodes(node)
     for child in children:
         yield from _run_time_nodes(child)
+
+
+def _top_level_nodes(node):
+    """Every node under ``node`` outside function bodies (what runs when the
+    module is imported, and what a type checker reads under ``if
+    TYPE_CHECKING:``)."""
+    yield node
+    for child in ast.iter_child_nodes(node):
+        if not isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            yield from _top_level_nodes(child)
 
 
 def _cycles(graph):
@@ -98,12 +124,13 @@ def _cycles(graph):
     return found
 
 
-def _graph(package):
-    mods = _modules(package)
+def _graph(*packages, scope="run-time"):
+    """Module -> the project modules it imports in ``scope`` (:data:`SCOPES`)."""
+    mods = [m for package in packages for m in _modules(package)]
     paths = {m: ROOT.joinpath(*m.split(".")) for m in mods}
     paths = {m: (p / "__init__.py" if p.is_dir() else p.with_suffix(".py"))
              for m, p in paths.items()}
-    return {m: sorted(i for i in _imports(m, paths[m]) if i in paths and i != m)
+    return {m: sorted(i for i in _imports(m, paths[m], scope) if i in paths and i != m)
             for m in mods}
 
 
@@ -135,6 +162,41 @@ def test_mggp_has_no_import_cycle():
     graph = _graph("mggp")
     assert len(graph) > 40 and "mggp.stages" in graph["mggp.estimator"]
     assert "mggp.estimator" in graph["mggp"]          # the lazy attribute is read
+    assert _cycles(graph) == []
+
+
+def test_top_level_graph_reads_type_checking_and_skips_functions(tmp_path):
+    # control: the top-level graph holds a TYPE_CHECKING import and one in a
+    # class body, not one inside a function or a method
+    path = tmp_path / "m.py"
+    path.write_text("from typing import TYPE_CHECKING\n"
+                    "if TYPE_CHECKING:\n    from .a import A\n"
+                    "class C:\n    from .b import B\n"
+                    "    def f(self):\n        from .c import C\n"
+                    "def g():\n    import pkg.d\n", encoding="utf-8")
+    found = _imports("pkg.m", path, "top-level")
+    assert {"pkg.a", "pkg.b"} <= found
+    assert not {"pkg.c", "pkg.d"} & found
+    # a cycle closed only under TYPE_CHECKING is one of the top-level graph
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "x.py").write_text("from .y import Y\nX = 1\n", encoding="utf-8")
+    (pkg / "y.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+                              "    from .x import X\nY = 2\n", encoding="utf-8")
+    top = {m: sorted(i for i in _imports(m, pkg / f"{m[4:]}.py", "top-level")
+                     if i in ("pkg.x", "pkg.y") and i != m) for m in ("pkg.x", "pkg.y")}
+    run = {m: sorted(i for i in _imports(m, pkg / f"{m[4:]}.py")
+                     if i in ("pkg.x", "pkg.y") and i != m) for m in ("pkg.x", "pkg.y")}
+    assert _cycles(top) == [["pkg.x", "pkg.y"]] and _cycles(run) == []
+
+
+def test_no_cycle_of_top_level_imports():
+    """narx and mggp together, top-level imports only, TYPE_CHECKING ones
+    included (the diagnosis's Budget once closed augmentation -> registry ->
+    context -> extend -> augmentation that way)."""
+    graph = _graph("narx", "mggp", scope="top-level")
+    assert "mggp.diagnose.budget" in graph["mggp.diagnose.context"]
+    assert "narx.kernels" in graph["narx.simulate"]
     assert _cycles(graph) == []
 
 
@@ -184,3 +246,12 @@ def test_every_module_imports_alone():
                          capture_output=True, text=True, env=env, cwd=str(ROOT), timeout=600)
     assert res.returncode == 0, res.stderr
     assert res.stdout.split() == ["narx.no_such_module"], res.stderr
+
+
+if __name__ == "__main__":
+    top = _cycles(_graph("narx", "mggp", scope="top-level"))
+    run = _cycles(_graph("narx", "mggp"))
+    print("cycles of top-level imports (TYPE_CHECKING included):", top or "none")
+    print("cycles of run-time imports (inside functions included):", run or "none")
+    only = [c for c in run if c not in top]
+    print("closed only by imports inside functions:", only or "none")

@@ -186,7 +186,8 @@ def test_fit_builds_one_scorer_per_setting(record, monkeypatch):
 
 def test_help_texts_state_the_figures_of_the_constants_they_describe():
     """The help of the automatic choices is written from the constants of
-    mggp.choices, mggp.primitives and mggp.operator_stage: changed there,
+    mggp.choices, narx.memory (the operator table's search grids) and
+    mggp.operator_stage: changed there,
     the help follows (a fresh interpreter, the constants set before the
     table is built again); control: the shipped values in the shipped help."""
     import subprocess
@@ -195,10 +196,10 @@ def test_help_texts_state_the_figures_of_the_constants_they_describe():
     assert "within 5 % of the least" in PARAMS["size"].help
     assert "by over 5 %" in PARAMS["constant"].help
     assert "over 15 % lower, Bouc–Wen variables over 50 %" in PARAMS["use_phi"].help
-    code = ("import importlib, mggp.choices as c, mggp.primitives as pr, "
+    code = ("import importlib, mggp.choices as c, narx.memory as m, "
             "mggp.operator_stage as o, mggp.params as p\n"
             "c.GAIN, c.CLASS_GAIN, c.SIZE_TOLERANCE, c.PILOT = 0.07, 0.25, 0.08, 0.3\n"
-            "pr.PLAY_RADIUS_FRACTIONS, o.OPERATOR_GAIN = (0.1, 0.4), 0.02\n"
+            "m.PLAY_RADIUS_FRACTIONS, o.OPERATOR_GAIN = (0.1, 0.4), 0.02\n"
             "p = importlib.reload(p)\n"
             "print(p.PARAMS['constant'].help, p.PARAMS['use_phi'].help, "
             "p.PARAMS['size'].help, p.PARAMS['operators'].help, "

@@ -61,6 +61,43 @@ def test_model19_roots_are_eq20_and_class_is_eq21():
     assert set(qs.branch[1:]) == {"loading", "unloading"}
 
 
+def eq20_exact(u, th):
+    """ỹ = b_k / (1 − a_k) of eq. (20) in exact rational arithmetic from the
+    factor values the model sees (Phi1 of the input: the float difference),
+    rounded once; NaN where a_k = 1."""
+    from fractions import Fraction as F
+    th = [F(t) for t in th]
+    out = []
+    for k in range(3, u.size):
+        p1 = F(float(u[k - 2] - u[k - 3]))
+        p2 = (p1 > 0) - (p1 < 0)
+        q1, v = F(float(u[k - 1] - u[k - 2])), F(float(u[k - 2]))
+        a = th[0] + th[3] * p2 * p1 + th[5] * p1 * v + th[6] * p2
+        b = th[1] * p1 + th[2] * p2 * p1 * v + th[4] * p1 * v * v + th[7] * q1 \
+            + th[8] * p2 * p1 * p1
+        out.append(float(b / (1 - a)) if a != 1 else np.nan)
+    return np.arange(3, u.size), np.array(out)
+
+
+def test_model19_roots_to_full_precision_and_the_polish_does_it():
+    """At θ1 = 1 the coefficient 1 − a_k of eq. (20) is θ4 Φ2 Φ1 + θ6 Φ1 u +
+    θ7 Φ2, down to 2e-6 here: summed in float with the y[k-1] term it keeps
+    few digits. The polished roots agree with eq. (20) computed exactly to
+    1e-12; control: the roots from the eigenvalues (closed form) alone are
+    off by more than ten times that."""
+    from narx.quasistatic import _Frozen, _solve_polynomial
+    u = sine(70.0, 1.0, 1e-3, 2)
+    k, exact = eq20_exact(u, MODEL19_THETA)
+    assert np.all(np.isfinite(exact))
+    qs = narx.quasistatic(model19(), u)
+    rel = np.abs(qs.roots[k, 0] - exact) / np.abs(exact)
+    assert rel.max() < 1e-12, rel.max()
+    fz = _Frozen(model19(), narx.Data(u), k).finish()
+    raw, _ = _solve_polynomial(*fz.polynomial(), 1e-9)
+    rel_raw = np.abs(raw[:, 0] - exact) / np.abs(exact)
+    assert rel_raw.max() > 1e-11, rel_raw.max()
+
+
 def test_model19_held_input_is_a_continuum_and_an_ls_model_is_not():
     u = np.concatenate([sine(70.0, 1.0, 1e-3, 0.3), np.full(20, 0.0)])
     u[-20:] = u[-21]                                       # hold the last value

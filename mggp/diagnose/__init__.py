@@ -46,7 +46,7 @@ only when the ratio is above 1, else ``"baseline"`` (an extension that did
 not help is not recommended, and the summary says so); ``null`` stands for
 a diverged simulation (an infinite error).
 """
-from .extend import Budget
+from .budget import Budget
 from .context import Context
 from .findings import EXTENSIONS, VOCABULARY, Check, Finding
 from .registry import DiagnosticTest, Outcome, register, registered, unregister

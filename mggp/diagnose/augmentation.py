@@ -163,29 +163,39 @@ def _placebo(terms, name, v):
     return [re.sub(rf"\b{re.escape(name)}\[", f"{v}[", t) for t in terms]
 
 
-def operator_terms(data: Data, lags=(1,), dengtan: bool = True) -> List[str]:
-    """Memory-operator terms of each input (:mod:`narx.memory`): plays of
-    the search's radii (:func:`mggp.primitives.play_radii`, fractions of
-    the input's range) and, with ``dengtan``, Deng–Tan, at each lag."""
-    from ..primitives import play_radii
-    out = []
-    for n in data.inputs:
-        for j in lags:
-            out += [f"Play({n}[k-{j}],{r:g})" for r in play_radii(data.input(n))]
-            if dengtan:
-                out.append(f"DengTan({n}[k-{j}])")
-    return out
+def _operator_texts(data: Data, names, lags) -> List[str]:
+    """Terms of the operators ``names`` (command-line names) of each input at
+    each lag, one per tuple of the search's grid of that input
+    (:func:`mggp.primitives.operator_grid`)."""
+    from ..primitives import operator_choices, operator_grid
+    choices = operator_choices()
+    return [f"{choices[o]}({n}[k-{j}]" + "".join(f",{v:g}" for v in p) + ")"
+            for n in data.inputs for j in lags for o in names
+            for p in operator_grid(o, data.input(n))]
+
+
+def operator_terms(data: Data, lags=(1,), scaled_only: bool = False) -> List[str]:
+    """Memory-operator terms of each input (:mod:`narx.memory`) at each lag:
+    the operators of the class ``operators`` of the automatic choice
+    (:data:`mggp.primitives.AUTO_OPERATORS`: plays of the search's radii,
+    fractions of the input's range, and Deng–Tan); with ``scaled_only``
+    only those with parameters, which the grid sets from the input's range
+    (the plays; Deng–Tan's shape depends on the input's units)."""
+    from ..primitives import AUTO_OPERATORS, operator_choices
+    from narx.memory import get_operator
+    names = [o for o in AUTO_OPERATORS
+             if not scaled_only or get_operator(operator_choices()[o]).params]
+    return _operator_texts(data, names, lags)
 
 
 def bouc_wen_terms(data: Data, lags=(1,)) -> List[str]:
     """Bouc–Wen operator terms of each input (:func:`narx.memory.bouc_wen`)
-    at each lag, one per shape of the search's grid
-    (:func:`mggp.primitives.bouc_wen_shapes`: β from the input's range).
-    The Bouc–Wen gain is the term's coefficient, so a weighted sum of them
-    is found by least squares."""
-    from ..primitives import bouc_wen_shapes
-    return [f"BoucWen({n}[k-{j}],{beta:g},{gamma:g})" for n in data.inputs
-            for j in lags for beta, gamma in bouc_wen_shapes(data.input(n))]
+    at each lag, one per shape of the search's grid (the class
+    ``Bouc–Wen`` of :func:`mggp.primitives.auto_classes`; β from the
+    input's range). The Bouc–Wen gain is the term's coefficient, so a
+    weighted sum of them is found by least squares."""
+    from ..primitives import auto_classes
+    return _operator_texts(data, auto_classes()["Bouc–Wen"], lags)
 
 
 def augmentation_operator_terms(data: Data) -> List[str]:
@@ -193,7 +203,7 @@ def augmentation_operator_terms(data: Data) -> List[str]:
     of :func:`operator_terms` and the Bouc–Wen variables of
     :func:`bouc_wen_terms`, at lag 1 (no Deng–Tan: its shape depends on
     the input's units)."""
-    return operator_terms(data, dengtan=False) + bouc_wen_terms(data)
+    return operator_terms(data, scaled_only=True) + bouc_wen_terms(data)
 
 
 def operator_augmentation_test(model: Model, data: Data, *, shifts: int = 99,

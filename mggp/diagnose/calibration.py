@@ -47,7 +47,7 @@ from narx.data import Data
 
 from .context import Context
 from .controls import CONTROL_KINDS, control_record
-from .extend import Budget
+from .budget import Budget
 from .registry import DiagnosticTest
 
 __all__ = ["FalseAlarmRate", "false_alarm_rate", "control_checks", "threshold_factors"]

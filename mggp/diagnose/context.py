@@ -12,17 +12,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Dict, List, Tuple
+from typing import Dict, List, Tuple
 
 import numpy as np
 
 from narx import Model
 from narx.data import Data
 
+from .budget import Budget
 from .holds import HoldResponse, continuum_violations, find_holds, hold_responses
-
-if TYPE_CHECKING:                       # pragma: no cover
-    from .extend import Budget
 
 __all__ = ["Context"]
 

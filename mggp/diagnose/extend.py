@@ -71,8 +71,10 @@ from narx.estimate import EstimationError
 from narx.model import ignore_rank_warnings
 from narx.terms import Signals, parse_term
 
+from ..primitives import AUTO_OPERATORS
 from ..selection import CLSRejectedWarning
 from .augmentation import bouc_wen_terms, direction_terms, operator_terms
+from .budget import Budget
 from .holds import probe_holds
 from .simulation import freerun_rmse
 
@@ -83,7 +85,7 @@ __all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search",
 
 _SPECIFIC = ("hysteresis", "prediction-bias", "steady-state-drift")
 #: memory operators of the hysteresis search (:mod:`narx.memory`)
-OPERATORS = ("play", "dengtan")
+OPERATORS = AUTO_OPERATORS
 
 
 def _linear_dynamics(data: Data) -> List[str]:
@@ -108,26 +110,6 @@ def bouc_wen_dynamics_terms(data: Data) -> List[str]:
     filter of order up to 3 is such a model when a shape of the grid is
     near its own)."""
     return _linear_dynamics(data) + bouc_wen_terms(data, (1, 2))
-
-
-@dataclass(frozen=True)
-class Budget:
-    """Search effort and sample sizes of the statistics.
-
-    The defaults (the published population of 500, 100 generations) take
-    about 40 s for 10,000 samples on 2 cores (``jobs=2``) and about 2.5 min
-    per model for the 50,000-sample piezo record.
-    """
-
-    population: int = 500
-    generations: int = 100
-    max_terms: int = 15
-    max_height: int = 5
-    max_degree: int = 3
-    window: int = 100
-    shifts: int = 99
-    bootstrap: int = 199
-    corr_lags: int = 20
 
 
 @dataclass(frozen=True)
