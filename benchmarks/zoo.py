@@ -10,15 +10,16 @@ Run::
 For each draw (4,000 training samples, the validation record of the draw),
 ``evaluate`` runs :func:`mggp.diagnose.diagnose` at the **study budget**
 (:data:`STUDY_BUDGET`: population 100, 20 generations, everything else
-the :class:`~mggp.diagnose.Budget` defaults; chosen so that one diagnosis
-takes at most about 30 s on 2 cores, see the measurement below) and the
+the :class:`~mggp.diagnose.Budget` defaults, so the statistics are the
+product's; see the measurement below) and the
 :func:`oracle`, and appends one JSON line per draw to the file as it
 finishes (a killed run keeps its records; a new run skips the seeds
 already there). Fields: ``seed, split, family, hysteretic, placement,
-input_kind, snr_db, n, exact, identifiable, oracle_gain, oracle_rmse,
-oracle_method, baseline_rmse, extended_rmse, named, gain, recommended,
-p_values, seconds`` (``error`` instead of the diagnosis fields when it
-failed).
+input_kind, validation_kind, snr_db, colour, n, exact, identifiable,
+oracle_gain, oracle_rmse, oracle_method, baseline_rmse, extended_rmse,
+named, gain, recommended, p_values, diagnose_seconds, seconds`` (``error``
+instead of the diagnosis fields when it failed, ``oracle_error`` when the
+oracle did; ``seconds`` counts the draw, the oracle and the diagnosis).
 
 **Oracle.** The truth's terms (:attr:`narx.systems.zoo.Draw.truth`) are
 fitted on the first 75 % of the training record by least squares and by
@@ -33,10 +34,19 @@ from the diagnosis, or :func:`baseline_rmse` standalone) / the oracle's.
 A hysteretic draw is *identifiable* when ``oracle_gain >= 1.5``: knowing
 the structure buys at least that much, so a diagnosis could.
 
-**Study budget.** The default budget (population 500, 100 generations)
-took 1068 s (hysteresis named: 800 s) on a 4,000-sample draw at a load
-of about 12 on 2 cores; see the report for the measurement of population
-100 and 20 generations, about 25 times less work.
+**Study budget.** Measured on 4,000-sample development draws, CPU time
+of one process (``jobs=1``; the machine was shared, load about 18 on 2
+cores, so wall times were 5-9 times longer): with the default budget
+(population 500, 100 generations) one diagnosis took 91 s (seed 1,
+quadratic damping, nothing named, so no extension search); with
+population 100 and 20 generations 60 s (seed 1) and 67 s (seed 2,
+Wiener-Hammerstein), of which the baseline search about 10 s and the
+evidence about 50 s, 48 s of it the operator-augmentation test, which runs
+in one process and does not depend on the search budget. No search budget
+therefore brings a diagnosis under 30 s on 2 cores; population 100 and 20
+generations makes the search a small share (about 5 s with ``jobs=2``)
+and the diagnosis about 55 s on 2 idle cores, plus an extension search
+when a cause is named.
 """
 from __future__ import annotations
 
