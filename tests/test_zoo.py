@@ -220,3 +220,15 @@ def test_evaluate_cli_writes_complete_records_and_resumes(tmp_path):
     table = subprocess.run([sys.executable, "-m", "benchmarks.zoo", "table", str(path)],
                            check=True, cwd=ROOT, env=env, capture_output=True, text=True)
     assert table.stdout.startswith("**Conclusion.**")
+
+
+@pytest.mark.slow
+def test_standalone_baseline_path():
+    """The best model without memory searched without a diagnosis: the
+    truth of an exact Bouc-Wen draw beats it (oracle gain > 1.5)."""
+    from benchmarks.zoo import baseline_rmse, oracle, oracle_gain
+    d = zoo.draw(20, n=4000)
+    assert d.family == "bouc-wen" and d.truth.exact
+    b = baseline_rmse(d, population=10, generations=2)
+    assert np.isfinite(b) and b > 0
+    assert oracle_gain(b, oracle(d).rmse) > 1.5
