@@ -124,8 +124,21 @@ class MGGPRegressor:
 
     Every parameter is keyword-only; the defaults are the published setup
     except where they are 'auto', which the fit chooses for itself
-    (:mod:`mggp.choices`). The list below (*Parameters*) is generated from
-    :data:`mggp.params.PARAMS`, which also holds each rule.
+    (:mod:`mggp.choices`). *Parameters* below are the ten that most runs
+    set, *Other Parameters* the expert options; both lists are generated
+    from :data:`mggp.params.PARAMS`, which also holds each rule and tier.
+    A keyword that is no parameter raises a ``TypeError`` naming the
+    closest one.
+
+    A scikit-learn regressor (scikit-learn itself is optional): ``fit(u,
+    y)``, ``predict(u, y0=None)`` (free run from the initial outputs y0,
+    or from rest: zeros), ``score(u, y)`` (R² of the free run), tags,
+    ``n_features_in_`` and, from a pandas DataFrame, ``feature_names_in_``
+    (the columns name the inputs); ``get_params``/``set_params`` for
+    ``clone``, ``Pipeline`` and ``cross_val_score`` (with
+    ``TimeSeriesSplit``: the rows are samples of a time series, in order).
+    :meth:`expected_failed_checks` lists the estimator checks a time-series
+    model cannot pass, with the reasons.
 
     Notes
     -----

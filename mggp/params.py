@@ -491,7 +491,7 @@ _ROWS = (
           "parallelism", "--scheduler", metavar="ADDRESS", default_text="none"),
     Param("inputs", None, NAMES, "input column name(s) (in Python the column names of a "
           "pandas DataFrame u are taken when this is not given)", "data", "--input", nargs="+",
-          metavar="NAME", default_text="u", tier="common"),
+          metavar="NAME", default_text="u", tier="common", flag_help="input column name(s)"),
     Param("output", "y", Kind("a name", lambda v: isinstance(v, str)), "output column "
           "name", "data", "--output", metavar="NAME", tier="common"),
     Param("outliers", "auto", OneOf(("auto", "keep")), "isolated glitches of the "
