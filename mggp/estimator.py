@@ -629,7 +629,10 @@ class MGGPRegressor:
                 seed: Optional[int] = None, checkpoint=None, resume: bool = False,
                 require_finite: bool = True, shape=None, tag: Optional[str] = None):
         """One evolution of the model class ``cls`` (:class:`mggp.choices.SearchClass`)
-        for ``generations`` (continued from ``checkpoint`` with ``resume``):
+        for ``generations`` (continued from ``checkpoint`` with ``resume``),
+        its individuals of at most ``max_terms`` genes less the terms
+        ``shape`` adds to every structure (the constant term), so that no
+        structure scored has more than ``max_terms`` terms:
         ``(seed, EvolutionResult)``; ``ValueError`` when no structure has a
         finite fitness (unless not ``require_finite``); ``shape`` makes the
         scored structures (default ``ctx.shape``); ``tag`` names the search
@@ -667,7 +670,8 @@ class MGGPRegressor:
                          high_level_cx_rate=self.high_level_cx_rate,
                          high_level_mut_rate=self.high_level_mut_rate,
                          tournament_size=self.tournament_size,
-                         elite_fraction=self.elite_fraction, max_terms=self.max_terms,
+                         elite_fraction=self.elite_fraction,
+                         max_terms=self.max_terms - len(shape(())),   # room beside the constant
                          max_height=self.max_height_, on_generation=on_generation,
                          checkpoint=checkpoint, resume=resume,
                          context=json.loads(json.dumps(context, default=str)),

@@ -38,8 +38,9 @@ from .operator_stage import OPERATOR_GAIN
 from .primitives import MAX_HEIGHT, BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS, max_lag_for_height
 
 __all__ = ["MAX_HEIGHT", "Param", "Rule", "Int", "Real", "OneOf", "Bool", "Seed", "Kind", "PARAMS",
-           "DIAGNOSE_PARAMS", "GROUPS", "TIERS", "check_params", "unknown_keyword", "check_value", "context_of",
-           "meta_of", "add_options", "options_given", "check_options", "params_doc"]
+           "DIAGNOSE_PARAMS", "GROUPS", "TIERS", "check_params", "unknown_keyword",
+           "check_value", "context_of", "meta_of", "add_options", "options_given",
+           "check_options", "params_doc"]
 
 
 # ---------------------------------------------------------------- rules
@@ -593,6 +594,10 @@ _COMBINED = (
      lambda e: f"estimator={e.estimator!r} needs a simulation fitness ('ms' or 'freerun'), got "
                f"fitness={e.fitness!r}",
      "--estimator oe and bj need --fitness ms or freerun"),
+    (lambda e: not (e.constant is True and e.max_terms < 2),
+     lambda e: f"constant=True needs max_terms >= 2 (the constant term and a searched one), "
+               f"got max_terms={e.max_terms}",
+     "--constant needs --max-terms 2 or more (the constant term and a searched one)"),
     (lambda e: e.estimator not in OE_ESTIMATORS or e.search_constraints is None,
      lambda e: f"estimator={e.estimator!r} estimates unconstrained θ, got "
                f"search_constraints={e.search_constraints!r}",
