@@ -753,7 +753,8 @@ class MGGPRegressor:
             ``max_lag`` samples of the output (a longer array, e.g. the
             measured output, gives its first ``max_lag``). None: from rest,
             every initial output 0 (a system at rest at an output far from
-            0 needs its own y0: the free run starts at 0). Other modes
+            0 needs its own y0: the free run starts at 0), or from the
+            measured output of a narx.Data ``u`` that holds one. Other modes
             predict from the measured output, which is then this argument
             (or ``y``).
         y : array, optional
