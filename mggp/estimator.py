@@ -9,6 +9,8 @@ Typical use::
     est.model_cls_                  # its CLS refit (continuum of steady states)
     print(est.pareto_front_)        # complexity, loss, score, equation (mggp.pareto)
     est.simulate(u_val, y_val, mode="freerun").mape
+    est.predict(u_val, y0=y_val[:10])   # free run from initial outputs (None: from rest)
+    est.score(u_val, y_val)             # R² of the free run (scikit-learn's score)
 
 ``fit`` is the search (:mod:`mggp.evolve`: term sets proposed by GP, each
 scored by LS and the chosen simulation, :mod:`mggp.evaluate`) followed by
@@ -17,7 +19,10 @@ noise model, the QR refit on the full record, the precision check, with
 ``constraints='steady-state'`` the constrained refit under the
 continuum-of-steady-states equalities derived from the terms [1]_, the
 refinement, the verdict on the CLS refit and the Pareto front. The
-parameters, their rules and defaults are the table :data:`mggp.params.PARAMS`.
+parameters, their rules, defaults and tiers are the table
+:data:`mggp.params.PARAMS`; the scikit-learn conventions (tags, feature
+names, the estimator checks a time series cannot pass) are
+:mod:`mggp.sklearn_api`.
 
 References
 ----------

@@ -193,3 +193,27 @@ def test_unfitted_estimator_says_so():
     u, y = _record(100)
     with pytest.raises(NotFittedError, match="not fitted yet"):
         MGGPRegressor().predict(u)
+
+
+def test_scikit_learn_stays_optional():
+    """Without scikit-learn (its import blocked in a fresh interpreter)
+    fit, predict and score work and the not-fitted error is mggp's;
+    control: the same run here imports it for the tags."""
+    import subprocess
+    import sys
+    code = ("import sys; sys.modules['sklearn'] = None\n"
+            "import numpy as np\n"
+            "from mggp import MGGPRegressor, NotFittedError\n"
+            "rng = np.random.default_rng(0); u = rng.uniform(-1, 1, 200)\n"
+            "y = np.r_[0, 0.5 * u[:-1]]\n"
+            "try:\n    MGGPRegressor().predict(u)\n"
+            "except NotFittedError as e:\n    print(type(e) is NotFittedError)\n"
+            "est = MGGPRegressor(population=4, generations=0, use_phi=False, constant=False,"
+            " max_height=1, fitness='pem', random_state=0).fit(u, y)\n"
+            "print(est.predict(u).shape, round(est.score(u, y), 3))\n"
+            "try:\n    est.__sklearn_tags__()\nexcept ImportError:\n    print('no tags')\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == ["True", "(200,) 1.0", "no tags"], out.stdout
+    assert MGGPRegressor().__sklearn_tags__().estimator_type == "regressor"   # control
