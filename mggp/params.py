@@ -460,7 +460,8 @@ _ROWS = (
           "drop terms of the chosen structure by BIC of the fitness or by t-statistics",
           "selection", "--prune", meta=True, default_text="keep all"),
     Param("noise_lags", 0, Int(0), "Q: select moving-average noise terms e[k-1]..e[k-Q] "
-          "by extended least squares after the search (NARMAX, for coloured noise)",
+          "by extended least squares after the search (NARMAX, for coloured noise), as many "
+          "as --max-terms leaves room for beside the process terms",
           "model class", "--noise-lags", meta=True, metavar="Q"),
     Param("t_threshold", None, Real(0, lo_open=True, none=True),
           "|t| below which a term is pruned (default: Bonferroni over the candidate "
