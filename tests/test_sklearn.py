@@ -70,6 +70,24 @@ def test_what_the_checks_on_too_few_samples_would_test():
         MGGPRegressor(**SMALL).fit(bad, y)
 
 
+def test_sample_order_matters():
+    """What the two invariance checks would find on enough samples: the
+    free run of a subset of rows, or of shuffled rows, is not the subset
+    or the shuffle of the free run of all rows; control: the same rows in
+    the same order give the same prediction."""
+    rng = np.random.default_rng(1)
+    X = 3 * rng.uniform(size=(60, 3))
+    y = np.zeros(60)
+    for k in range(1, 60):
+        y[k] = 0.5 * y[k - 1] + X[k - 1, 0]
+    est = MGGPRegressor(**SMALL).fit(X, y)
+    whole = est.predict(X)
+    np.testing.assert_array_equal(est.predict(X), whole)                 # control
+    assert not np.allclose(est.predict(X[30:])[5:], whole[35:])
+    order = rng.permutation(60)
+    assert not np.allclose(est.predict(X[order]), whole[order])
+
+
 def _record(n=600, seed=0):
     """y[k] = 0.6 y[k-1] + 0.5 u[k-1] - 0.2 u[k-2] y[k-1], u white in [-1, 1]."""
     rng = np.random.default_rng(seed)
