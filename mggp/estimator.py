@@ -787,7 +787,7 @@ class MGGPRegressor:
             y0 = np.zeros(model.max_lag)        # from rest
         return model.simulate(predict_inputs(self, u), y, mode, y0=y0, **kw).y_hat
 
-    def score(self, u, y, sample_weight=None):
+    def score(self, u, y, sample_weight=None, *, mode="freerun", **kw):
         """R² of the free-run simulation of ``u`` from the measured initial
         outputs (the first ``max_lag`` samples of ``y``):
 
@@ -799,10 +799,12 @@ class MGGPRegressor:
         mean of y there, ``w`` = ``sample_weight`` (default 1). A free run
         that diverges scores ``-inf``. This is what ``cross_val_score``
         reports; the one-step R² of least squares is much higher and says
-        little about a simulation model.
+        little about a simulation model. ``mode`` (with ``k=`` or
+        ``window=``) scores another simulation of :meth:`simulate` instead,
+        over the samples it predicts ('osa': the one-step R²).
         """
         self._check_fitted()
-        sim = self.simulate(u, fit_output(y), mode="freerun")
+        sim = self.simulate(u, fit_output(y), mode=mode, **kw)
         return r2(sim.y[sim.valid], sim.y_hat[sim.valid],
                   None if sample_weight is None else
                   np.asarray(sample_weight, dtype=float)[sim.valid])
