@@ -12,7 +12,7 @@ The numerics live in :mod:`narx`; this package decodes DEAP individuals
 into narx terms, runs the evolution, and holds the command line (``mggp``).
 """
 from .exceptions import (CheckpointError, CLIError, CLSRejectedWarning,  # noqa: F401
-                         SearchPrecisionWarning, WorkerLostError)
+                         NotFittedError, SearchPrecisionWarning, WorkerLostError)
 from .exceptions import __all__ as _EXCEPTIONS
 from .version import __version__, versions  # noqa: F401
 

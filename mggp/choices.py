@@ -369,9 +369,11 @@ def constant_searched(est) -> bool:
     """Whether every structure of the search holds the constant term:
     ``constant``, or with 'auto' unless the steady-state constraints are
     imposed (a constant term moves every equilibrium by the same amount, so
-    the output could not rest at any level: no continuum of steady states)."""
+    the output could not rest at any level: no continuum of steady states),
+    nor with ``max_terms=1``, which leaves no room for a searched term
+    beside it."""
     if est.constant == "auto":
-        return not steady(est)
+        return not steady(est) and est.max_terms >= 2
     return bool(est.constant)
 
 

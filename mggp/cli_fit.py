@@ -25,21 +25,28 @@ from .params import PATH, PARAMS, Bool, Param, add_options, check_params, option
 
 __all__ = ["register", "FIT_OPTIONS"]
 
-#: options of ``mggp fit``: every parameter with a flag, and the outputs
-FIT_OPTIONS = tuple(PARAMS.values()) + (
-    Param("phi", None, Bool(), "Φ-functions allowed: one search, no comparison with a "
-          "search without them", "model class", "--phi", const=True,
-          default_text="chosen by held-out free-run error", estimator=False),
-    Param("no_constant", None, Bool(), "no constant term in any structure", "model class",
-          "--no-constant", const=True, default_text="chosen by held-out free-run error",
-          estimator=False),
+_CLI_ROWS = {
+    "use_phi": Param("phi", None, Bool(), "Φ-functions allowed: one search, no comparison "
+                     "with a search without them", "model class", "--phi", const=True,
+                     default_text="chosen by held-out free-run error", estimator=False,
+                     tier="common"),
+    "constant": Param("no_constant", None, Bool(), "no constant term in any structure",
+                      "model class", "--no-constant", const=True,
+                      default_text="chosen by held-out free-run error", estimator=False),
+}
+
+#: options of ``mggp fit``: every parameter with a flag (--phi and
+#: --no-constant beside the flag of the same parameter), and the outputs;
+#: ``--help`` shows the common tier first (:data:`mggp.params.TIERS`)
+FIT_OPTIONS = tuple(r for p in PARAMS.values() for r in (p, _CLI_ROWS.get(p.name)) if r) + (
     Param("out", None, PATH, "write the model: with --constraints the CLS fit, unless its "
           "free run diverges on the training record or (unless --screen hold, or --select "
           "hold found a structure that holds) its RMSE there is over twice the LS fit's: "
           "then the LS fit, with a warning", "output", "--out", metavar="MODEL.json",
-          default_text="not written", estimator=False),
+          default_text="not written", estimator=False, tier="common"),
     Param("report", None, PATH, "write figures and a Markdown summary to this folder",
-          "output", "--report", metavar="DIR", default_text="none", estimator=False),
+          "output", "--report", metavar="DIR", default_text="none", estimator=False,
+          tier="common"),
     Param("quiet", False, Bool(), "no progress line", "output", "--quiet", const=True,
           default_text="progress on stderr", estimator=False),
 )
@@ -56,7 +63,7 @@ def register(sub):
                                    "recorded in the model. An explicit option overrides it.")
     p.add_argument("data", metavar="DATA.csv", help="training record (columns u and y "
                    "unless --input/--output say otherwise)")
-    add_options(p, FIT_OPTIONS)
+    add_options(p, FIT_OPTIONS, tiers=True)     # the common options first
     p.set_defaults(func=_cmd_fit, files=Files({"data": "DATA.csv"},
                                               {"out": "--out", "checkpoint": "--checkpoint"},
                                               {"report": "--report"}))

@@ -9,6 +9,8 @@ Typical use::
     est.model_cls_                  # its CLS refit (continuum of steady states)
     print(est.pareto_front_)        # complexity, loss, score, equation (mggp.pareto)
     est.simulate(u_val, y_val, mode="freerun").mape
+    est.predict(u_val, y0=y_val[:10])   # free run from initial outputs (None: from rest)
+    est.score(u_val, y_val)             # R² of the free run (scikit-learn's score)
 
 ``fit`` is the search (:mod:`mggp.evolve`: term sets proposed by GP, each
 scored by LS and the chosen simulation, :mod:`mggp.evaluate`) followed by
@@ -17,7 +19,10 @@ noise model, the QR refit on the full record, the precision check, with
 ``constraints='steady-state'`` the constrained refit under the
 continuum-of-steady-states equalities derived from the terms [1]_, the
 refinement, the verdict on the CLS refit and the Pareto front. The
-parameters, their rules and defaults are the table :data:`mggp.params.PARAMS`.
+parameters, their rules, defaults and tiers are the table
+:data:`mggp.params.PARAMS`; the scikit-learn conventions (tags, feature
+names, the estimator checks a time series cannot pass) are
+:mod:`mggp.sklearn_api`.
 
 References
 ----------
@@ -33,7 +38,7 @@ import random
 import tempfile
 import time
 import warnings
-from functools import partial
+from functools import partial, wraps
 from typing import NamedTuple, Optional, Tuple
 
 import numpy as np
@@ -43,7 +48,9 @@ from narx.data import Data, DataError, as_data
 from narx.fitness import StructureScorer
 from narx.deadtime import onset_scans
 from narx.outliers import find_spikes, repaired
+from narx.metrics import r2
 from narx.phi import default_registry
+from narx.simulate import mode_name
 
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
@@ -56,12 +63,14 @@ from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import check_context, evolve
 from .exceptions import CheckpointError
-from .params import PARAMS, check_params, context_of, params_doc
+from .params import PARAMS, check_params, context_of, params_doc, unknown_keyword
 from .pareto import ParetoFront
 from .precision import data_warnings
 from .primitives import (identically_zero, make_pset, max_lag_for_height, reachable_lag,
                          search_operators)
 from .screen import StabilityScreen
+from .sklearn_api import (EXPECTED_FAILED_CHECKS, fit_inputs, fit_output, not_fitted,
+                          predict_inputs, sklearn_tags)
 from .stages import FitContext, run_stages, screened
 
 __all__ = ["MGGPRegressor", "ParetoFront"]
@@ -69,6 +78,19 @@ __all__ = ["MGGPRegressor", "ParetoFront"]
 #: what ``fit`` says when no structure of the search has a finite fitness
 NO_FINITE = ("no structure with a finite fitness was found: every candidate diverged; "
              "try fitness='pem' or a shorter window")
+
+
+def _keywords_checked(init):
+    """``init`` refusing a keyword that is no parameter with a ``TypeError``
+    that names it and the closest parameter (``MGGPRegressor(populaton=40)``:
+    "did you mean 'population'?"); the signature stays ``init``'s."""
+    @wraps(init)
+    def checked(self, *args, **kwargs):
+        for name in kwargs:
+            if name not in PARAMS:
+                raise TypeError(unknown_keyword(name, type(self).__name__))
+        init(self, *args, **kwargs)
+    return checked
 
 
 class PilotRun(NamedTuple):
@@ -107,8 +129,21 @@ class MGGPRegressor:
 
     Every parameter is keyword-only; the defaults are the published setup
     except where they are 'auto', which the fit chooses for itself
-    (:mod:`mggp.choices`). The list below (*Parameters*) is generated from
-    :data:`mggp.params.PARAMS`, which also holds each rule.
+    (:mod:`mggp.choices`). *Parameters* below are the ten that most runs
+    set, *Other Parameters* the expert options; both lists are generated
+    from :data:`mggp.params.PARAMS`, which also holds each rule and tier.
+    A keyword that is no parameter raises a ``TypeError`` naming the
+    closest one.
+
+    A scikit-learn regressor (scikit-learn itself is optional): ``fit(u,
+    y)``, ``predict(u, y0=None)`` (free run from the initial outputs y0,
+    or from rest: zeros), ``score(u, y)`` (R² of the free run), tags,
+    ``n_features_in_`` and, from a pandas DataFrame, ``feature_names_in_``
+    (the columns name the inputs); ``get_params``/``set_params`` for
+    ``clone``, ``Pipeline`` and ``cross_val_score`` (with
+    ``TimeSeriesSplit``: the rows are samples of a time series, in order).
+    :meth:`expected_failed_checks` lists the estimator checks a time-series
+    model cannot pass, with the reasons.
 
     Notes
     -----
@@ -203,28 +238,35 @@ class MGGPRegressor:
     (:func:`mggp.choices.search_span`); the default 'all' searches it whole.
     """
 
-    def __init__(self, *, fitness="ms", window=100, k=10, criterion="mse",
-                 constraints=None, search_constraints=None, population=500,
-                 generations=200, search_samples="all", cxpb=0.8, mutpb=0.2,
-                 high_level_cx_rate=0.5,
+    @_keywords_checked
+    def __init__(self, *, fitness="ms", constraints=None, population=500, generations=200,
+                 max_terms=15, use_phi="auto", random_state=None, n_jobs=1, inputs=None,
+                 output="y",
+                 # expert options (the docstring's Other Parameters)
+                 window=100, k=10, criterion="mse", search_constraints=None,
+                 search_samples="all", cxpb=0.8, mutpb=0.2, high_level_cx_rate=0.5,
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
-                 max_terms=15, max_height="auto", use_phi="auto", phi_names=None,
-                 phi_outputs=False, operators="auto", operator_entry="stage",
-                 constant="auto", max_lag=None, max_degree=None, select="auto",
-                 size="auto", local_search=True, select_candidates=50,
+                 max_height="auto", phi_names=None, phi_outputs=False, operators="auto",
+                 operator_entry="stage", constant="auto", max_lag=None, max_degree=None,
+                 select="auto", size="auto", local_search=True, select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, estimator="ls", refine=None, refine_window=None,
-                 random_state=None, n_jobs=1, backend="loky",
-                 scheduler=None, inputs=None, output="y", outliers="auto", checkpoint=None,
+                 backend="loky", scheduler=None, outliers="auto", checkpoint=None,
                  resume=False, callbacks=None, registry=None):
         self.fitness = fitness
+        self.constraints = constraints
+        self.population = population
+        self.generations = generations
+        self.max_terms = max_terms
+        self.use_phi = use_phi
+        self.random_state = random_state
+        self.n_jobs = n_jobs
+        self.inputs = inputs
+        self.output = output
         self.window = window
         self.k = k
         self.criterion = criterion
-        self.constraints = constraints
         self.search_constraints = search_constraints
-        self.population = population
-        self.generations = generations
         self.search_samples = search_samples
         self.cxpb = cxpb
         self.mutpb = mutpb
@@ -232,9 +274,7 @@ class MGGPRegressor:
         self.high_level_mut_rate = high_level_mut_rate
         self.tournament_size = tournament_size
         self.elite_fraction = elite_fraction
-        self.max_terms = max_terms
         self.max_height = max_height
-        self.use_phi = use_phi
         self.phi_names = phi_names
         self.phi_outputs = phi_outputs
         self.operators = operators
@@ -251,16 +291,12 @@ class MGGPRegressor:
         self.screen_band = screen_band
         self.prune = prune
         self.noise_lags = noise_lags
+        self.t_threshold = t_threshold
         self.estimator = estimator
         self.refine = refine
         self.refine_window = refine_window
-        self.t_threshold = t_threshold
-        self.random_state = random_state
-        self.n_jobs = n_jobs
         self.backend = backend
         self.scheduler = scheduler
-        self.inputs = inputs
-        self.output = output
         self.outliers = outliers
         self.checkpoint = checkpoint
         self.resume = resume
@@ -268,16 +304,37 @@ class MGGPRegressor:
         self.registry = registry
 
     # -------------------------------------------------------------- sklearn
+    _estimator_type = "regressor"
+
     def get_params(self, deep=True):
         """The parameters (the rows of :data:`mggp.params.PARAMS`) and their values."""
         return {name: getattr(self, name) for name in PARAMS}
 
     def set_params(self, **params):
+        """Set parameters by name; an unknown name is refused with the
+        closest parameter named (:func:`mggp.params.unknown_keyword`)."""
         for k, v in params.items():
             if k not in PARAMS:
-                raise ValueError(f"invalid parameter {k!r} for MGGPRegressor")
+                raise ValueError(unknown_keyword(k, type(self).__name__))
             setattr(self, k, v)
         return self
+
+    def __sklearn_tags__(self):
+        """scikit-learn's tags, imported only when asked for
+        (:func:`mggp.sklearn_api.sklearn_tags`)."""
+        return sklearn_tags(self)
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return hasattr(self, "model_")
+
+    @staticmethod
+    def expected_failed_checks(estimator=None) -> dict:
+        """The estimator checks of scikit-learn that a structure search of a
+        time series cannot pass, each with its reason
+        (:data:`mggp.sklearn_api.EXPECTED_FAILED_CHECKS`): the argument
+        ``expected_failed_checks`` of
+        :func:`sklearn.utils.estimator_checks.parametrize_with_checks`."""
+        return dict(EXPECTED_FAILED_CHECKS)
 
     def __repr__(self):
         """Parameters that differ from the defaults, as scikit-learn shows them."""
@@ -338,12 +395,26 @@ class MGGPRegressor:
         return int(rs)                          # an integer >= 0 (check_params)
 
     def fit(self, u, y=None):
-        """Search a structure on ``(u, y)`` (arrays or a narx.Data), then run
-        the stages of :data:`mggp.stages.STAGES`; returns self."""
+        """Search a structure on ``(u, y)``, then run the stages of
+        :data:`mggp.stages.STAGES`; returns self.
+
+        Parameters
+        ----------
+        u : array of shape (n,) or (n, m), pandas DataFrame, or narx.Data
+            The input signals, one column per input, one row per sample in
+            time order; the columns of a DataFrame name the inputs
+            (``feature_names_in_``), else ``inputs`` does ('u', or u1..um).
+            A narx.Data record may hold the output too (then no ``y``).
+        y : array of shape (n,)
+            The measured output.
+        """
         t0 = time.perf_counter()
         for name in [a for a in vars(self) if a.endswith("_") and not a.startswith("_")]:
             delattr(self, name)                 # nothing from an earlier fit survives
-        data = as_data(u, y, inputs=self.inputs, output=self.output)
+        u, inputs = fit_inputs(self, u)
+        if not isinstance(u, Data):
+            y = fit_output(y)
+        data = as_data(u, y, inputs=inputs, output=self.output)
         data.require_output("fit")
         check_params(self)
         spikes = find_spikes(data) if self.outliers == "auto" else []
@@ -563,7 +634,10 @@ class MGGPRegressor:
                 seed: Optional[int] = None, checkpoint=None, resume: bool = False,
                 require_finite: bool = True, shape=None, tag: Optional[str] = None):
         """One evolution of the model class ``cls`` (:class:`mggp.choices.SearchClass`)
-        for ``generations`` (continued from ``checkpoint`` with ``resume``):
+        for ``generations`` (continued from ``checkpoint`` with ``resume``),
+        its individuals of at most ``max_terms`` genes less the terms
+        ``shape`` adds to every structure (the constant term), so that no
+        structure scored has more than ``max_terms`` terms:
         ``(seed, EvolutionResult)``; ``ValueError`` when no structure has a
         finite fitness (unless not ``require_finite``); ``shape`` makes the
         scored structures (default ``ctx.shape``); ``tag`` names the search
@@ -601,7 +675,8 @@ class MGGPRegressor:
                          high_level_cx_rate=self.high_level_cx_rate,
                          high_level_mut_rate=self.high_level_mut_rate,
                          tournament_size=self.tournament_size,
-                         elite_fraction=self.elite_fraction, max_terms=self.max_terms,
+                         elite_fraction=self.elite_fraction,
+                         max_terms=self.max_terms - len(shape(())),   # room beside the constant
                          max_height=self.max_height_, on_generation=on_generation,
                          checkpoint=checkpoint, resume=resume,
                          context=json.loads(json.dumps(context, default=str)),
@@ -649,7 +724,7 @@ class MGGPRegressor:
     # -------------------------------------------------------------- use
     def _check_fitted(self):
         if not hasattr(self, "model_"):
-            raise ValueError("this MGGPRegressor is not fitted yet: call fit(u, y) first")
+            raise not_fitted("this MGGPRegressor is not fitted yet: call fit(u, y) first")
 
     def get_best(self, constrained: Optional[bool] = None) -> Model:
         """The best model: the CLS refit if one was made, unless False or
@@ -663,11 +738,76 @@ class MGGPRegressor:
         return self.model_cls_ if constrained else self.model_
 
     def simulate(self, u, y=None, mode="freerun", constrained=None, **kw):
-        return self.get_best(constrained).simulate(u, y, mode, **kw)
+        """The simulation (:class:`narx.simulate.SimulationResult`) of the best
+        model (:meth:`get_best`) on the inputs ``u`` (as ``fit`` takes them,
+        the same number of inputs) in ``mode`` ('freerun', 'osa', 'ksa' with
+        ``k``, 'ms' with ``window``), from the measured output ``y`` (free
+        run: its first samples, or ``y0=`` initial outputs)."""
+        self._check_fitted()
+        return self.get_best(constrained).simulate(predict_inputs(self, u), y, mode, **kw)
 
-    def predict(self, u, y=None, mode="freerun", constrained=None, **kw):
-        return self.simulate(u, y, mode, constrained, **kw).y_hat
+    def predict(self, u, y0=None, *, y=None, mode="freerun", constrained=None, **kw):
+        """The predicted output of the best model (:meth:`get_best`).
 
+        Parameters
+        ----------
+        u : array of shape (n,) or (n, m), pandas DataFrame, or narx.Data
+            The input signals, as ``fit`` takes them.
+        y0 : array, optional
+            Free run (the default ``mode``): the initial outputs, the first
+            ``max_lag`` samples of the output (a longer array, e.g. the
+            measured output, gives its first ``max_lag``). None: from rest,
+            every initial output 0 (a system at rest at an output far from
+            0 needs its own y0: the free run starts at 0), or from the
+            measured output of a narx.Data ``u`` that holds one. Other modes
+            predict from the measured output, which is then this argument
+            (or ``y``).
+        y : array, optional
+            The measured output, by keyword (free run: its first samples
+            are the initial outputs).
+        mode : str
+            'freerun', 'osa', 'ksa' (with ``k=``) or 'ms' (with ``window=``).
+        constrained : bool, optional
+            The CLS refit (True) or the LS model (False); default as
+            :meth:`get_best`.
+
+        Returns
+        -------
+        array of shape (n,)
+            The first ``max_lag`` samples are the initial outputs.
+        """
+        self._check_fitted()
+        if y0 is not None and y is not None:
+            raise ValueError("predict takes y0 or y, not both (y0: initial outputs of the "
+                             "free run, or the measured output of the other modes)")
+        model = self.get_best(constrained)
+        if y is None and mode_name(mode) != "freerun":
+            y, y0 = y0, None                    # the measured output, passed as before
+        elif y is None and y0 is None:
+            y0 = np.zeros(model.max_lag)        # from rest
+        return model.simulate(predict_inputs(self, u), y, mode, y0=y0, **kw).y_hat
+
+    def score(self, u, y, sample_weight=None, *, mode="freerun", **kw):
+        """R² of the free-run simulation of ``u`` from the measured initial
+        outputs (the first ``max_lag`` samples of ``y``):
+
+        .. math:: R^2 = 1 - \\frac{\\sum_k w_k (y_k - \\hat y_k)^2}
+                                  {\\sum_k w_k (y_k - \\bar y)^2},
+
+        over the samples k from ``max_lag`` on, :math:`\\hat y` the free run
+        of the best model (:meth:`get_best`), :math:`\\bar y` the (weighted)
+        mean of y there, ``w`` = ``sample_weight`` (default 1). A free run
+        that diverges scores ``-inf``. This is what ``cross_val_score``
+        reports; the one-step R² of least squares is much higher and says
+        little about a simulation model. ``mode`` (with ``k=`` or
+        ``window=``) scores another simulation of :meth:`simulate` instead,
+        over the samples it predicts ('osa': the one-step R²).
+        """
+        self._check_fitted()
+        sim = self.simulate(u, fit_output(y), mode=mode, **kw)
+        return r2(sim.y[sim.valid], sim.y_hat[sim.valid],
+                  None if sample_weight is None else
+                  np.asarray(sample_weight, dtype=float)[sim.valid])
 
 
 MGGPRegressor.__doc__ += params_doc()

@@ -13,8 +13,8 @@ parameter, the rule and the value given (:mod:`mggp.params`).
 """
 from __future__ import annotations
 
-__all__ = ["CLIError", "CheckpointError", "WorkerLostError", "CLSRejectedWarning",
-           "SearchPrecisionWarning"]
+__all__ = ["CLIError", "CheckpointError", "WorkerLostError", "NotFittedError",
+           "CLSRejectedWarning", "SearchPrecisionWarning"]
 
 
 class CLIError(Exception):
@@ -29,6 +29,12 @@ class CheckpointError(ValueError):
 
 class WorkerLostError(RuntimeError):
     """Worker processes kept dying while a batch was scored."""
+
+
+class NotFittedError(ValueError, AttributeError):
+    """A fitted estimator's method called before ``fit``; a ValueError and
+    an AttributeError, as scikit-learn's ``NotFittedError`` is (its checks
+    and ``except`` clauses catch either)."""
 
 
 class CLSRejectedWarning(UserWarning):

@@ -25,7 +25,7 @@ References
 """
 from __future__ import annotations
 
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -79,8 +79,10 @@ def full_ma(data, q: int, registry) -> Tuple:
                  for j in range(1, q + 1))
 
 
-def select_noise(data, terms, start, registry, q: int, crit: float) -> Tuple:
-    """Forward selection of MA noise terms by ELS t-statistics.
+def select_noise(data, terms, start, registry, q: int, crit: float,
+                 limit: Optional[int] = None) -> Tuple:
+    """Forward selection of MA noise terms by ELS t-statistics, at most
+    ``limit`` of them (None: no limit).
 
     Each step ranks the remaining candidates by their t-statistic with the
     noise estimate held at the current model's (one projection each), fits
@@ -100,7 +102,7 @@ def select_noise(data, terms, start, registry, q: int, crit: float) -> Tuple:
     noise = _els(data, terms, start, registry)[1]
     while True:
         rest = [c for c in cands if c not in chosen]
-        if not rest:
+        if not rest or (limit is not None and len(chosen) >= limit):
             return chosen
         # rank the candidates with the noise held, then fit the most
         # promising ones by ELS to convergence and keep the best of those

@@ -39,8 +39,9 @@ from .operator_stage import OPERATOR_GAIN
 from .primitives import MAX_HEIGHT, auto_classes, max_lag_for_height
 
 __all__ = ["MAX_HEIGHT", "Param", "Rule", "Int", "Real", "OneOf", "Bool", "Seed", "Kind", "PARAMS",
-           "DIAGNOSE_PARAMS", "GROUPS", "check_params", "check_value", "context_of",
-           "meta_of", "add_options", "options_given", "check_options", "params_doc"]
+           "DIAGNOSE_PARAMS", "GROUPS", "TIERS", "check_params", "unknown_keyword",
+           "check_value", "context_of", "meta_of", "add_options", "options_given",
+           "check_options", "params_doc"]
 
 
 # ---------------------------------------------------------------- rules
@@ -286,6 +287,11 @@ class Param:
     nargs, metavar : argparse's.
     estimator : bool
         False for a command-line option that is no estimator parameter.
+    tier : str
+        'common' (one of the ten most users set: shown first in the
+        signature, the docstring's *Parameters* and ``mggp fit --help``)
+        or 'expert' (the docstring's *Other Parameters*, the expert groups
+        of ``--help``); :data:`TIERS`.
     """
 
     name: str
@@ -302,6 +308,7 @@ class Param:
     nargs: Optional[str] = None
     metavar: Optional[str] = None
     estimator: bool = True
+    tier: str = "expert"
 
     def check(self, v, cli: bool = False) -> None:
         self.rule.check(self.flag if cli else self.name, v, cli)
@@ -317,6 +324,12 @@ GROUPS = {
     "output": "output",
     "tests": "tests of the diagnosis",
 }
+
+#: the tiers of the parameters, in the order shown, with the heading of
+#: ``mggp fit --help`` for the common one (the expert ones keep their
+#: topic's heading of :data:`GROUPS`, marked as expert)
+TIERS = {"common": "common options (the ones most runs set)",
+         "expert": "expert options"}
 
 _FITNESS = ("ms", "pem", "freerun", "ksa")
 
@@ -340,7 +353,7 @@ _ROWS = (
     Param("fitness", "ms", OneOf(_FITNESS, aliases=("osa",)),
           "simulation whose mean squared error scores a structure: multiple shooting "
           "(ms), one step ahead (pem; alias osa), free run (freerun) or k steps ahead "
-          "(ksa)", "selection", "--fitness", context=True, meta=True),
+          "(ksa)", "selection", "--fitness", context=True, meta=True, tier="common"),
     Param("window", 100, Int(1), "multiple-shooting window in samples: each window is "
           "simulated in free run from measured initial conditions (--fitness ms)",
           "selection", "--window", context=True, meta=True),
@@ -353,15 +366,15 @@ _ROWS = (
           "also refit the chosen structure by constrained least squares so that every "
           "constant output is an equilibrium when the input is held (continuum of steady "
           "states)", "model class", "--constraints", context="if set",
-          default_text="least squares only"),
+          default_text="least squares only", tier="common"),
     Param("search_constraints", None, OneOf((None, "steady-state")),
           "score every structure of the search by its constrained fit (continuum of "
           "steady states) instead of least squares", "selection", "--search-constraints",
           context=True, meta=True, default_text="least squares"),
     Param("population", 500, Int(2), "structures per generation", "budget", "--population",
-          meta=True),
+          meta=True, tier="common"),
     Param("generations", 200, Int(0), "generations after the initial population",
-          "budget", "--generations", meta=True),
+          "budget", "--generations", meta=True, tier="common"),
     Param("search_samples", "all", IntOrWords(1000, names=("all",)), "samples of the record "
           "the structure search runs on: 'all' the whole record; N a part of N samples (of ten "
           "evenly spread parts, the one whose signals cover most of their range), for a long "
@@ -378,8 +391,10 @@ _ROWS = (
     Param("tournament_size", 2, Int(1), "structures compared per tournament", "budget"),
     Param("elite_fraction", 0.1, Real(0, 1),
           "share of each generation copied unchanged (the best)", "budget"),
-    Param("max_terms", 15, Int(1), "largest number of terms of a model", "model class",
-          "--max-terms", meta=True),
+    Param("max_terms", 15, Int(1), "largest number of terms of any model the fit scores, "
+          "chooses or returns: the constant term and the noise terms of --noise-lags count",
+          "model class",
+          "--max-terms", meta=True, tier="common"),
     Param("max_height", "auto", IntOrWords(1, hi=MAX_HEIGHT, why=_HEIGHT_WHY), "height of "
           f"the GP trees; a tree of height h reaches lags up to 1 + 3h; at most {MAX_HEIGHT}; "
           f"'auto': {HEIGHT} (lags up to {1 + 3 * HEIGHT}), raised to reach an input that acts "
@@ -397,7 +412,7 @@ _ROWS = (
           flag_help="plain polynomial terms only: no Φ-functions (--phi: Φ-functions "
           "allowed; neither: pilots of the classes no Φ, Φ, plays with Deng–Tan, and "
           "Bouc–Wen variables, the one with the lowest held-out free-run error continued)",
-          default_text="chosen by held-out free-run error"),
+          default_text="chosen by held-out free-run error", tier="common"),
     Param("phi_names", None, NAMES, "Φ-functions the search uses (default: all "
           "registered)", "model class", context=True, meta=True),
     Param("phi_outputs", False, Bool(), "Φ-terms of output lags too, e.g. "
@@ -475,7 +490,8 @@ _ROWS = (
           "drop terms of the chosen structure by BIC of the fitness or by t-statistics",
           "selection", "--prune", meta=True, default_text="keep all"),
     Param("noise_lags", 0, Int(0), "Q: select moving-average noise terms e[k-1]..e[k-Q] "
-          "by extended least squares after the search (NARMAX, for coloured noise)",
+          "by extended least squares after the search (NARMAX, for coloured noise), as many "
+          "as --max-terms leaves room for beside the process terms",
           "model class", "--noise-lags", meta=True, metavar="Q"),
     Param("t_threshold", None, Real(0, lo_open=True, none=True),
           "|t| below which a term is pruned (default: Bonferroni over the candidate "
@@ -497,17 +513,19 @@ _ROWS = (
           "of --refine ms", "selection", "--refine-window", metavar="W",
           default_text="--window"),
     Param("random_state", None, Seed(), "seed: fixes the run whatever the number of "
-          "workers", "parallelism", "--seed", default_text="drawn, and reported"),
+          "workers", "parallelism", "--seed", default_text="drawn, and reported",
+          tier="common"),
     Param("n_jobs", 1, Int(1, also=(-1,)), "worker processes, -1 for all cores",
-          "parallelism", "--jobs"),
+          "parallelism", "--jobs", tier="common"),
     Param("backend", "loky", OneOf(("loky", "threading", "sequential", "dask")),
           "joblib backend of the evaluator", "parallelism", "--backend"),
     Param("scheduler", None, ANY, "dask scheduler address (or client) for --backend dask",
           "parallelism", "--scheduler", metavar="ADDRESS", default_text="none"),
-    Param("inputs", None, NAMES, "input column name(s)", "data", "--input", nargs="+",
-          metavar="NAME", default_text="u"),
+    Param("inputs", None, NAMES, "input column name(s) (in Python the column names of a "
+          "pandas DataFrame u are taken when this is not given)", "data", "--input", nargs="+",
+          metavar="NAME", default_text="u", tier="common", flag_help="input column name(s)"),
     Param("output", "y", Kind("a name", lambda v: isinstance(v, str)), "output column "
-          "name", "data", "--output", metavar="NAME"),
+          "name", "data", "--output", metavar="NAME", tier="common"),
     Param("outliers", "auto", OneOf(("auto", "keep")), "isolated glitches of the "
           f"measured signals: 'auto' repairs every run of at most {SPIKE_WIDTH} samples that "
           "lies on one side of both its neighbours, beyond the rest of its signal's range "
@@ -536,8 +554,22 @@ _ROWS = (
           "model class"),
 )
 
-#: every parameter of :class:`mggp.MGGPRegressor`, in the order of its signature
-PARAMS: Dict[str, Param] = {p.name: p for p in _ROWS}
+#: every parameter of :class:`mggp.MGGPRegressor`, in the order of its
+#: signature: the common tier first, each tier in the order of the table
+PARAMS: Dict[str, Param] = {p.name: p for p in sorted(_ROWS, key=lambda p: list(TIERS).index(
+    p.tier))}
+
+
+def unknown_keyword(name: str, owner: str = "MGGPRegressor") -> str:
+    """The message of a keyword that is no parameter: it names the keyword
+    and the closest parameter (:func:`difflib.get_close_matches`), e.g.
+    ``"MGGPRegressor got an unexpected keyword argument 'populaton': did you
+    mean 'population'?"``."""
+    import difflib
+    close = difflib.get_close_matches(str(name), list(PARAMS), n=1, cutoff=0.6)
+    hint = (f"did you mean {close[0]!r}?" if close else
+            f"the parameters are the rows of mggp.params.PARAMS: {', '.join(PARAMS)}")
+    return f"{owner} got an unexpected keyword argument {name!r}: {hint}"
 
 
 def _diagnose_row(name: str, **changes) -> Param:
@@ -593,6 +625,10 @@ _COMBINED = (
      lambda e: f"estimator={e.estimator!r} needs a simulation fitness ('ms' or 'freerun'), got "
                f"fitness={e.fitness!r}",
      "--estimator oe and bj need --fitness ms or freerun"),
+    (lambda e: not (e.constant is True and e.max_terms < 2),
+     lambda e: f"constant=True needs max_terms >= 2 (the constant term and a searched one), "
+               f"got max_terms={e.max_terms}",
+     "--constant needs --max-terms 2 or more (the constant term and a searched one)"),
     (lambda e: e.estimator not in OE_ESTIMATORS or e.search_constraints is None,
      lambda e: f"estimator={e.estimator!r} estimates unconstrained θ, got "
                f"search_constraints={e.search_constraints!r}",
@@ -639,15 +675,26 @@ def _shown(p: Param) -> str:
     return str(p.default).lower() if isinstance(p.default, bool) else str(p.default)
 
 
-def add_options(parser, rows: Iterable[Param], groups: Optional[dict] = None) -> dict:
+def add_options(parser, rows: Iterable[Param], groups: Optional[dict] = None,
+                tiers: bool = False) -> dict:
     """Add the rows with a flag to ``parser``, in argument groups by
-    :attr:`Param.group`, each help line ending with its default. Every
-    option's value is None unless given (:func:`options_given`). Returns
-    the argument groups by name, for options added by hand."""
+    :attr:`Param.group`, each help line ending with its default. With
+    ``tiers`` the common rows come first in a group of their own
+    (:data:`TIERS`), and each topic group of the others is headed as
+    expert. Every option's value is None unless given
+    (:func:`options_given`). Returns the argument groups by name, for
+    options added by hand."""
     groups = {} if groups is None else groups
     rows = [p for p in rows if p.flag is not None]
-    for name, title in GROUPS.items():         # headings in the order of GROUPS
-        if name not in groups and any(p.group == name for p in rows):
+
+    def group_of(p: Param) -> str:
+        return "common" if tiers and p.tier == "common" else p.group
+    titles = dict(GROUPS)
+    if tiers:
+        titles = {"common": TIERS["common"],
+                  **{k: f"{TIERS['expert']}: {v}" for k, v in GROUPS.items()}}
+    for name, title in titles.items():         # headings in this order
+        if name not in groups and any(group_of(p) == name for p in rows):
             groups[name] = parser.add_argument_group(title)
     for p in rows:
         help_ = f"{p.flag_help or p.help} (default: {_shown(p)})".replace("%", "%%")
@@ -660,7 +707,7 @@ def add_options(parser, rows: Iterable[Param], groups: Optional[dict] = None) ->
                 metavar = "{" + ",".join(p.rule.choices) + "}"
             kw.update(type=p.rule.argtype, choices=p.rule.choices, nargs=p.nargs,
                       metavar=metavar)
-        groups[p.group].add_argument(p.flag, **kw)
+        groups[group_of(p)].add_argument(p.flag, **kw)
     return groups
 
 
@@ -686,10 +733,14 @@ def check_options(args, rows: Iterable[Param], fill: bool = True) -> None:
 
 
 def params_doc() -> str:
-    """A numpydoc *Parameters* section of the estimator rows."""
-    lines = ["", "    Parameters", "    ----------"]
-    for p in PARAMS.values():
-        lines.append(f"    {p.name} : {p.rule.words}, default {p.default!r}")
-        text = p.help[0].upper() + p.help[1:] + (f" (``{p.flag}``)." if p.flag else ".")
-        lines += textwrap.wrap(text, 78, initial_indent=" " * 8, subsequent_indent=" " * 8)
+    """The numpydoc *Parameters* (common tier) and *Other Parameters*
+    (expert tier) sections of the estimator rows."""
+    lines = []
+    for tier, heading in (("common", "Parameters"), ("expert", "Other Parameters")):
+        lines += ["", f"    {heading}", "    " + "-" * len(heading)]
+        for p in (p for p in PARAMS.values() if p.tier == tier):
+            lines.append(f"    {p.name} : {p.rule.words}, default {p.default!r}")
+            text = p.help[0].upper() + p.help[1:] + (f" (``{p.flag}``)." if p.flag else ".")
+            lines += textwrap.wrap(text, 78, initial_indent=" " * 8,
+                                   subsequent_indent=" " * 8)
     return "\n".join(lines) + "\n"

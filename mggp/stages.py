@@ -340,8 +340,10 @@ def prune(terms, data, ctx):
 
 
 def noise(terms, data, ctx):
-    """Moving-average noise terms (``noise_lags`` > 0); with ``prune='t'``
-    the process terms that only predicted the noise are dropped first."""
+    """Moving-average noise terms (``noise_lags`` > 0), as many as
+    ``max_terms`` leaves room for beside the process terms; with
+    ``prune='t'`` the process terms that only predicted the noise are
+    dropped first."""
     est = ctx.est
     if not est.noise_lags:
         return terms
@@ -350,7 +352,8 @@ def noise(terms, data, ctx):
     if est.prune == "t":
         terms = prune_process(data, terms, full_ma(data, q, ctx.registry), ctx.start,
                               ctx.registry, crit)
-    return terms + select_noise(data, terms, ctx.start, ctx.registry, q, crit)
+    return terms + select_noise(data, terms, ctx.start, ctx.registry, q, crit,
+                                limit=max(est.max_terms - len(terms), 0))
 
 
 def record(terms, data, ctx):

@@ -46,7 +46,8 @@ def _check_finite(name, arr):
     if bad.any():
         idx = np.argwhere(bad)[0]
         val = arr[tuple(idx)]
-        raise DataError(f"{name} has a non-finite value ({val}) at sample {int(idx[0])}")
+        raise DataError(f"{name} has a non-finite value ({'NaN' if np.isnan(val) else val}) "
+                        f"at sample {int(idx[0])}")
     big = np.abs(arr) > MAX_ABS
     if big.any():
         idx = np.argwhere(big)[0]

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["mse", "rmse", "mape", "rrse", "nrmse"]
+__all__ = ["mse", "rmse", "mape", "rrse", "nrmse", "r2"]
 
 
 def _pair(y, y_hat):
@@ -69,3 +69,22 @@ def nrmse(y, y_hat) -> float:
     """RMSE divided by the output's standard deviation."""
     y, _ = _pair(y, y_hat)
     return rmse(y, y_hat) / float(np.std(y))
+
+
+def r2(y, y_hat, weights=None) -> float:
+    """Coefficient of determination,
+    :math:`1 - \\sum_k w_k (y_k - \\hat y_k)^2 / \\sum_k w_k (y_k - \\bar y)^2`
+    with :math:`\\bar y` the weighted mean (``weights`` default 1): 1 is a
+    perfect prediction, 0 as good as the mean, ``-inf`` for a non-finite
+    prediction (a diverged simulation)."""
+    y, y_hat = _pair(y, y_hat)
+    w = np.ones_like(y) if weights is None else np.asarray(weights, dtype=float).ravel()
+    if w.shape != y.shape or not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
+        raise ValueError(f"weights must be {y.size} finite values >= 0 that are not all 0")
+    if not np.all(np.isfinite(y_hat)):
+        return float("-inf")
+    mean = float(np.dot(w, y) / w.sum())
+    den = float(np.dot(w, (y - mean) ** 2))
+    if den <= 0:
+        raise ValueError("the output is constant: R² is undefined")
+    return float(1.0 - np.dot(w, (y - y_hat) ** 2) / den)

@@ -218,3 +218,58 @@ def test_phi_outputs_recovers_a_term_of_the_output_direction():
                      sorted(["y[k-1]", "u[k-1]", "Phi2(y[k-2],y[k-1])"]))
     plain = MGGPRegressor(**kw).fit(u, y).model_.term_texts
     assert not any("Phi1(y" in t or "Phi2(y" in t for t in plain)
+
+
+def _structures(est):
+    """Every structure the fit scored, printed or chose: the final
+    population and the archive as scored, the logbook's best, the Pareto
+    front, the model."""
+    from mggp.primitives import Decoder
+    dec = Decoder(est.model_.signals)
+    res = est.result_
+    sizes = [len(est._structure(dec.decode_individual(i))) for i in res.population]
+    sizes += [len(est._structure(r.terms)) for r in res.pareto]
+    sizes += [r["best_terms"] for r in est.logbook_]
+    sizes += [len(r["terms"]) for r in est.pareto_front_]
+    return sizes + [est.model_.n_terms]
+
+
+def test_max_terms_counts_the_constant_term():
+    """With the constant term in every structure, the search's individuals
+    hold at most max_terms - 1 genes, so no structure scored, printed or
+    chosen has more than max_terms terms (it had max_terms + 1: the
+    constant beside max_terms genes); the bound is reached. Control: without
+    the constant the individuals hold max_terms genes."""
+    from narx.systems import piezo_bouc_wen, training_input
+    u = training_input(800, seed=1, bandwidth=2.0)
+    y = piezo_bouc_wen(u) + 5.0
+    kw = dict(population=30, generations=3, max_terms=4, random_state=0, use_phi=False,
+              operators="none", n_jobs=1)
+    with_constant = MGGPRegressor(constant=True, **kw).fit(u, y)
+    sizes = _structures(with_constant)
+    assert max(sizes) == 4, sizes
+    assert "1" in with_constant.model_.term_texts
+    assert max(len(i) for i in with_constant.result_.population) == 3
+    plain = MGGPRegressor(constant=False, **kw).fit(u, y)
+    assert max(_structures(plain)) == 4
+    assert max(len(i) for i in plain.result_.population) == 4        # control
+    with pytest.raises(ValueError, match="constant=True needs max_terms >= 2"):
+        MGGPRegressor(constant=True, **dict(kw, max_terms=1)).fit(u, y)
+
+
+def test_max_terms_counts_the_noise_terms():
+    """Moving-average noise terms fill only the room max_terms leaves: with
+    max_terms=2 and a two-term process none is added; control: with room
+    for them the coloured noise gets its term."""
+    rng = np.random.default_rng(0)
+    n = 800
+    u, e = rng.uniform(-1, 1, n), 0.3 * rng.standard_normal(n)
+    y = np.zeros(n)
+    for k in range(1, n):
+        y[k] = 0.5 * y[k - 1] + u[k - 1] + e[k] + 0.8 * e[k - 1]
+    kw = dict(population=20, generations=2, random_state=0, constant=False, use_phi=False,
+              fitness="pem", noise_lags=2, max_height=2)
+    tight = MGGPRegressor(max_terms=2, **kw).fit(u, y).model_
+    assert sorted(tight.term_texts) == ["u[k-1]", "y[k-1]"]
+    roomy = MGGPRegressor(max_terms=6, **kw).fit(u, y).model_
+    assert any(t.startswith("e[k-") for t in roomy.term_texts) and roomy.n_terms <= 6

@@ -210,3 +210,40 @@ def test_help_texts_state_the_figures_of_the_constants_they_describe():
     for text in ("by over 7 %", "over 25 % lower", "30 % of the generations",
                  "within 8 % of the least", "radii 0.1, 0.4 ×", "lowers the fitness by 2 %"):
         assert text in out, text
+
+
+def test_parameters_in_tiers_common_first():
+    """The ten parameters of the common tier (a column of the one table)
+    come first in the signature, make the docstring's *Parameters* (the
+    rest its *Other Parameters*) and the first group of `mggp fit --help`,
+    whose expert groups hold the others."""
+    import inspect
+    from mggp.cli import build_parser
+    from mggp.params import PARAMS, TIERS
+    common = [n for n, p in PARAMS.items() if p.tier == "common"]
+    assert len(common) == 10 and {p.tier for p in PARAMS.values()} == set(TIERS)
+    names = [n for n in inspect.signature(MGGPRegressor.__init__).parameters if n != "self"]
+    assert names[:10] == common
+    doc = MGGPRegressor.__doc__
+    head, other = doc.split("    Other Parameters\n", 1)
+    section = head.split("    Parameters\n", 1)[1]
+    listed = [ln.split(" : ")[0].strip() for ln in section.splitlines() if " : " in ln
+              and ln.startswith("    ") and not ln.startswith("     ")]
+    assert listed == common
+    assert all(f"\n    {n} : " in other for n in PARAMS if n not in common)
+    assert "\n    population : " not in other            # control: common ones not twice
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices["fit"]
+    groups = [g for g in sub._action_groups if g._group_actions
+              and g.title not in ("positional arguments", "options")]
+    assert groups[0].title == TIERS["common"]
+    first = {a.dest for a in groups[0]._group_actions}
+    assert {n for n in common} <= first
+    assert all(g.title.startswith(TIERS["expert"]) for g in groups[1:])
+    assert not any(a.dest in common for g in groups[1:] for a in g._group_actions)
+
+
+def test_misspelt_keyword_suggests_the_closest_parameter():
+    from mggp.params import unknown_keyword
+    with pytest.raises(TypeError, match="'max_term': did you mean 'max_terms'"):
+        MGGPRegressor(max_term=5)
+    assert "did you mean" not in unknown_keyword("qqqq")     # control: nothing close
