@@ -47,8 +47,9 @@ from narx.phi import default_registry
 
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
-from .choices import (CONSTANT, HEIGHT, Choice, class_choice, constant_pilot_choice,
-                      constant_searched, fewest_terms, front_rows_heldout, heldout_rmse,
+from .choices import (CONSTANT, CONSTANT_ENDS, GAIN, HEIGHT, Choice, class_choice,
+                      constant_pilot_choice, constant_searched, fewest_terms,
+                      front_rows_heldout, heldout_gain, heldout_rmse,
                       height_choice, holdout_message, outliers_choice, pilot_generations,
                       resolve_screen, resolve_select, search_classes, search_part_choice,
                       without_constant)
@@ -459,10 +460,14 @@ class MGGPRegressor:
             words = (f"pilots of {pilot} of {self.generations} generations at full "
                      f"population")
             hold = None if all(r.holds is None for r in runs) else [bool(r.holds) for r in runs]
+
+            def test(i, j):                     # class i's structure over class j's
+                return heldout_gain(runs[j].terms, runs[i].terms, ctx.data, ctx.registry,
+                                    seed, classes[i].gain)
             choice = class_choice(classes, [r.error for r in runs], hold,
                                   words + ("" if hold else ", least error over each "
                                            "pilot's Pareto front") + ", the chosen one "
-                                  "continued")
+                                  "continued", test)
             win = [c.label for c in classes].index(choice.figures["class"])
             if runs[win].result is None:        # every held-out free run diverges
                 win = next(i for i, r in enumerate(runs) if r.result is not None)
@@ -475,11 +480,14 @@ class MGGPRegressor:
                                         f"pilot {n}/{n} {classes[win].label}, no constant",
                                         plain, None, f"{classes[win].label}, no constant")
                 runs.append(run)
+                with_c = runs[win].terms
                 kept = constant_pilot_choice(
-                    runs[win].error, run.error,
-                    without_constant(runs[win].terms, ctx.data, ctx.registry)[1],
+                    heldout_gain(run.terms, with_c, ctx.data, ctx.registry, seed, GAIN,
+                                 CONSTANT_ENDS),
+                    heldout_gain(without_constant(with_c, ctx.data, ctx.registry)[0], with_c,
+                                 ctx.data, ctx.registry, seed, GAIN, CONSTANT_ENDS),
                     f"{words}, class {classes[win].label}",
-                    fewest_terms(runs[win].rows, run.rows, ctx.data, ctx.registry))
+                    fewest_terms(runs[win].rows, run.rows, ctx.data, ctx.registry, seed))
                 ctx.choices["constant"] = kept
                 if not kept.value and run.result is not None:
                     go, ctx.shape = len(runs) - 1, plain

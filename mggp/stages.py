@@ -75,8 +75,8 @@ from narx.model import ignore_rank_warnings
 from narx.output_error import OE_ESTIMATORS
 
 from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
-                      heldout_rmse, heldout_samples, local_search_kept, resolve_select,
-                      size_choice, steady)
+                      heldout_gain, heldout_rmse, heldout_samples, local_search_kept,
+                      resolve_select, size_choice, steady)
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -279,8 +279,11 @@ def size(terms, data, ctx):
         ctx.choices["size"] = Choice("size", len(terms), f"size {len(terms)} terms: "
                                      f"chosen by {by}, not by held-out error", {})
         return terms
-    c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry),
-                    heldout_samples(data.n))
+    rows = front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry)
+
+    def test(i, j):                             # row j's structure over row i's
+        return heldout_gain(rows[i][2], rows[j][2], data, ctx.registry, ctx.seed or 0)
+    c = size_choice(rows, heldout_samples(data.n), test)
     ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
     return c.value
 
@@ -300,7 +303,7 @@ def constant(terms, data, ctx):
     pilot = ctx.choices.get("constant")
     if pilot is not None and not pilot.value:   # searched without it (the pilots' choice)
         return terms
-    c, terms = constant_choice(terms, data, ctx.registry)
+    c, terms = constant_choice(terms, data, ctx.registry, ctx.seed or 0)
     if pilot is not None:
         c = replace(c, why=f"{pilot.why}; then {c.why}", figures={**pilot.figures,
                                                                    **c.figures})
