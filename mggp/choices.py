@@ -165,17 +165,17 @@ def error_floor(data: Data) -> float:
 
 
 def heldout_errors(terms, data: Data, registry=None, holdout: float = HOLDOUT,
-                   ends=HOLDOUT_ENDS) -> Optional[list]:
-    """The free-run errors :math:`\hat y_k - y_k` of the structure ``terms``
+                   ends=None) -> Optional[list]:
+    """The free-run errors :math:`\\hat y_k - y_k` of the structure ``terms``
     on the held-out ``holdout`` of ``data`` at each of ``ends`` ('tail',
-    'head'), θ by least squares on the rest of the record for each end:
+    'head'; default :data:`HOLDOUT_ENDS`), θ by least squares on the rest of the record for each end:
     one array per end, over the whole held-out span, NaN on the samples
     before the free run starts (its measured initial conditions). None when
     the structure cannot be fitted or its free run diverges."""
     if not tuple(terms):
         return None
     errs = []
-    for end in ends:
+    for end in HOLDOUT_ENDS if ends is None else ends:
         lo, hi = _held_span(data.n, end, holdout)
         fit = data.slice(0, lo) if end == "tail" else data.slice(hi, data.n)
         try:
@@ -203,7 +203,7 @@ def _rmse_of(errs, data: Data) -> float:
 
 
 def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT,
-                 ends=HOLDOUT_ENDS) -> float:
+                 ends=None) -> float:
     """Free-run RMSE on the held-out ``holdout`` of ``data`` at each of
     ``ends`` (default :data:`HOLDOUT_ENDS`) of the structure ``terms``, θ by
     least squares on the rest of the record for each end (``inf``: diverges
@@ -265,27 +265,28 @@ class Gain:
 
 
 def heldout_gain(simple, rich, data: Data, registry=None, seed=0, margin: float = 0.0,
-                 ends=HOLDOUT_ENDS) -> Gain:
+                 ends=None) -> Gain:
     """Whether the structure ``rich`` simulates the held-out part of ``data``
     better than ``simple`` beyond chance (:func:`heldout_errors` at ``ends``).
 
     With :math:`e_s, e_r` the two held-out RMSEs (at least
     :func:`error_floor`) and :math:`p` the one-sided p-value of a
     moving-block bootstrap of the paired squared-error differences
-    :math:`(y_k - \hat y^s_k)^2 - (y_k - \hat y^r_k)^2` on the samples both
+    :math:`(y_k - \\hat y^s_k)^2 - (y_k - \\hat y^r_k)^2` on the samples both
     simulate (:func:`narx.paired.paired_bootstrap`, block length from the
     data, each end its own segment, generator seeded with ``seed``), the
     gain is taken when
 
-    .. math:: e_r < (1 - m)\, e_s \quad\text{and}\quad p < \alpha,
+    .. math:: e_r < (1 - m)\\, e_s \\quad\\text{and}\\quad p < \\alpha,
 
-    :math:`m` = ``margin``, :math:`\alpha` = :data:`LEVEL`; or when the
+    :math:`m` = ``margin``, :math:`\\alpha` = :data:`LEVEL`; or when the
     free run of ``simple`` diverges and that of ``rich`` does not. The
     held-out part is a few hundred samples of one record whose errors are
     serially dependent: a gain smaller than their spread is noise, and the
     simpler option stays (Künsch, *Ann. Statist.* 17, 1989; Politis and
     White, *Econometric Reviews* 23, 2004)."""
     from narx.paired import paired_bootstrap
+    ends = tuple(HOLDOUT_ENDS if ends is None else ends)
     es, er = (heldout_errors(t, data, registry, ends=ends) for t in (simple, rich))
     rs, rr = _rmse_of(es, data), _rmse_of(er, data)
     if es is None or er is None:
@@ -604,7 +605,7 @@ def constant_pilot_choice(over_plain: Gain, over_own: Gain, pilot: str,
 
     With :math:`e_c`, :math:`e_p` and :math:`e_o` the three errors, the
     search keeps the constant when
-    :math:`e_c < (1 - g)\,\min(e_p, e_o)` (:math:`g` = :data:`GAIN`) and
+    :math:`e_c < (1 - g)\\,\\min(e_p, e_o)` (:math:`g` = :data:`GAIN`) and
     both gains' p-values are below :data:`LEVEL`.
 
     When the errors cannot tell the pilots apart, the simpler search wins,
