@@ -2,8 +2,9 @@
 
 Typical use (``fit`` does this)::
 
-    from mggp.choices import heldout_rmse, resolve_select, HOLDOUT
+    from mggp.choices import heldout_gain, heldout_rmse, resolve_select, HOLDOUT
     err = heldout_rmse(terms, data, registry)       # θ on the head, free run scored on the tail
+    g = heldout_gain(simple, rich, data, registry, seed=0)   # g.significant, g.text()
     select, why = resolve_select(est)               # 'hold' with constraints, else 'fitness'
 
 The model class (``use_phi='auto'``): :func:`search_classes` lists the
@@ -17,6 +18,16 @@ without it by :data:`GAIN`, or ties it with a simpler structure
 (:func:`constant_pilot_choice`, :func:`fewest_terms`); kept by
 :func:`constant_choice` when the held-out error is over :data:`GAIN` lower
 with it.
+
+Significance: every choice that adds something (a richer class, the
+constant, more terms) also asks that the gain be beyond chance
+(:func:`heldout_gain`): a moving-block bootstrap of the paired squared
+held-out errors of the two options (:mod:`narx.paired`, seeded with the
+fit's seed) gives a one-sided p-value, and the addition is taken only at
+p < :data:`LEVEL`; otherwise the simpler option stays, and the choice line
+says the figures ("held-out RMSE 1.03 vs 1.05 (±0.04, p = 0.31) without
+it: not significant, kept the simpler"). The constant's choices hold out
+the tail and the head of the record in turn (:data:`CONSTANT_ENDS`).
 
 Each choice is a :class:`Choice`: the value taken and the figures it was
 taken on, in one line ("no Φ: held-out free-run RMSE 0.41 against 0.58 with

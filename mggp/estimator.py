@@ -122,21 +122,26 @@ class MGGPRegressor:
     full population for a fifth of the generations, takes the class whose
     pilot's structure has the least held-out free-run RMSE (θ by LS on the
     first 70 % of the record, error on the last 30 %; a richer class only
-    when over 15 % lower, the Bouc–Wen class over 50 %; with the hold
+    when over 15 % lower, the Bouc–Wen class over 50 %, and the gain
+    significant at p < 0.05 by a moving-block bootstrap of the paired
+    held-out errors, :func:`mggp.choices.heldout_gain`; with the hold
     selection, classes that have a structure whose CLS refit holds first),
     and continues that pilot to the
     full generations; ``constant`` runs one more pilot of the chosen class
     (or of the one class asked for) without the constant term and searches
     with the constant offered to every structure when that pilot's
     held-out error, and that of the other pilot's structure refitted without
-    its constant, are over 5 % higher, or when the pilots tie and the
-    simplest structure that ties holds the constant and needs it (never with
-    the steady-state constraints, which it would break), then keeps it in the result only
-    when it lowers the held-out free-run RMSE by over 5 %; ``size`` takes
-    the fewest terms of the run's Pareto front within 5 % of the least
-    held-out free-run RMSE (2/√n on
-    n held-out samples when larger: :func:`mggp.choices.size_tolerance`). An
-    explicit value of a parameter disables its choice.
+    its constant, are over 5 % higher and the gains significant at p < 0.05
+    (the tail and the head of the record held out in turn), or when the
+    pilots tie and the simplest structure that ties holds the constant and
+    needs it (never with the steady-state constraints, which it would
+    break), then keeps it in the result only when it lowers the held-out
+    free-run RMSE by over 5 % at p < 0.05; ``size`` takes the fewest terms
+    of the run's Pareto front within 5 % of the least held-out free-run
+    RMSE (2/√n on n held-out samples when larger:
+    :func:`mggp.choices.size_tolerance`) or not significantly above it. An
+    explicit value of a parameter disables its choice; the level is
+    :data:`mggp.choices.LEVEL`.
 
     ``select``: ``'freerun'`` takes, among the ``select_candidates`` best
     distinct structures of the run (archive and final population), the one
@@ -417,7 +422,9 @@ class MGGPRegressor:
         chosen class also has a pilot without the constant term, and the
         search continues with the constant when its pilot's held-out
         error is over :data:`mggp.choices.GAIN` lower than both that pilot's
-        and its own structure's without the constant, or when they tie and
+        and its own structure's without the constant, significantly at
+        :data:`mggp.choices.LEVEL` (:func:`mggp.choices.heldout_gain`, the
+        tail and the head held out in turn), or when they tie and
         the constant's structure is the simpler
         (:func:`mggp.choices.constant_pilot_choice`,
         :func:`mggp.choices.fewest_terms`). Sets ``ctx.seed``,

@@ -32,8 +32,8 @@ from narx.outliers import ARX_SIGMAS, SPIKE_BAND, SPIKE_WIDTH
 from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
 from .checkpoint import CHECKPOINT_SHARE
-from .choices import (GAIN, HEIGHT, PILOT, SIZE_TOLERANCE, class_margins, heldout_samples,
-                      holdout_words, percent, size_tolerance)
+from .choices import (GAIN, HEIGHT, LEVEL, PILOT, SIZE_TOLERANCE, class_margins,
+                      heldout_samples, holdout_words, percent, size_tolerance)
 from .operator_stage import OPERATOR_GAIN
 from .primitives import MAX_HEIGHT, BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS, max_lag_for_height
 
@@ -296,13 +296,16 @@ _FITNESS = ("ms", "pem", "freerun", "ksa")
 #: :mod:`mggp.operator_stage` (the one place each is set)
 _HELD_OUT = holdout_words()
 _PILOT = f"{percent(PILOT)} of the generations"
-_CLASS_MARGINS = class_margins()
-_KEPT_GAIN = f"by over {percent(GAIN)}"
+_SIGNIFICANT = f"and significant at p < {LEVEL:g} (a block bootstrap of the held-out errors)"
+_CLASS_MARGINS = f"{class_margins()}, {_SIGNIFICANT}"
+_KEPT_GAIN = (f"by over {percent(GAIN)}, significant at p < {LEVEL:g}, the tail and the head of "
+              f"the record held out in turn,")
 _PLAY_TEXT = ", ".join(f"{f:g}" for f in PLAY_RADIUS_FRACTIONS)
 _BOUC_WEN_TEXT = ", ".join(f"{s:g}" for s in dict.fromkeys(s for s, _ in BOUC_WEN_SHAPES))
 _N_EXAMPLE = heldout_samples(500)
 _SIZE_TEXT = (f"within {percent(SIZE_TOLERANCE)} of the least (2/√n on n held-out samples "
-              f"when larger: {percent(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE})")
+              f"when larger: {percent(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE}), "
+              f"or not significantly above it at p < {LEVEL:g}")
 _HEIGHT_WHY = (f"trees of height h reach lags up to 1 + 3h, {max_lag_for_height(MAX_HEIGHT)} "
                f"at {MAX_HEIGHT}, and grow exponentially with h")
 _ROWS = (

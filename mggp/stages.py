@@ -19,10 +19,12 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
     held-out free-run error is within 5 % of the least, or within 2/√n
-    on n held-out samples when that is larger (``size``).
+    on n held-out samples when that is larger, or not significantly above
+    it (``size``).
 ``constant``
     'auto': the constant term kept only when the held-out free-run error
-    is over 5 % lower with it (never with the steady-state constraints).
+    is over 5 % lower with it, significantly (never with the steady-state
+    constraints).
 ``operators``
     With ``operators`` and ``operator_entry='stage'``: memory-operator
     terms added stepwise to the structure (:mod:`mggp.operator_stage`);
@@ -266,7 +268,8 @@ def local_search(terms, data, ctx):
 def size(terms, data, ctx):
     """``size='auto'``: the smallest structure of the run's Pareto front
     whose held-out free-run error is within 5 % of the least (2/√n on n
-    held-out samples when larger: :func:`mggp.choices.size_tolerance`), the chosen
+    held-out samples when larger: :func:`mggp.choices.size_tolerance`) or
+    not significantly above it (:func:`mggp.choices.heldout_gain`), the chosen
     structure included (:func:`mggp.choices.size_choice`). A structure
     chosen for its holding (``select`` 'hold') is kept, and so is the size an
     information criterion (``criterion`` 'bic'/'aic') or pruning chose."""
@@ -291,7 +294,8 @@ def size(terms, data, ctx):
 def constant(terms, data, ctx):
     """``constant='auto'``: the constant term offered to every structure of
     the search is kept only when the chosen structure's held-out free-run
-    error is over 5 % lower with it (:func:`mggp.choices.constant_choice`);
+    error is over 5 % lower with it at p < :data:`mggp.choices.LEVEL`
+    (:func:`mggp.choices.constant_choice`);
     with the steady-state constraints it was not offered, and when the
     pilots chose a search without it (:meth:`MGGPRegressor._searches`) the
     structure has none."""
