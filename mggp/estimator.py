@@ -139,7 +139,7 @@ class MGGPRegressor:
     free-run RMSE by over 5 % at p < 0.05; ``size`` takes the fewest terms
     of the run's Pareto front within 5 % of the least held-out free-run
     RMSE (2/√n on n held-out samples when larger:
-    :func:`mggp.choices.size_tolerance`) or not significantly above it. An
+    :func:`mggp.choices.size_tolerance`). An
     explicit value of a parameter disables its choice; the level is
     :data:`mggp.choices.LEVEL`.
 

@@ -304,8 +304,7 @@ _PLAY_TEXT = ", ".join(f"{f:g}" for f in PLAY_RADIUS_FRACTIONS)
 _BOUC_WEN_TEXT = ", ".join(f"{s:g}" for s in dict.fromkeys(s for s, _ in BOUC_WEN_SHAPES))
 _N_EXAMPLE = heldout_samples(500)
 _SIZE_TEXT = (f"within {percent(SIZE_TOLERANCE)} of the least (2/√n on n held-out samples "
-              f"when larger: {percent(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE}), "
-              f"or not significantly above it at p < {LEVEL:g}")
+              f"when larger: {percent(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE})")
 _HEIGHT_WHY = (f"trees of height h reach lags up to 1 + 3h, {max_lag_for_height(MAX_HEIGHT)} "
                f"at {MAX_HEIGHT}, and grow exponentially with h")
 _ROWS = (

@@ -19,8 +19,7 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
     held-out free-run error is within 5 % of the least, or within 2/√n
-    on n held-out samples when that is larger, or not significantly above
-    it (``size``).
+    on n held-out samples when that is larger (``size``).
 ``constant``
     'auto': the constant term kept only when the held-out free-run error
     is over 5 % lower with it, significantly (never with the steady-state
@@ -77,8 +76,8 @@ from narx.model import ignore_rank_warnings
 from narx.output_error import OE_ESTIMATORS
 
 from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
-                      heldout_gain, heldout_rmse, heldout_samples, local_search_kept,
-                      resolve_select, size_choice, steady)
+                      heldout_rmse, heldout_samples, local_search_kept, resolve_select,
+                      size_choice, steady)
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -268,8 +267,7 @@ def local_search(terms, data, ctx):
 def size(terms, data, ctx):
     """``size='auto'``: the smallest structure of the run's Pareto front
     whose held-out free-run error is within 5 % of the least (2/√n on n
-    held-out samples when larger: :func:`mggp.choices.size_tolerance`) or
-    not significantly above it (:func:`mggp.choices.heldout_gain`), the chosen
+    held-out samples when larger: :func:`mggp.choices.size_tolerance`), the chosen
     structure included (:func:`mggp.choices.size_choice`). A structure
     chosen for its holding (``select`` 'hold') is kept, and so is the size an
     information criterion (``criterion`` 'bic'/'aic') or pruning chose."""
@@ -282,11 +280,8 @@ def size(terms, data, ctx):
         ctx.choices["size"] = Choice("size", len(terms), f"size {len(terms)} terms: "
                                      f"chosen by {by}, not by held-out error", {})
         return terms
-    rows = front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry)
-
-    def test(i, j):                             # row j's structure over row i's
-        return heldout_gain(rows[i][2], rows[j][2], data, ctx.registry, ctx.seed or 0)
-    c = size_choice(rows, heldout_samples(data.n), test)
+    c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry),
+                    heldout_samples(data.n))
     ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
     return c.value
 
