@@ -19,20 +19,20 @@ without it by :data:`GAIN`, or ties it with a simpler structure
 :func:`constant_choice` when the held-out error is over :data:`GAIN` lower
 with it.
 
-Significance: the choices that add something (a richer class, the
-constant) also ask that the gain be beyond chance
+Significance: the constant's choices also ask that its gain be beyond chance
 (:func:`heldout_gain`): a moving-block bootstrap of the paired squared
 held-out errors of the two options (:mod:`narx.paired`, seeded with the
 fit's seed) gives a one-sided p-value, and the addition is taken only at
 p < :data:`LEVEL`; otherwise the simpler option stays, and the choice line
 says the figures ("held-out RMSE 1.03 vs 1.05 (±0.04, p = 0.31) without
-it: not significant, kept the simpler"). The constant's choices hold out
-the tail and the head of the record in turn (:data:`CONSTANT_ENDS`). The
-size choice keeps its tolerance (:func:`size_tolerance`): taking the fewest
-terms whose gap to the least error is not significant chose structures
-whose held-out error was several times the least (a 5-term model at 5.01
-against 1.41 for 11 terms, p = 0.068, on the Maxwell-slip record of
-:mod:`benchmarks.maxwell_slip`, seed 5), which also validated worse.
+it: not significant, kept the simpler"), and they hold out the tail and
+the head of the record in turn (:data:`CONSTANT_ENDS`). The class and
+size choices keep their margins: on a held-out part of a few hundred
+serially dependent samples the test has little power, and there the
+simpler option is not the safe one (on the Maxwell-slip record of
+:mod:`benchmarks.maxwell_slip` it kept Φ at 9.17 against 2.09 with
+operators, p = 0.05, seed 9, and took 5 terms at 5.01 against 1.41 for
+11, p = 0.068, seed 5; both validated worse).
 
 Each choice is a :class:`Choice`: the value taken and the figures it was
 taken on, in one line ("no Φ: held-out free-run RMSE 0.41 against 0.58 with
@@ -227,10 +227,9 @@ def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT,
     return _rmse_of(heldout_errors(terms, data, registry, holdout, ends), data)
 
 
-#: significance level of the automatic choices that add something (the
-#: constant term, a richer model class): the addition is taken
-#: only when the one-sided p-value of its held-out gain
-#: (:func:`heldout_gain`) is below it
+#: significance level of the constant term's choices: it is taken only
+#: when the one-sided p-value of its held-out gain (:func:`heldout_gain`)
+#: is below it
 LEVEL = 0.05
 
 #: the ends of the record held out in turn for the constant term's choices:
@@ -821,32 +820,25 @@ def class_margins(classes=None) -> str:
                       for cl in classes[1:] if cl.gain != CLASS_GAIN))
 
 
-def class_choice(classes, errors, holds=None, pilot: str = "", test=None) -> Choice:
+def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     """``use_phi='auto'``: the class of ``classes`` (simplest first) whose
     pilot has the least held-out free-run error ``errors[i]`` (of its best
     structure and the smaller ones of its Pareto front, or with the hold
     selection of the structure that selection takes), a richer class
     taken only when its error is more than its ``gain`` (:data:`CLASS_GAIN`;
     :data:`BOUC_WEN_CLASS_GAIN` for the Bouc–Wen class) below the simpler
-    one kept so far and, with ``test``, its gain significant at
-    :data:`LEVEL` (``test(i, j)``: the :class:`Gain` of class i's structure
-    over class j's, :func:`heldout_gain`). ``holds[i]`` (with the hold selection):
+    one kept so far. ``holds[i]`` (with the hold selection):
     whether the class's search has a structure whose CLS refit holds;
     classes that have one win over those that have none, whatever the
     error. ``pilot`` completes the line (how the pilots ran)."""
     n = len(classes)
     holds = list(holds) if holds is not None else [None] * n
     pool = [i for i in range(n) if holds[i]] if any(holds) else list(range(n))
-    best, noise = pool[0], []
+    best = pool[0]
     for i in pool[1:]:
-        if np.isinf(errors[best]) and np.isfinite(errors[i]):
+        if errors[i] < (1.0 - classes[i].gain) * errors[best] or (
+                np.isinf(errors[best]) and np.isfinite(errors[i])):
             best = i
-        elif errors[i] < (1.0 - classes[i].gain) * errors[best]:
-            g = test(i, best) if test is not None else None
-            if g is None or g.significant:
-                best = i
-            else:
-                noise.append((i, best, g))
     c = classes[best]
     figs = {"class": c.label, "operators": list(c.operators), "holdout": HOLDOUT}
     for cl, e in zip(classes, errors):
@@ -861,14 +853,7 @@ def class_choice(classes, errors, holds=None, pilot: str = "", test=None) -> Cho
                     f"{', '.join(_with(classes[i].label) for i in pool)} "
                     f"{'has' if len(pool) == 1 else 'have'} a structure whose CLS refit "
                     f"holds its output")
-    for i, j, g in noise:
-        why += (f"; {_with(classes[i].label)} against {_with(classes[j].label)}: "
-                f"{g.text()}{g.verdict()}")
-        figs[f"gain_{_key(classes[i].label)}"] = {"p_value": g.p_value, "spread": g.spread,
-                                                 "block": g.block}
     rule = "" if n < 2 else "; " + class_margins(classes)
-    if n > 1 and test is not None:
-        rule += f", at p < {LEVEL:g}"
     why += f" ({holdout_words()}{rule}{'; ' + pilot if pilot else ''})"
     return Choice("use_phi", c.use_phi, why, figs)
 

@@ -122,9 +122,7 @@ class MGGPRegressor:
     full population for a fifth of the generations, takes the class whose
     pilot's structure has the least held-out free-run RMSE (θ by LS on the
     first 70 % of the record, error on the last 30 %; a richer class only
-    when over 15 % lower, the Bouc–Wen class over 50 %, and the gain
-    significant at p < 0.05 by a moving-block bootstrap of the paired
-    held-out errors, :func:`mggp.choices.heldout_gain`; with the hold
+    when over 15 % lower, the Bouc–Wen class over 50 %; with the hold
     selection, classes that have a structure whose CLS refit holds first),
     and continues that pilot to the
     full generations; ``constant`` runs one more pilot of the chosen class
@@ -132,7 +130,9 @@ class MGGPRegressor:
     with the constant offered to every structure when that pilot's
     held-out error, and that of the other pilot's structure refitted without
     its constant, are over 5 % higher and the gains significant at p < 0.05
-    (the tail and the head of the record held out in turn), or when the
+    (a moving-block bootstrap of the paired held-out errors,
+    :func:`mggp.choices.heldout_gain`; the tail and the head of the record
+    held out in turn), or when the
     pilots tie and the simplest structure that ties holds the constant and
     needs it (never with the steady-state constraints, which it would
     break), then keeps it in the result only when it lowers the held-out
@@ -467,14 +467,10 @@ class MGGPRegressor:
             words = (f"pilots of {pilot} of {self.generations} generations at full "
                      f"population")
             hold = None if all(r.holds is None for r in runs) else [bool(r.holds) for r in runs]
-
-            def test(i, j):                     # class i's structure over class j's
-                return heldout_gain(runs[j].terms, runs[i].terms, ctx.data, ctx.registry,
-                                    seed, classes[i].gain)
             choice = class_choice(classes, [r.error for r in runs], hold,
                                   words + ("" if hold else ", least error over each "
                                            "pilot's Pareto front") + ", the chosen one "
-                                  "continued", test)
+                                  "continued")
             win = [c.label for c in classes].index(choice.figures["class"])
             if runs[win].result is None:        # every held-out free run diverges
                 win = next(i for i, r in enumerate(runs) if r.result is not None)

@@ -296,10 +296,9 @@ _FITNESS = ("ms", "pem", "freerun", "ksa")
 #: :mod:`mggp.operator_stage` (the one place each is set)
 _HELD_OUT = holdout_words()
 _PILOT = f"{percent(PILOT)} of the generations"
-_SIGNIFICANT = f"and significant at p < {LEVEL:g} (a block bootstrap of the held-out errors)"
-_CLASS_MARGINS = f"{class_margins()}, {_SIGNIFICANT}"
-_KEPT_GAIN = (f"by over {percent(GAIN)}, significant at p < {LEVEL:g}, the tail and the head of "
-              f"the record held out in turn,")
+_CLASS_MARGINS = class_margins()
+_KEPT_GAIN = (f"by over {percent(GAIN)}, significant at p < {LEVEL:g} (a block bootstrap of "
+              f"the held-out errors; the tail and the head of the record held out in turn),")
 _PLAY_TEXT = ", ".join(f"{f:g}" for f in PLAY_RADIUS_FRACTIONS)
 _BOUC_WEN_TEXT = ", ".join(f"{s:g}" for s in dict.fromkeys(s for s, _ in BOUC_WEN_SHAPES))
 _N_EXAMPLE = heldout_samples(500)

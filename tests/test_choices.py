@@ -47,29 +47,6 @@ def test_operators_class_taken_only_for_a_clear_gain():
     assert c.figures["class"] == "Φ" and c.value is True
 
 
-def test_a_richer_class_needs_a_significant_gain():
-    """class_choice with a test: Φ over 15 % lower but not significant stays
-    without Φ and the line says the gain and its spread; control: the same
-    errors with a significant gain take Φ; the test is asked only past the
-    margin."""
-    asked = []
-
-    def test(significant):
-        def t(i, j):
-            asked.append((i, j))
-            return _gain(1.0, 0.5, significant, p=0.01 if significant else 0.3)
-        return t
-    c = class_choice([PLAIN, PHI], [1.0, 0.5], None, "p", test(False))
-    assert c.value is False and asked == [(1, 0)]
-    assert ("; with Φ against without Φ: held-out RMSE 0.5 vs 1 (±0.004, p = 0.3): not "
-            "significant, kept the simpler") in c.why
-    assert c.figures["gain_phi"]["p_value"] == 0.3 and "at p < 0.05" in c.why
-    assert class_choice([PLAIN, PHI], [1.0, 0.5], None, "p", test(True)).value is True
-    asked.clear()
-    assert class_choice([PLAIN, PHI], [1.0, 0.95], None, "p", test(True)).value is False
-    assert asked == []
-
-
 def test_a_search_that_holds_wins_whatever_its_error():
     assert phi_choice(0.1, 1.0, holds_plain=False, holds_phi=True).value is True
     assert phi_choice(1.0, 0.1, holds_plain=True, holds_phi=False).value is False
