@@ -54,8 +54,9 @@ from narx.simulate import mode_name
 
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
-from .choices import (CONSTANT, HEIGHT, Choice, class_choice, constant_pilot_choice,
-                      constant_searched, fewest_terms, front_rows_heldout, heldout_rmse,
+from .choices import (CONSTANT, CONSTANT_ENDS, GAIN, HEIGHT, Choice, class_choice,
+                      constant_pilot_choice, constant_searched, fewest_terms,
+                      front_rows_heldout, heldout_gain, heldout_rmse,
                       height_choice, holdout_message, outliers_choice, pilot_generations,
                       resolve_screen, resolve_select, search_classes, search_part_choice,
                       without_constant)
@@ -163,14 +164,19 @@ class MGGPRegressor:
     (or of the one class asked for) without the constant term and searches
     with the constant offered to every structure when that pilot's
     held-out error, and that of the other pilot's structure refitted without
-    its constant, are over 5 % higher, or when the pilots tie and the
-    simplest structure that ties holds the constant and needs it (never with
-    the steady-state constraints, which it would break), then keeps it in the result only
-    when it lowers the held-out free-run RMSE by over 5 %; ``size`` takes
-    the fewest terms of the run's Pareto front within 5 % of the least
-    held-out free-run RMSE (2/√n on
-    n held-out samples when larger: :func:`mggp.choices.size_tolerance`). An
-    explicit value of a parameter disables its choice.
+    its constant, are over 5 % higher and the gains significant at p < 0.05
+    (a moving-block bootstrap of the paired held-out errors,
+    :func:`mggp.choices.heldout_gain`; the tail and the head of the record
+    held out in turn), or when the
+    pilots tie and the simplest structure that ties holds the constant and
+    needs it (never with the steady-state constraints, which it would
+    break), then keeps it in the result only when it lowers the held-out
+    free-run RMSE by over 5 % at p < 0.05; ``size`` takes the fewest terms
+    of the run's Pareto front within 5 % of the least held-out free-run
+    RMSE (2/√n on n held-out samples when larger:
+    :func:`mggp.choices.size_tolerance`). An
+    explicit value of a parameter disables its choice; the level is
+    :data:`mggp.choices.LEVEL`.
 
     ``select``: ``'freerun'`` takes, among the ``select_candidates`` best
     distinct structures of the run (archive and final population), the one
@@ -487,7 +493,9 @@ class MGGPRegressor:
         chosen class also has a pilot without the constant term, and the
         search continues with the constant when its pilot's held-out
         error is over :data:`mggp.choices.GAIN` lower than both that pilot's
-        and its own structure's without the constant, or when they tie and
+        and its own structure's without the constant, significantly at
+        :data:`mggp.choices.LEVEL` (:func:`mggp.choices.heldout_gain`, the
+        tail and the head held out in turn), or when they tie and
         the constant's structure is the simpler
         (:func:`mggp.choices.constant_pilot_choice`,
         :func:`mggp.choices.fewest_terms`). Sets ``ctx.seed``,
@@ -546,11 +554,14 @@ class MGGPRegressor:
                                         f"pilot {n}/{n} {classes[win].label}, no constant",
                                         plain, None, f"{classes[win].label}, no constant")
                 runs.append(run)
+                with_c = runs[win].terms
                 kept = constant_pilot_choice(
-                    runs[win].error, run.error,
-                    without_constant(runs[win].terms, ctx.data, ctx.registry)[1],
+                    heldout_gain(run.terms, with_c, ctx.data, ctx.registry, seed, GAIN,
+                                 CONSTANT_ENDS),
+                    heldout_gain(without_constant(with_c, ctx.data, ctx.registry)[0], with_c,
+                                 ctx.data, ctx.registry, seed, GAIN, CONSTANT_ENDS),
                     f"{words}, class {classes[win].label}",
-                    fewest_terms(runs[win].rows, run.rows, ctx.data, ctx.registry))
+                    fewest_terms(runs[win].rows, run.rows, ctx.data, ctx.registry, seed))
                 ctx.choices["constant"] = kept
                 if not kept.value and run.result is not None:
                     go, ctx.shape = len(runs) - 1, plain

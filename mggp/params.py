@@ -33,8 +33,8 @@ from narx.outliers import ARX_SIGMAS, SPIKE_BAND, SPIKE_WIDTH
 from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
 from .checkpoint import CHECKPOINT_SHARE
-from .choices import (GAIN, HEIGHT, PILOT, SIZE_TOLERANCE, class_margins, heldout_samples,
-                      holdout_words, percent, size_tolerance)
+from .choices import (GAIN, HEIGHT, LEVEL, PILOT, SIZE_TOLERANCE, class_margins,
+                      heldout_samples, holdout_words, percent, size_tolerance)
 from .operator_stage import OPERATOR_GAIN
 from .primitives import MAX_HEIGHT, auto_classes, max_lag_for_height
 
@@ -340,7 +340,8 @@ _FITNESS = ("ms", "pem", "freerun", "ksa")
 _HELD_OUT = holdout_words()
 _PILOT = f"{percent(PILOT)} of the generations"
 _CLASS_MARGINS = class_margins()
-_KEPT_GAIN = f"by over {percent(GAIN)}"
+_KEPT_GAIN = (f"by over {percent(GAIN)}, significant at p < {LEVEL:g} (a block bootstrap of "
+              f"the held-out errors; the tail and the head of the record held out in turn),")
 _OPERATOR_TEXT = ", ".join(f"{op.name.lower()} ({op.search_text()})"
                            for op in OPERATOR_BUILTINS)
 _AUTO_TEXT = ", or ".join("with " + " and ".join(names) for names in auto_classes().values())

@@ -22,7 +22,8 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
     on n held-out samples when that is larger (``size``).
 ``constant``
     'auto': the constant term kept only when the held-out free-run error
-    is over 5 % lower with it (never with the steady-state constraints).
+    is over 5 % lower with it, significantly (never with the steady-state
+    constraints).
 ``operators``
     With ``operators`` and ``operator_entry='stage'``: memory-operator
     terms added stepwise to the structure (:mod:`mggp.operator_stage`);
@@ -288,7 +289,8 @@ def size(terms, data, ctx):
 def constant(terms, data, ctx):
     """``constant='auto'``: the constant term offered to every structure of
     the search is kept only when the chosen structure's held-out free-run
-    error is over 5 % lower with it (:func:`mggp.choices.constant_choice`);
+    error is over 5 % lower with it at p < :data:`mggp.choices.LEVEL`
+    (:func:`mggp.choices.constant_choice`);
     with the steady-state constraints it was not offered, and when the
     pilots chose a search without it (:meth:`MGGPRegressor._searches`) the
     structure has none."""
@@ -300,7 +302,7 @@ def constant(terms, data, ctx):
     pilot = ctx.choices.get("constant")
     if pilot is not None and not pilot.value:   # searched without it (the pilots' choice)
         return terms
-    c, terms = constant_choice(terms, data, ctx.registry)
+    c, terms = constant_choice(terms, data, ctx.registry, ctx.seed or 0)
     if pilot is not None:
         c = replace(c, why=f"{pilot.why}; then {c.why}", figures={**pilot.figures,
                                                                    **c.figures})

@@ -163,32 +163,69 @@ def test_constant_kept_for_an_offset_only():
     assert ctl.model_.meta["constant"] is False
 
 
-def test_constant_pilot_keeps_the_constant_only_for_a_clear_gain():
-    from mggp.choices import GAIN, constant_pilot_choice
-    assert constant_pilot_choice(0.5, 1.0, 1.0, "p").value is True
-    assert constant_pilot_choice(1.0 - GAIN / 2, 1.0, 1.0, "p").value is False   # margin
-    assert constant_pilot_choice(1.0, float("inf"), 2.0, "p").value is True      # plain diverges
-    c = constant_pilot_choice(0.0586, 0.0551, 0.06, "pilots")
-    assert c.why.startswith("no constant term: held-out free-run RMSE 0.0551 against 0.0586 "
-                            "with it")
-    assert c.figures == {"pilot_heldout_rmse_constant": 0.0586,
-                         "pilot_heldout_rmse_no_constant": 0.0551,
-                         "pilot_heldout_rmse_own_no_constant": 0.06}
+def _gain(simple, rich, significant, p=0.01):
+    """A :class:`mggp.choices.Gain` by hand (its rule is tested on data below)."""
+    from mggp.choices import CONSTANT_ENDS, Gain
+    return Gain(simple, rich, 0.004, p, 12, significant, CONSTANT_ENDS)
+
+
+def test_constant_pilot_keeps_the_constant_only_for_a_significant_gain():
+    from mggp.choices import constant_pilot_choice
+    assert constant_pilot_choice(_gain(1.0, 0.5, True), _gain(1.0, 0.5, True),
+                                 "p").value is True
+    c = constant_pilot_choice(_gain(0.0551, 0.0502, False, p=0.21), _gain(0.06, 0.0502, True),
+                              "pilots")
+    assert c.value is False
+    assert c.why.startswith("no constant term: held-out RMSE 0.0502 vs 0.0551 (±0.004, "
+                            "p = 0.21) without it: not significant, kept the simpler")
+    assert c.figures["pilot_heldout_rmse_constant"] == 0.0502
+    assert c.figures["pilot_heldout_rmse_no_constant"] == 0.0551
+    assert c.figures["pilot_heldout_rmse_own_no_constant"] == 0.06
+    assert c.figures["pilot_gain_p_value"] == 0.21 and c.figures["pilot_gain_level"] == 0.05
+    worse = constant_pilot_choice(_gain(0.0551, 0.0586, False, p=0.9),
+                                  _gain(0.06, 0.0586, False), "pilots")
+    assert worse.value is False and "without it: no gain, kept the simpler" in worse.why
 
 
 def test_constant_pilot_gain_must_come_from_the_constant_itself():
-    """The pilot with the constant beats the one without by far, but its own
+    """The pilot with the constant beats the one without, but its own
     structure does as well without the constant: the search drops it; the
     control, where dropping the constant from that structure costs, keeps it."""
     from mggp.choices import constant_pilot_choice
-    c = constant_pilot_choice(0.0523, 0.0676, 0.0530, "pilots")
+    c = constant_pilot_choice(_gain(0.0676, 0.0523, True), _gain(0.0530, 0.0523, False, 0.4),
+                              "pilots")
     assert c.value is False
-    assert c.why.startswith("no constant term: held-out free-run RMSE 0.0523 with it against "
-                            "0.0676 without it, but 0.053 for the same structure without it")
-    ctl = constant_pilot_choice(0.0523, 0.0676, 0.0700, "pilots")
+    assert c.why.startswith("no constant term: held-out RMSE 0.0523 vs 0.0676 (±0.004, "
+                            "p = 0.01) without it, but held-out RMSE 0.0523 vs 0.053")
+    assert "the structure, not the constant, makes the gain" in c.why
+    ctl = constant_pilot_choice(_gain(0.0676, 0.0523, True), _gain(0.07, 0.0523, True),
+                                "pilots")
     assert ctl.value is True
-    assert ctl.why.startswith("searched with the constant term: held-out free-run RMSE 0.0523 "
-                              "against 0.0676 without it and 0.07 for the same structure")
+    assert ctl.why.startswith("searched with the constant term: held-out RMSE 0.0523 vs "
+                              "0.0676 (±0.004, p = 0.01) without it, and held-out RMSE "
+                              "0.0523 vs 0.07")
+
+
+def test_heldout_gain_takes_only_a_significant_gain_beyond_the_margin():
+    """heldout_gain on a noisy S1 record: the exact structure over one that
+    misses a term is a gain; controls: a spurious term over the exact
+    structure is not (p above the level), nor a gain under the margin; a
+    diverging simpler structure loses to any finite one; the seed fixes
+    the figures."""
+    from mggp.choices import LEVEL, heldout_gain
+    d = system_by_name("S1", n=500, seed=0, output_snr=30)
+    data = Data(d.u, d.y)
+    exact = list(d.terms)
+    g = heldout_gain(exact[:-1], exact, data, seed=1)
+    assert g.significant and g.p_value < LEVEL and g.rich < g.simple and g.block >= 1
+    assert g.text().startswith("held-out RMSE ") and "(±" in g.text()
+    again = heldout_gain(exact[:-1], exact, data, seed=1)
+    assert (again.p_value, again.spread, again.block) == (g.p_value, g.spread, g.block)
+    spurious = heldout_gain(exact, exact + ["u[k-3]*u[k-3]"], data, seed=1)
+    assert not spurious.significant
+    assert not heldout_gain(exact[:-1], exact, data, seed=1, margin=0.99).significant
+    assert heldout_gain(["y[k-1]"], [], data).significant is False     # rich: nothing
+    assert heldout_gain([], exact, data).significant is True           # simple: nothing
 
 
 def test_the_search_drops_the_constant_when_its_pilot_gains_nothing():
@@ -562,16 +599,24 @@ def test_constant_parsimony_rule_by_hand():
              row(["y[k-1]", "u[k-1]", "y[k-2]", "y[k-1]*y[k-1]"], 0.0100)]
     f = fewest_terms(with_c, plain, data)
     assert f["simpler"] and (f["degree_constant"], f["degree_no_constant"]) == (2, 4)
-    assert f["heldout_rmse_own_no_constant"] > f["limit"]     # y[k-1], u[k-1] alone: far off
-    c = constant_pilot_choice(0.0100, 0.0100, f["heldout_rmse_own_no_constant"], "p", f)
+    assert f["own"].significant                 # y[k-1], u[k-1] alone: far off
+    assert f["heldout_rmse_own_no_constant"] > f["limit"]
+    tie = _gain(0.0100, 0.0100, False, p=0.5)
+    c = constant_pilot_choice(tie, tie, "p", f)
     assert c.value is True and "3 terms of total degree 2 with it" in c.why
+    assert c.figures["pilot_fewest_gain_p_value"] == f["own"].p_value
     # control: a plain structure as accurate and simpler (2 terms)
     even = fewest_terms(with_c, plain + [row(["y[k-1]", "u[k-1]"], 0.0102)], data)
-    assert not even["simpler"] and even["terms_no_constant"] == 2
-    assert constant_pilot_choice(0.0100, 0.0100, 1.0, "p", even).value is False
-    # control: the constant's structure without its constant is within the tolerance
-    f2 = dict(f, heldout_rmse_own_no_constant=0.0101)
-    assert constant_pilot_choice(0.0100, 0.0100, 0.0101, "p", f2).value is False
+    assert not even["simpler"] and even["terms_no_constant"] == 2 and even["own"] is None
+    assert constant_pilot_choice(tie, tie, "p", even).value is False
+    # control: the constant's structure does as well without its constant
+    f2 = dict(f, own=_gain(0.0101, 0.0100, False, p=0.3))
+    assert constant_pilot_choice(tie, tie, "p", f2).value is False
+    # control: the pilot without the constant has nothing within the tolerance:
+    # not a tie, the gain over it must be significant
+    alone = fewest_terms(with_c, [row(["y[k-1]", "u[k-1]"], 0.0300)], data)
+    assert alone["simpler"] and np.isinf(alone["terms_no_constant"])
+    assert constant_pilot_choice(tie, tie, "p", alone).value is False
     # control: the rows' errors differ by more than the tolerance: plain is better
     worse = fewest_terms([row(["1", "y[k-1]", "u[k-1]"], 0.0200)], plain, data)
     assert worse is None

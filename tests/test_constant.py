@@ -90,3 +90,53 @@ def test_progress_counts_the_terms_of_the_scored_structure():
     assert "1" in est.model_.term_texts
     plain = MGGPRegressor(constant=False, **kw).fit(u, y)
     assert plain.logbook_[-1]["best_terms"] == plain.model_.n_terms
+
+
+#: the kept constant may cost at most this share of validation error
+#: against the same fit without it
+CONSTANT_COST = 0.10
+
+
+def _maxwell_slip_check(seed):
+    from benchmarks.maxwell_slip import compare
+    r = compare(seed, population=40, generations=8)
+    if r["constant"]:
+        assert r["default_rmse"] <= (1 + CONSTANT_COST) * r["no_constant_rmse"], r["why"]
+    return r
+
+
+@pytest.mark.filterwarnings("ignore")
+def test_a_kept_constant_does_not_cost_on_maxwell_slip_friction():
+    """Maxwell-slip friction (force without offset, 40 dB output noise),
+    population 40 x 8 generations: a constant kept by the defaults costs at
+    most 10 % of the validation error of the same fit with constant=False.
+    Seed 3 kept one before the significance test (validation RMSE 30.9
+    against 2.5 without): its gain on the held-out tail (0.97 against 1.43)
+    did not hold at the head, and over both ends the pilot's gain is not
+    significant (1.99 against 2.46, p = 0.097)."""
+    _maxwell_slip_check(3)
+
+
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore")
+@pytest.mark.parametrize("seed", [1, 2, 4, 5])
+def test_a_kept_constant_does_not_cost_on_maxwell_slip_friction_seeds(seed):
+    """The other seeds of the study (seed 4 also kept a costly constant on main)."""
+    _maxwell_slip_check(seed)
+
+
+@pytest.mark.filterwarnings("ignore:an offset dominates")
+def test_an_output_far_from_zero_keeps_the_constant():
+    """Control: y = 100 + x, x[k] = 0.6 x[k-1] - 0.1 x[k-2] + 0.5 u[k-1]
+    (+ white noise of 0.01 on y; :func:`benchmarks.offset.level_record`):
+    the defaults at the same budget keep the constant, its held-out gain
+    significant, and the model simulates a validation record whose input
+    spans twice the training range at the noise level."""
+    from benchmarks.offset import level_record
+    train = level_record(seed=3, level=100.0, square=0.0)
+    val = level_record(seed=1003, level=100.0, square=0.0, amplitude=2.0)
+    est = MGGPRegressor(population=40, generations=8, random_state=3).fit(train)
+    c = est.choices_["constant"]
+    assert c["value"] is True and "1" in est.model_.term_texts, c["why"]
+    assert c["figures"]["gain_p_value"] < 0.05
+    assert est.simulate(val).rmse < 1.2 * 0.01

@@ -84,8 +84,11 @@ def test_estimator_stage_records_its_moves(on):
                         max_degree=3, random_state=0, local_search=on).fit(d.u, d.y)
     assert est.get_params()["local_search"] is on
     assert est.model_.meta["local_search"] is on
-    if not on:
-        assert est.local_search_ == [] and est.terms_ == est.search_terms_
+    if not on:                                  # the structure searched, but a constant
+        from mggp.choices import CONSTANT       # the constant choice dropped
+        dropped = () if est.choices_["constant"]["value"] else (CONSTANT,)
+        assert est.local_search_ == []
+        assert est.terms_ == tuple(t for t in est.search_terms_ if t not in dropped)
     else:
         assert est.local_search_, "a 3-generation search leaves a one-term improvement"
         last = est.local_search_[-1]["fitness"]

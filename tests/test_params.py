@@ -196,9 +196,11 @@ def test_help_texts_state_the_figures_of_the_constants_they_describe():
     assert "within 5 % of the least" in PARAMS["size"].help
     assert "by over 5 %" in PARAMS["constant"].help
     assert "over 15 % lower, Bouc–Wen variables over 50 %" in PARAMS["use_phi"].help
+    assert "p < 0.05" in PARAMS["constant"].help and "p < 0.05" not in PARAMS["use_phi"].help
     code = ("import importlib, mggp.choices as c, narx.memory as m, "
             "mggp.operator_stage as o, mggp.params as p\n"
             "c.GAIN, c.CLASS_GAIN, c.SIZE_TOLERANCE, c.PILOT = 0.07, 0.25, 0.08, 0.3\n"
+            "c.LEVEL = 0.01\n"
             "m.PLAY_RADIUS_FRACTIONS, o.OPERATOR_GAIN = (0.1, 0.4), 0.02\n"
             "p = importlib.reload(p)\n"
             "print(p.PARAMS['constant'].help, p.PARAMS['use_phi'].help, "
@@ -207,6 +209,7 @@ def test_help_texts_state_the_figures_of_the_constants_they_describe():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert "Φ over" not in out                  # the one margin for Φ, not a second
+    assert "p < 0.01" in out and "p < 0.05" not in out
     for text in ("by over 7 %", "over 25 % lower", "30 % of the generations",
                  "within 8 % of the least", "radii 0.1, 0.4 ×", "lowers the fitness by 2 %"):
         assert text in out, text
