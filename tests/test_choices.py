@@ -453,7 +453,11 @@ def test_defaults_return_the_exact_structure_of_a_noise_free_record(seed):
     kw = dict(population=100, generations=15, random_state=seed)
     est = MGGPRegressor(**kw).fit(_piroddi_noise_free())
     assert set(est.model_.term_texts) == PIRODDI
-    assert est.choices_["use_phi"]["figures"]["class"] == "no Φ"
+    figs = est.choices_["use_phi"]["figures"]
+    if figs["class"] != "no Φ":           # a richer class, only by a margin above rounding
+        from mggp.choices import _key
+        won = figs[f"heldout_rmse_{_key(figs['class'])}"]
+        assert figs["heldout_rmse_no_phi"] - won > 100 * error_floor(_piroddi_noise_free())
     assert est.choices_["constant"]["value"] is False
     noisy = _piroddi_noise_free(noise=0.01)
     ctl = MGGPRegressor(**kw).fit(noisy)
