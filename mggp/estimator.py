@@ -44,6 +44,7 @@ from narx.fitness import StructureScorer
 from narx.deadtime import onset_scans
 from narx.outliers import find_spikes, repaired
 from narx.phi import default_registry
+from narx.ranges import ExtrapolationWarning, range_warning
 
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
@@ -663,11 +664,23 @@ class MGGPRegressor:
         return self.model_cls_ if constrained else self.model_
 
     def simulate(self, u, y=None, mode="freerun", constrained=None, **kw):
-        return self.get_best(constrained).simulate(u, y, mode, **kw)
+        """Simulate the best model (:meth:`get_best`) on ``(u, y)`` in
+        ``mode`` (:meth:`narx.Model.simulate`); an
+        :class:`narx.ranges.ExtrapolationWarning` names the inputs that leave
+        the training record's range (:func:`narx.ranges.range_warning`)."""
+        return self._simulate(u, y, mode, constrained, 3, **kw)
 
     def predict(self, u, y=None, mode="freerun", constrained=None, **kw):
-        return self.simulate(u, y, mode, constrained, **kw).y_hat
+        """The simulated output of :meth:`simulate` (with its warning)."""
+        return self._simulate(u, y, mode, constrained, 3, **kw).y_hat
 
+    def _simulate(self, u, y, mode, constrained, stacklevel, **kw):
+        model = self.get_best(constrained)
+        data = as_data(u, y, inputs=model.inputs, output=model.output)
+        outside = range_warning(model, data)
+        if outside:
+            warnings.warn(outside, ExtrapolationWarning, stacklevel=stacklevel)
+        return model.simulate(data, None, mode, **kw)
 
 
 MGGPRegressor.__doc__ += params_doc()

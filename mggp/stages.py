@@ -73,6 +73,7 @@ from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
 from narx.output_error import OE_ESTIMATORS
+from narx.ranges import signal_ranges
 
 from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
                       heldout_rmse, heldout_samples, local_search_kept, resolve_select,
@@ -365,7 +366,8 @@ def record(terms, data, ctx):
     resolved = {name: c.value for name, c in ctx.choices.items()}
     ctx.meta = dict(meta_of(est), **resolved, seed=ctx.seed,
                     cls_refit=est.constraints == "steady-state",
-                    search_fitness_value=est.fitness_, versions=versions())
+                    search_fitness_value=est.fitness_, versions=versions(),
+                    ranges=signal_ranges(data))
     if ctx.choices:
         ctx.meta["choices"] = {name: c.to_dict() for name, c in ctx.choices.items()}
     if ctx.search_class is not None and ctx.search_class.operators:
