@@ -51,8 +51,9 @@ from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, da
 from .choices import (CONSTANT, HEIGHT, Choice, class_choice, constant_pilot_choice,
                       constant_searched, fewest_terms, front_rows_heldout, heldout_rmse,
                       height_choice, holdout_message, outliers_choice, pilot_generations,
-                      resolve_screen, resolve_select, search_classes, search_part_choice,
-                      without_constant)
+                      heldout_samples, resolve_screen, resolve_select, search_classes,
+                      search_part_choice, size_tolerance, without_constant)
+from .extrapolation import POWER_CAP, StressCheck, bounded_first, power_choice, signal_power
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import check_context, evolve
@@ -81,7 +82,10 @@ class PilotRun(NamedTuple):
     and the smaller ones of its Pareto front (``holds`` None;
     :func:`mggp.choices.front_rows_heldout`); none without a result.
     ``error`` and ``terms``: the least error of the rows (``inf`` without
-    any) and its structure."""
+    any) and its structure. Rows whose free run is unbounded on the stress
+    inputs are left out when a bounded one is within the size tolerance
+    (:func:`mggp.extrapolation.bounded_first`); ``unbounded`` says why the
+    pilot's least-error structure fails them when none is ('' otherwise)."""
 
     result: object
     screen: object
@@ -89,6 +93,7 @@ class PilotRun(NamedTuple):
     holds: Optional[bool]
     tag: str
     rows: Tuple[tuple, ...] = ()
+    unbounded: str = ""
 
     @property
     def _least(self) -> tuple:
@@ -211,8 +216,9 @@ class MGGPRegressor:
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_terms=15, max_height="auto", use_phi="auto", phi_names=None,
                  phi_outputs=False, operators="auto", operator_entry="stage",
-                 constant="auto", max_lag=None, max_degree=None, select="auto",
-                 size="auto", local_search=True, select_candidates=50,
+                 constant="auto", max_lag=None, max_degree=None, max_power="auto",
+                 select="auto", size="auto", stress=True, local_search=True,
+                 select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, estimator="ls", refine=None, refine_window=None,
                  random_state=None, n_jobs=1, backend="loky",
@@ -243,8 +249,10 @@ class MGGPRegressor:
         self.constant = constant
         self.max_lag = max_lag
         self.max_degree = max_degree
+        self.max_power = max_power
         self.select = select
         self.size = size
+        self.stress = stress
         self.local_search = local_search
         self.select_candidates = select_candidates
         self.screen = screen
@@ -379,7 +387,11 @@ class MGGPRegressor:
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
                                  registry=registry, estimator=self.estimator)
-        ctx = FitContext(self, data, registry, start, scorer, shape=self._structure)
+        # the power cap of the search (max_power='auto': lifted by a pilot,
+        # _searches) and the stress test of the final choices (mggp.extrapolation)
+        self.max_power_ = {"auto": POWER_CAP, "none": None}.get(self.max_power, self.max_power)
+        ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
+                         stress=StressCheck(data, registry) if self.stress else None)
         if self.outliers == "auto":
             ctx.choices["outliers"] = outliers_choice(spikes, data.output, data.inputs)
         if height is not None:
@@ -429,7 +441,9 @@ class MGGPRegressor:
             ctx.choices["use_phi"] = Choice(
                 "use_phi", True, "Φ: with Φ of outputs the fit is one search with Φ, "
                 "not compared with other model classes", {})
-        if len(classes) == 1 and not piloted:
+        powered = self.max_power == "auto" and (self.max_degree is None
+                                                or self.max_degree > POWER_CAP)
+        if len(classes) == 1 and not piloted and not powered:
             c = classes[0]
             self._tell("plan", self.generations + 1)    # generation 0: the first population
             self._tell("phase", f"search {c.label}", self.generations)
@@ -439,7 +453,7 @@ class MGGPRegressor:
                                                 resume=self.resume)
             return ctx.result.evaluations
         pilot = pilot_generations(self.generations)
-        n = len(classes) + piloted
+        n = len(classes) + piloted + powered
         self._tell("plan", n * (pilot + 1) + max(self.generations - pilot, 0))
         seed, runs = None, []
         if self.resume and self.checkpoint is not None and os.path.exists(self.checkpoint):
@@ -463,12 +477,13 @@ class MGGPRegressor:
             choice = class_choice(classes, [r.error for r in runs], hold,
                                   words + ("" if hold else ", least error over each "
                                            "pilot's Pareto front") + ", the chosen one "
-                                  "continued")
+                                  "continued", [r.unbounded for r in runs],
+                                  self._tolerance(ctx))
             win = [c.label for c in classes].index(choice.figures["class"])
             if runs[win].result is None:        # every held-out free run diverges
                 win = next(i for i, r in enumerate(runs) if r.result is not None)
                 choice = class_choice([classes[win]], [runs[win].error])
-            go = win
+            go, kept = win, {}
             if piloted:
                 plain = partial(self._structure, constant=False)
                 seed, run = self._pilot(ctx, classes[win], pilot, seed,
@@ -483,7 +498,10 @@ class MGGPRegressor:
                     fewest_terms(runs[win].rows, run.rows, ctx.data, ctx.registry))
                 ctx.choices["constant"] = kept
                 if not kept.value and run.result is not None:
-                    go, ctx.shape = len(runs) - 1, plain
+                    go, ctx.shape, kept = len(runs) - 1, plain, {"constant": False}
+            if powered:
+                seed, go = self._power_pilot(ctx, classes[win], pilot, seed, runs, go, kept,
+                                             where, f"pilot {n}/{n}", words)
             res, scr, path, tag = runs[go].result, runs[go].screen, runs[go].path, runs[go].tag
             evaluations = sum(r.result.evaluations for i, r in enumerate(runs)
                               if r.result is not None and i != go)
@@ -497,6 +515,31 @@ class MGGPRegressor:
         ctx.seed, ctx.result, ctx.screen = seed, res, scr
         ctx.search_class = classes[win]
         return evaluations + res.evaluations
+
+    def _power_pilot(self, ctx: FitContext, cls, generations: int, seed, runs, go: int,
+                     constant: dict, where, label: str, words: str):
+        """``max_power='auto'``: a pilot of the chosen class ``cls`` (and
+        constant choice ``constant``) with the power cap lifted, appended to
+        ``runs``; the cap is lifted (``max_power_`` None, the search
+        continued from this pilot) when :func:`mggp.extrapolation.power_choice`
+        says so. Returns ``(seed, index of the run continued)``."""
+        suffix = ", no constant" if constant else ""
+        free = partial(self._structure, power=None, **constant)
+        key = f"{cls.key}{'-no-constant' if constant else ''}-powers"
+        seed, run = self._pilot(ctx, cls, generations, seed, where(key),
+                                f"{label} {cls.label}{suffix}, powers uncapped", free, None,
+                                f"{cls.label}{suffix}, powers uncapped")
+        runs.append(run)
+        capped = runs[go]
+        choice = power_choice(capped.error, run.error, self._tolerance(ctx),
+                              f"{words}, class {cls.label}{suffix}",
+                              run.unbounded and not capped.unbounded)
+        ctx.choices["max_power"] = choice
+        if choice.value is None and run.result is not None:
+            self.max_power_ = None
+            ctx.shape = free
+            return seed, len(runs) - 1
+        return seed, go
 
     def _pilot(self, ctx: FitContext, cls, generations: int, seed, path: str, label: str,
                shape, screen, tag: str):
@@ -517,7 +560,18 @@ class MGGPRegressor:
             rows = [(len(terms), heldout_rmse(terms, ctx.data, ctx.registry), tuple(terms))]
         else:
             rows = front_rows_heldout(terms, res, shape, ctx.data, ctx.registry)
-        return seed, PilotRun(res, scr, path, holds, tag, tuple(rows))
+        order = sorted(range(len(rows)), key=lambda i: rows[i][1])
+        _, refused, all_fail = bounded_first(rows, order, self._tolerance(ctx), ctx.stress)
+        out = {i for i, _ in refused}
+        rows = [r for i, r in enumerate(rows) if i not in out]
+        return seed, PilotRun(res, scr, path, holds, tag, tuple(rows),
+                              all_fail[0][1] if all_fail else "")
+
+    @staticmethod
+    def _tolerance(ctx: FitContext) -> float:
+        """The size tolerance on the record's held-out samples
+        (:func:`mggp.choices.size_tolerance`)."""
+        return size_tolerance(heldout_samples(ctx.data.n))
 
     def _continued(self, pilot_path: str, tag: str) -> str:
         """The checkpoint the chosen pilot continues in: its own file, or
@@ -629,17 +683,26 @@ class MGGPRegressor:
                                constraints=self.search_constraints, registry=registry,
                                hold=how == "hold")
 
-    def _structure(self, terms, constant: Optional[bool] = None) -> tuple:
-        """The scored structure of decoded terms: the allowed ones, after
+    def _structure(self, terms, constant: Optional[bool] = None, power="fit") -> tuple:
+        """The scored structure of decoded terms: the allowed ones (at most
+        ``power`` factors of one signal; 'fit': ``max_power_``), after
         the constant term when ``constant`` (default: when the search offers
         it, :func:`mggp.choices.constant_searched`)."""
-        kept = tuple(t for t in terms if self._allowed(t))
+        kept = tuple(t for t in terms if self._allowed(t, power))
         if constant is None:
             constant = constant_searched(self)
         return (CONSTANT,) + kept if constant else kept
 
-    def _allowed(self, term) -> bool:
+    def _allowed(self, term, power="fit") -> bool:
+        """Whether the search may use ``term``: not identically zero, within
+        ``max_lag``, ``max_degree`` and at most ``power`` factors of one
+        signal (:func:`mggp.extrapolation.signal_power`; None: any; 'fit':
+        ``max_power_``, the cap the fit resolved)."""
         if identically_zero(term, self.registry or default_registry()):
+            return False
+        if power == "fit":
+            power = getattr(self, "max_power_", None)
+        if power is not None and signal_power(term) > power:
             return False
         if self.max_lag is not None and term.max_lag > self.max_lag:
             return False

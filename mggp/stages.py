@@ -132,6 +132,9 @@ class FitContext:
     choices : dict
         The automatic choices made (:class:`mggp.choices.Choice` by
         parameter name), recorded in ``meta['choices']``.
+    stress : StressCheck or None
+        The stress test of the final choices (``stress``;
+        :class:`mggp.extrapolation.StressCheck`).
     """
 
     est: object
@@ -146,6 +149,7 @@ class FitContext:
     search_class: object = None
     meta: dict = field(default_factory=dict)
     choices: dict = field(default_factory=dict)
+    stress: object = None
     _scorers: Dict[Tuple, StructureScorer] = field(default_factory=dict)
 
     def scorer_for(self, fitness: str, constraints: Optional[str] = None) -> StructureScorer:
@@ -188,7 +192,8 @@ def select(terms, data, ctx):
     if how == "freerun":
         cands = run_candidates(ctx.result, data.signals, ctx.shape, est.select_candidates)
         chosen, est.selection_ = select_freerun(cands, data, ctx.start, ctx.registry,
-                                                scorer=ctx.scorer_for("freerun"))
+                                                scorer=ctx.scorer_for("freerun"),
+                                                check=ctx.stress)
         terms = chosen or terms
     elif how == "hold":
         cands = run_candidates(ctx.result, data.signals, ctx.shape, est.select_candidates)
@@ -222,9 +227,10 @@ def local_search(terms, data, ctx):
     screen (:func:`mggp.local_search.improve`), within
     :data:`LOCAL_EVALS_SHARE` of the search's evaluations; a moved structure is pruned
     again (``prune``), and kept only when its held-out free-run error is not
-    worse than the chosen structure's beyond the size choice's tolerance
-    (:func:`mggp.choices.local_search_kept`; otherwise the choice line says
-    so). A structure chosen for its holding (``select`` 'hold') is kept as
+    worse than the chosen structure's beyond the size choice's tolerance and,
+    with ``stress``, its free run stays bounded on the stress inputs when the
+    chosen structure's does (:func:`mggp.choices.local_search_kept`;
+    otherwise the choice line says so). A structure chosen for its holding (``select`` 'hold') is kept as
     chosen."""
     est = ctx.est
     est.local_search_ = []
@@ -254,9 +260,10 @@ def local_search(terms, data, ctx):
     if not steps:
         return terms
     moved = prune(moved, data, ctx)
+    unbounded = "" if ctx.stress is None or ctx.stress(terms) else ctx.stress(moved)
     c = local_search_kept(heldout_rmse(terms, data, ctx.registry),
                           heldout_rmse(moved, data, ctx.registry),
-                          heldout_samples(data.n), len(steps))
+                          heldout_samples(data.n), len(steps), unbounded)
     if not c.value:
         ctx.choices["local_search"] = c
         return terms
@@ -281,7 +288,7 @@ def size(terms, data, ctx):
                                      f"chosen by {by}, not by held-out error", {})
         return terms
     c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry),
-                    heldout_samples(data.n))
+                    heldout_samples(data.n), ctx.stress)
     ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
     return c.value
 
