@@ -483,7 +483,7 @@ class MGGPRegressor:
             if runs[win].result is None:        # every held-out free run diverges
                 win = next(i for i, r in enumerate(runs) if r.result is not None)
                 choice = class_choice([classes[win]], [runs[win].error])
-            go, kept = win, {}
+            go, plain_kw = win, {}
             if piloted:
                 plain = partial(self._structure, constant=False)
                 seed, run = self._pilot(ctx, classes[win], pilot, seed,
@@ -498,10 +498,10 @@ class MGGPRegressor:
                     fewest_terms(runs[win].rows, run.rows, ctx.data, ctx.registry))
                 ctx.choices["constant"] = kept
                 if not kept.value and run.result is not None:
-                    go, ctx.shape, kept = len(runs) - 1, plain, {"constant": False}
+                    go, ctx.shape, plain_kw = len(runs) - 1, plain, {"constant": False}
             if powered:
-                seed, go = self._power_pilot(ctx, classes[win], pilot, seed, runs, go, kept,
-                                             where, f"pilot {n}/{n}", words)
+                seed, go = self._power_pilot(ctx, classes[win], pilot, seed, runs, go,
+                                             plain_kw, where, f"pilot {n}/{n}", words)
             res, scr, path, tag = runs[go].result, runs[go].screen, runs[go].path, runs[go].tag
             evaluations = sum(r.result.evaluations for i, r in enumerate(runs)
                               if r.result is not None and i != go)
