@@ -256,3 +256,37 @@ def test_power_cap_lifted_only_beyond_the_tolerance():
     assert power_choice(1.0, 0.8, 0.09).value is None
     assert power_choice(float("inf"), 2.0, 0.09).value is None
     assert power_choice(1.0, 0.5, 0.09, unbounded="diverges").value == POWER_CAP
+
+
+def test_size_choice_line_names_the_refused_structures():
+    """The size choice skips the 2-term structure that fails the stress
+    inputs for the 3-term one within the tolerance and says why; when every
+    one within the tolerance fails it keeps the old choice and says so."""
+    from mggp.choices import size_choice
+    rows = [(4, 1.0, "A"), (2, 1.01, "B"), (3, 1.02, "C")]
+    c = size_choice(rows, 1600, {"A": "", "B": "diverges when the input is reversed in time",
+                                 "C": ""}.get)
+    assert c.value == "C" and "refused on the stress inputs" in c.why
+    assert "2 terms (RMSE 1.01): diverges when the input is reversed in time" in c.why
+    c = size_choice(rows, 1600, {"A": "x", "B": "y", "C": "z"}.get)
+    assert c.value == "B" and "so none is refused" in c.why
+    assert size_choice(rows, 1600).value == "B"                # no check: the old rule
+
+
+def test_diagnose_names_records_beyond_the_ranges(capsys):
+    """mggp diagnose: with a model, each record beyond its ranges gets a line;
+    without one, the validation record against the training record's."""
+    from argparse import Namespace
+    from mggp.cli_diagnose import _say_ranges
+    u, y = _saturating(300, 0)
+    train = Data(u, y)
+    big = Data(1.6 * u, y)
+    m = Model(["y[k-1]", "u[k-1]"]).fit(train)
+    _say_ranges(Namespace(train="T.csv", validation="V.csv"), m, train, big)
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("warning: V.csv: input u leaves the training")
+    _say_ranges(Namespace(train="T.csv", validation="V.csv"), None, train, big)
+    assert capsys.readouterr().err.startswith("warning: V.csv: input u leaves")
+    _say_ranges(Namespace(train="T.csv", validation=None), None, train, None)
+    _say_ranges(Namespace(train="T.csv", validation="V.csv"), m, train, train)
+    assert capsys.readouterr().err == ""
