@@ -143,6 +143,23 @@ class MGGPRegressor:
     n held-out samples when larger: :func:`mggp.choices.size_tolerance`). An
     explicit value of a parameter disables its choice.
 
+    Extrapolation (:mod:`mggp.extrapolation`): with ``max_power='auto'``
+    no term holds a power above 3 of one signal (``v[k-1]^7``, or
+    ``v[k-1]^2*v[k-2]^2``: 4) unless one more pilot, of the chosen class
+    and constant choice with the cap lifted, has a held-out free-run error
+    lower by more than the size tolerance (``max_power_`` is the cap
+    used; ``choices_['max_power']`` says why). With ``stress`` each
+    structure the final choices compare is run free, θ by LS on the
+    training record, on stress inputs made from it (inputs scaled 1.5×
+    about their means, reversed in time, held at their last values, maxima
+    and minima); one that diverges or leaves the training output's mean ±
+    3 ranges is refused when one that stays inside has a held-out error
+    within the size tolerance of the least (the choice lines say which;
+    when all within the tolerance fail, none is refused and the line says
+    so). ``simulate`` and ``predict`` warn
+    (:class:`narx.ranges.ExtrapolationWarning`) when the inputs leave the
+    training range every model records in ``meta['ranges']``.
+
     ``select``: ``'freerun'`` takes, among the ``select_candidates`` best
     distinct structures of the run (archive and final population), the one
     with the lowest free-run MSE over the whole training record — multiple

@@ -17,8 +17,9 @@ figures are the constants below.
 
 Stress inputs
     Each structure compared by the final choices (a pilot's structures
-    (:meth:`mggp.MGGPRegressor._searches`), the model class, the size and
-    ``select='freerun'``) is fitted by least squares on the training
+    (:meth:`mggp.MGGPRegressor._searches`), the model class, the size,
+    ``select='freerun'`` and the local search's moves) is fitted by least
+    squares on the training
     record and run free on three records made from it
     (:func:`stress_records`): the inputs scaled by :data:`STRESS_SCALE`
     about their means, the record reversed in time, and the record followed

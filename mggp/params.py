@@ -433,7 +433,8 @@ _ROWS = (
           "keeps its structure",
           "selection", "--size", meta=True),
     Param("stress", True, Bool(), "the final choices (model class, each pilot's structure, "
-          "size, --select freerun) refuse a structure whose least-squares free run is "
+          "size, --select freerun, the local search's moves) refuse a structure whose "
+          "least-squares free run is "
           f"unbounded on stress inputs made from the training record ({_STRESS_TEXT}); the "
           "choice line names the structures refused, or says that all within the tolerance "
           "fail (then none is)", "selection", "--no-stress", meta=True, const=False,

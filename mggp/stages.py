@@ -230,8 +230,8 @@ def local_search(terms, data, ctx):
     worse than the chosen structure's beyond the size choice's tolerance and,
     with ``stress``, its free run stays bounded on the stress inputs when the
     chosen structure's does (:func:`mggp.choices.local_search_kept`;
-    otherwise the choice line says so). A structure chosen for its holding (``select`` 'hold') is kept as
-    chosen."""
+    otherwise the choice line says so). A structure chosen for its holding
+    (``select`` 'hold') is kept as chosen."""
     est = ctx.est
     est.local_search_ = []
     how = selected(ctx)
