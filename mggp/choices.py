@@ -80,7 +80,7 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
            "holdout_message", "holdout_words", "local_search_kept", "percent", "rmse_text",
            "terms_text", "pilot_generations", "resolve_screen", "resolve_select",
-           "search_classes", "size_choice", "steady"]
+           "search_classes", "size_choice", "steady", "stress_said"]
 
 #: share of the record (its tail) on which the held-out free-run error is measured
 HOLDOUT = 0.3
@@ -130,9 +130,11 @@ PILOT = 0.2
 CONSTANT = Term(())
 
 #: ``MGGPRegressor`` keywords that keep the structure as the search built it:
-#: no size choice, no local search, no constant term (the published studies'
-#: setting, and the diagnosis's searches, whose fitness modes are compared)
-AS_SEARCHED = dict(size="search", local_search=False, constant=False)
+#: no size choice, no local search, no constant term, no power cap and no
+#: stress test (the published studies' setting, and the diagnosis's
+#: searches, whose fitness modes are compared)
+AS_SEARCHED = dict(size="search", local_search=False, constant=False, max_power="none",
+                   stress=False)
 
 
 @dataclass(frozen=True)
@@ -415,35 +417,61 @@ def front_rows_heldout(terms, result, shape, data: Data, registry=None) -> list:
     return rows
 
 
-def size_choice(rows, n_heldout: int = 0) -> Choice:
+def size_choice(rows, n_heldout: int = 0, check=None) -> Choice:
     """``size='auto'``: among ``rows`` ``(n_terms, held-out RMSE, terms)``
     (the chosen structure first, then the run's Pareto front), the fewest
     terms whose error is within :func:`size_tolerance` of ``n_heldout``
     scored samples of the least (ties: the chosen structure, then lower
-    error)."""
+    error). With ``check`` (:class:`mggp.extrapolation.StressCheck`), in that
+    order the first whose free run stays bounded on the stress inputs
+    (:func:`mggp.extrapolation.bounded_first`); the line names the
+    structures refused, or says that every one within the tolerance fails."""
+    from .extrapolation import bounded_first
     tol = size_tolerance(n_heldout) if n_heldout else SIZE_TOLERANCE
     best = min(r[1] for r in rows)
-    ok = [(r[0], i > 0, r[1], i) for i, r in enumerate(rows)
-          if np.isfinite(r[1]) and r[1] <= (1.0 + tol) * best]
+    ok = sorted((r[0], i > 0, r[1], i) for i, r in enumerate(rows)
+                if np.isfinite(r[1]) and r[1] <= (1.0 + tol) * best)
     if not ok:
         return Choice("size", rows[0][2], "size: the chosen structure (every held-out free "
                       "run diverges)", {"candidates": len(rows)})
-    n, _, err, i = min(ok)
+    i, refused, all_fail = bounded_first(rows, [o[3] for o in ok], tol, check)
+    n, err = rows[i][0], rows[i][1]
     figs = {"terms": n, "heldout_rmse": err, "searched_terms": rows[0][0],
             "searched_heldout_rmse": rows[0][1], "candidates": len(rows)}
     if i == 0:
         why = (f"size {terms_text(n)}: the chosen structure (held-out free-run RMSE "
                f"{rmse_text(err)}; "
                f"no smaller one of the Pareto front within {percent(tol)})")
+        if refused:
+            why = why[:-1] + " that stays bounded on the stress inputs)"
     else:
         why = (f"size {terms_text(n)}: Pareto-front structure with held-out free-run RMSE "
                f"{rmse_text(err)} against {rmse_text(rows[0][1])} for the {rows[0][0]}-term "
                f"chosen one")
+    why += stress_said(rows, refused, all_fail, figs)
     return Choice("size", rows[i][2], why, figs)
 
 
+def stress_said(rows, refused, all_fail, figs) -> str:
+    """The end of a choice line on the stress rule's verdicts
+    (:func:`mggp.extrapolation.bounded_first`) over ``rows``
+    ``(n_terms, error, terms)``; records them in ``figs``."""
+    if refused:
+        figs["stress_refused"] = [[rows[i][0], rows[i][1], why] for i, why in refused]
+        said = "; ".join(f"{terms_text(rows[i][0])} (RMSE {rmse_text(rows[i][1])}): {why}"
+                         for i, why in refused[:3])
+        more = f"; {len(refused) - 3} more" if len(refused) > 3 else ""
+        return (f"; refused on the stress inputs (its free run unbounded): {said}{more}")
+    if all_fail:
+        figs["stress_all_fail"] = [[rows[i][0], rows[i][1], why] for i, why in all_fail]
+        return (f"; every structure within the tolerance fails the stress inputs (the "
+                f"first {all_fail[0][1]}), so none is refused: the model may extrapolate "
+                f"badly")
+    return ""
+
+
 def local_search_kept(err_before: float, err_after: float, n_heldout: int,
-                      moves: int) -> Choice:
+                      moves: int, unbounded: str = "") -> Choice:
     """Whether the local search's ``moves`` are kept: its structure's
     held-out free-run error ``err_after`` may exceed the error
     ``err_before`` of the structure it started from by at most
@@ -455,12 +483,20 @@ def local_search_kept(err_before: float, err_after: float, n_heldout: int,
     error chose the class, the constant and the size, and moves that lower
     the fitness by giving up what the held-out part measures (e.g. input
     terms traded for output lags that extrapolate each multiple-shooting
-    window) are not kept."""
+    window) are not kept. Nor are moves whose structure fails the stress
+    inputs (``unbounded``: why; :mod:`mggp.extrapolation`) when the one it
+    started from passes them."""
     tol = size_tolerance(n_heldout)
     kept = bool(np.isfinite(err_after) and (not np.isfinite(err_before)
                                             or err_after <= (1.0 + tol) * err_before))
     figs = {"heldout_rmse_before": err_before, "heldout_rmse_after": err_after,
             "moves": moves}
+    if kept and unbounded:
+        figs["stress_refused"] = unbounded
+        return Choice("local_search", False, f"local search not kept: its {moves} move(s) "
+                      f"give a structure whose free run {unbounded} (refused on the stress "
+                      f"inputs; held-out free-run RMSE {rmse_text(err_after)} against "
+                      f"{rmse_text(err_before)} before)", figs)
     if kept:
         return Choice("local_search", True, f"local search kept: held-out free-run RMSE "
                       f"{rmse_text(err_after)} against {rmse_text(err_before)} before its "
@@ -829,7 +865,8 @@ def class_margins(classes=None) -> str:
                       for cl in classes[1:] if cl.gain != CLASS_GAIN))
 
 
-def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
+def class_choice(classes, errors, holds=None, pilot: str = "", unbounded=None,
+                 tol: float = SIZE_TOLERANCE) -> Choice:
     """``use_phi='auto'``: the class of ``classes`` (simplest first) whose
     pilot has the least held-out free-run error ``errors[i]`` (of its best
     structure and the smaller ones of its Pareto front, or with the hold
@@ -839,10 +876,22 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
     one kept so far. ``holds[i]`` (with the hold selection):
     whether the class's search has a structure whose CLS refit holds;
     classes that have one win over those that have none, whatever the
-    error. ``pilot`` completes the line (how the pilots ran)."""
+    error. ``unbounded[i]``: why the class's structure fails the stress
+    inputs ('' when it passes; :mod:`mggp.extrapolation`); such classes
+    are refused when a class that passes has an error within ``tol`` (the
+    size tolerance) of the least. ``pilot`` completes the line (how the
+    pilots ran)."""
     n = len(classes)
     holds = list(holds) if holds is not None else [None] * n
     pool = [i for i in range(n) if holds[i]] if any(holds) else list(range(n))
+    unbounded = list(unbounded) if unbounded is not None else [""] * n
+    finite = [errors[i] for i in pool if np.isfinite(errors[i])]
+    limit = (1.0 + tol) * min(finite) if finite else np.inf
+    refused = []
+    if any(unbounded[i] for i in pool) and any(
+            not unbounded[i] and errors[i] <= limit for i in pool):
+        refused = [i for i in pool if unbounded[i]]
+        pool = [i for i in pool if not unbounded[i]]
     best = pool[0]
     for i in pool[1:]:
         if errors[i] < (1.0 - classes[i].gain) * errors[best] or (
@@ -862,6 +911,10 @@ def class_choice(classes, errors, holds=None, pilot: str = "") -> Choice:
                     f"{', '.join(_with(classes[i].label) for i in pool)} "
                     f"{'has' if len(pool) == 1 else 'have'} a structure whose CLS refit "
                     f"holds its output")
+    if refused:
+        figs["stress_refused"] = {classes[i].label: unbounded[i] for i in refused}
+        why += ("; refused on the stress inputs (its free run unbounded): " + "; ".join(
+            f"the structure {_with(classes[i].label)} {unbounded[i]}" for i in refused))
     rule = "" if n < 2 else "; " + class_margins(classes)
     why += f" ({holdout_words()}{rule}{'; ' + pilot if pilot else ''})"
     return Choice("use_phi", c.use_phi, why, figs)

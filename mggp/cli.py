@@ -300,6 +300,10 @@ def _cmd_simulate(args) -> int:
         kw["k"] = 10 if args.k is None else args.k
     elif args.mode == "ms":
         kw["window"] = 100 if args.window is None else args.window
+    from narx.ranges import range_warning
+    outside = range_warning(model, d)
+    if outside:
+        print(f"warning: {outside}", file=sys.stderr)
     res = model.simulate(d, mode=args.mode, **kw)
     if res.diverged:
         raise CLIError(f"the model is unstable on {args.data}: its {args.mode} simulation "

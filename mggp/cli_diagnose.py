@@ -129,6 +129,23 @@ def _read_validation(args, inputs, output):
     return Data(val.U.T, val.y, inputs=list(inputs), output=output)
 
 
+def _say_ranges(args, model, train, val) -> None:
+    """A warning line for each record whose inputs leave the training range
+    (:func:`narx.ranges.range_line`): with ``--model`` both records against
+    the ranges the model records, else the validation record against the
+    training record's."""
+    from narx.ranges import range_line, recorded_ranges, signal_ranges
+    if model is not None:
+        ranges, records = recorded_ranges(model), [(args.train, train),
+                                                   (args.validation, val)]
+    else:
+        ranges, records = signal_ranges(train), [(args.validation, val)]
+    for name, data in records:
+        line = "" if data is None else range_line(ranges, data)
+        if line:
+            print(f"warning: {name}: {line}", file=sys.stderr)
+
+
 def _cmd_diagnose(args) -> int:
     from narx import load_model
     from narx.csvdata import read_csv
@@ -155,6 +172,7 @@ def _cmd_diagnose(args) -> int:
             raise CLIError(f"the model {args.model} is unstable on {args.train}: its free "
                            f"run diverged (output {BEYOND} the data's magnitude); "
                            f"a model whose simulation diverges has no simulation to diagnose")
+    _say_ranges(args, model, train, val)
     budget = Budget(population=args.population, generations=args.generations,
                     max_terms=args.max_terms, max_height=args.max_height,
                     max_degree=args.max_degree, window=args.window, shifts=args.shifts,

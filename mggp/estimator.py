@@ -51,6 +51,7 @@ from narx.outliers import find_spikes, repaired
 from narx.metrics import r2
 from narx.phi import default_registry
 from narx.simulate import mode_name
+from narx.ranges import ExtrapolationWarning, range_warning
 
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
@@ -58,8 +59,9 @@ from .choices import (CONSTANT, CONSTANT_ENDS, GAIN, HEIGHT, Choice, class_choic
                       constant_pilot_choice, constant_searched, fewest_terms,
                       front_rows_heldout, heldout_gain, heldout_rmse,
                       height_choice, holdout_message, outliers_choice, pilot_generations,
-                      resolve_screen, resolve_select, search_classes, search_part_choice,
-                      without_constant)
+                      heldout_samples, resolve_screen, resolve_select, search_classes,
+                      search_part_choice, size_tolerance, without_constant)
+from .extrapolation import POWER_CAP, StressCheck, bounded_first, power_choice, signal_power
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import check_context, evolve
@@ -94,6 +96,17 @@ def _keywords_checked(init):
     return checked
 
 
+def _warn_outside(model, u) -> None:
+    """Warn (:class:`narx.ranges.ExtrapolationWarning`) when the inputs ``u``
+    (a narx.Data or an array, as :func:`predict_inputs` returns them) leave
+    the training ranges ``model`` records."""
+    data = u if isinstance(u, Data) else Data(u, None, inputs=model.inputs,
+                                              output=model.output)
+    outside = range_warning(model, data)
+    if outside:
+        warnings.warn(outside, ExtrapolationWarning, stacklevel=3)
+
+
 class PilotRun(NamedTuple):
     """One pilot search of :meth:`MGGPRegressor._searches`: its ``result``
     (None when no structure of the class has a finite fitness), ``screen``,
@@ -103,7 +116,10 @@ class PilotRun(NamedTuple):
     and the smaller ones of its Pareto front (``holds`` None;
     :func:`mggp.choices.front_rows_heldout`); none without a result.
     ``error`` and ``terms``: the least error of the rows (``inf`` without
-    any) and its structure."""
+    any) and its structure. Rows whose free run is unbounded on the stress
+    inputs are left out when a bounded one is within the size tolerance
+    (:func:`mggp.extrapolation.bounded_first`); ``unbounded`` says why the
+    pilot's least-error structure fails them when none is ('' otherwise)."""
 
     result: object
     screen: object
@@ -111,6 +127,7 @@ class PilotRun(NamedTuple):
     holds: Optional[bool]
     tag: str
     rows: Tuple[tuple, ...] = ()
+    unbounded: str = ""
 
     @property
     def _least(self) -> tuple:
@@ -177,6 +194,23 @@ class MGGPRegressor:
     :func:`mggp.choices.size_tolerance`). An
     explicit value of a parameter disables its choice; the level is
     :data:`mggp.choices.LEVEL`.
+
+    Extrapolation (:mod:`mggp.extrapolation`): with ``max_power='auto'``
+    no term holds a power above 3 of one signal (``v[k-1]^7``, or
+    ``v[k-1]^2*v[k-2]^2``: 4) unless one more pilot, of the chosen class
+    and constant choice with the cap lifted, has a held-out free-run error
+    lower by more than the size tolerance (``max_power_`` is the cap
+    used; ``choices_['max_power']`` says why). With ``stress`` each
+    structure the final choices compare is run free, θ by LS on the
+    training record, on stress inputs made from it (inputs scaled 1.5×
+    about their means, reversed in time, held at their last values, maxima
+    and minima); one that diverges or leaves the training output's mean ±
+    3 ranges is refused when one that stays inside has a held-out error
+    within the size tolerance of the least (the choice lines say which;
+    when all within the tolerance fail, none is refused and the line says
+    so). ``simulate`` and ``predict`` warn
+    (:class:`narx.ranges.ExtrapolationWarning`) when the inputs leave the
+    training range every model records in ``meta['ranges']``.
 
     ``select``: ``'freerun'`` takes, among the ``select_candidates`` best
     distinct structures of the run (archive and final population), the one
@@ -254,7 +288,8 @@ class MGGPRegressor:
                  high_level_mut_rate=0.5, tournament_size=2, elite_fraction=0.1,
                  max_height="auto", phi_names=None, phi_outputs=False, operators="auto",
                  operator_entry="stage", constant="auto", max_lag=None, max_degree=None,
-                 select="auto", size="auto", local_search=True, select_candidates=50,
+                 max_power="auto", select="auto", size="auto", stress=True, local_search=True,
+                 select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, estimator="ls", refine=None, refine_window=None,
                  backend="loky", scheduler=None, outliers="auto", checkpoint=None,
@@ -288,8 +323,10 @@ class MGGPRegressor:
         self.constant = constant
         self.max_lag = max_lag
         self.max_degree = max_degree
+        self.max_power = max_power
         self.select = select
         self.size = size
+        self.stress = stress
         self.local_search = local_search
         self.select_candidates = select_candidates
         self.screen = screen
@@ -455,7 +492,11 @@ class MGGPRegressor:
         scorer = StructureScorer(data, self.fitness, window=self.window, k=self.k,
                                  constraints=self.search_constraints, start=start,
                                  registry=registry, estimator=self.estimator)
-        ctx = FitContext(self, data, registry, start, scorer, shape=self._structure)
+        # the power cap of the search (max_power='auto': lifted by a pilot,
+        # _searches) and the stress test of the final choices (mggp.extrapolation)
+        self.max_power_ = {"auto": POWER_CAP, "none": None}.get(self.max_power, self.max_power)
+        ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
+                         stress=StressCheck(data, registry) if self.stress else None)
         if self.outliers == "auto":
             ctx.choices["outliers"] = outliers_choice(spikes, data.output, data.inputs)
         if height is not None:
@@ -507,7 +548,9 @@ class MGGPRegressor:
             ctx.choices["use_phi"] = Choice(
                 "use_phi", True, "Φ: with Φ of outputs the fit is one search with Φ, "
                 "not compared with other model classes", {})
-        if len(classes) == 1 and not piloted:
+        powered = self.max_power == "auto" and (self.max_degree is None
+                                                or self.max_degree > POWER_CAP)
+        if len(classes) == 1 and not piloted and not powered:
             c = classes[0]
             self._tell("plan", self.generations + 1)    # generation 0: the first population
             self._tell("phase", f"search {c.label}", self.generations)
@@ -517,7 +560,7 @@ class MGGPRegressor:
                                                 resume=self.resume)
             return ctx.result.evaluations
         pilot = pilot_generations(self.generations)
-        n = len(classes) + piloted
+        n = len(classes) + piloted + powered
         self._tell("plan", n * (pilot + 1) + max(self.generations - pilot, 0))
         seed, runs = None, []
         if self.resume and self.checkpoint is not None and os.path.exists(self.checkpoint):
@@ -541,12 +584,13 @@ class MGGPRegressor:
             choice = class_choice(classes, [r.error for r in runs], hold,
                                   words + ("" if hold else ", least error over each "
                                            "pilot's Pareto front") + ", the chosen one "
-                                  "continued")
+                                  "continued", [r.unbounded for r in runs],
+                                  self._tolerance(ctx))
             win = [c.label for c in classes].index(choice.figures["class"])
             if runs[win].result is None:        # every held-out free run diverges
                 win = next(i for i, r in enumerate(runs) if r.result is not None)
                 choice = class_choice([classes[win]], [runs[win].error])
-            go = win
+            go, plain_kw = win, {}
             if piloted:
                 plain = partial(self._structure, constant=False)
                 seed, run = self._pilot(ctx, classes[win], pilot, seed,
@@ -564,7 +608,10 @@ class MGGPRegressor:
                     fewest_terms(runs[win].rows, run.rows, ctx.data, ctx.registry, seed))
                 ctx.choices["constant"] = kept
                 if not kept.value and run.result is not None:
-                    go, ctx.shape = len(runs) - 1, plain
+                    go, ctx.shape, plain_kw = len(runs) - 1, plain, {"constant": False}
+            if powered:
+                seed, go = self._power_pilot(ctx, classes[win], pilot, seed, runs, go,
+                                             plain_kw, where, f"pilot {n}/{n}", words)
             res, scr, path, tag = runs[go].result, runs[go].screen, runs[go].path, runs[go].tag
             evaluations = sum(r.result.evaluations for i, r in enumerate(runs)
                               if r.result is not None and i != go)
@@ -578,6 +625,31 @@ class MGGPRegressor:
         ctx.seed, ctx.result, ctx.screen = seed, res, scr
         ctx.search_class = classes[win]
         return evaluations + res.evaluations
+
+    def _power_pilot(self, ctx: FitContext, cls, generations: int, seed, runs, go: int,
+                     constant: dict, where, label: str, words: str):
+        """``max_power='auto'``: a pilot of the chosen class ``cls`` (and
+        constant choice ``constant``) with the power cap lifted, appended to
+        ``runs``; the cap is lifted (``max_power_`` None, the search
+        continued from this pilot) when :func:`mggp.extrapolation.power_choice`
+        says so. Returns ``(seed, index of the run continued)``."""
+        suffix = ", no constant" if constant else ""
+        free = partial(self._structure, power=None, **constant)
+        key = f"{cls.key}{'-no-constant' if constant else ''}-powers"
+        seed, run = self._pilot(ctx, cls, generations, seed, where(key),
+                                f"{label} {cls.label}{suffix}, powers uncapped", free, None,
+                                f"{cls.label}{suffix}, powers uncapped")
+        runs.append(run)
+        capped = runs[go]
+        choice = power_choice(capped.error, run.error, self._tolerance(ctx),
+                              f"{words}, class {cls.label}{suffix}",
+                              run.unbounded and not capped.unbounded)
+        ctx.choices["max_power"] = choice
+        if choice.value is None and run.result is not None:
+            self.max_power_ = None
+            ctx.shape = free
+            return seed, len(runs) - 1
+        return seed, go
 
     def _pilot(self, ctx: FitContext, cls, generations: int, seed, path: str, label: str,
                shape, screen, tag: str):
@@ -598,7 +670,18 @@ class MGGPRegressor:
             rows = [(len(terms), heldout_rmse(terms, ctx.data, ctx.registry), tuple(terms))]
         else:
             rows = front_rows_heldout(terms, res, shape, ctx.data, ctx.registry)
-        return seed, PilotRun(res, scr, path, holds, tag, tuple(rows))
+        order = sorted(range(len(rows)), key=lambda i: rows[i][1])
+        _, refused, all_fail = bounded_first(rows, order, self._tolerance(ctx), ctx.stress)
+        out = {i for i, _ in refused}
+        rows = [r for i, r in enumerate(rows) if i not in out]
+        return seed, PilotRun(res, scr, path, holds, tag, tuple(rows),
+                              all_fail[0][1] if all_fail else "")
+
+    @staticmethod
+    def _tolerance(ctx: FitContext) -> float:
+        """The size tolerance on the record's held-out samples
+        (:func:`mggp.choices.size_tolerance`)."""
+        return size_tolerance(heldout_samples(ctx.data.n))
 
     def _continued(self, pilot_path: str, tag: str) -> str:
         """The checkpoint the chosen pilot continues in: its own file, or
@@ -714,17 +797,26 @@ class MGGPRegressor:
                                constraints=self.search_constraints, registry=registry,
                                hold=how == "hold")
 
-    def _structure(self, terms, constant: Optional[bool] = None) -> tuple:
-        """The scored structure of decoded terms: the allowed ones, after
+    def _structure(self, terms, constant: Optional[bool] = None, power="fit") -> tuple:
+        """The scored structure of decoded terms: the allowed ones (at most
+        ``power`` factors of one signal; 'fit': ``max_power_``), after
         the constant term when ``constant`` (default: when the search offers
         it, :func:`mggp.choices.constant_searched`)."""
-        kept = tuple(t for t in terms if self._allowed(t))
+        kept = tuple(t for t in terms if self._allowed(t, power))
         if constant is None:
             constant = constant_searched(self)
         return (CONSTANT,) + kept if constant else kept
 
-    def _allowed(self, term) -> bool:
+    def _allowed(self, term, power="fit") -> bool:
+        """Whether the search may use ``term``: not identically zero, within
+        ``max_lag``, ``max_degree`` and at most ``power`` factors of one
+        signal (:func:`mggp.extrapolation.signal_power`; None: any; 'fit':
+        ``max_power_``, the cap the fit resolved)."""
         if identically_zero(term, self.registry or default_registry()):
+            return False
+        if power == "fit":
+            power = getattr(self, "max_power_", None)
+        if power is not None and signal_power(term) > power:
             return False
         if self.max_lag is not None and term.max_lag > self.max_lag:
             return False
@@ -753,9 +845,15 @@ class MGGPRegressor:
         model (:meth:`get_best`) on the inputs ``u`` (as ``fit`` takes them,
         the same number of inputs) in ``mode`` ('freerun', 'osa', 'ksa' with
         ``k``, 'ms' with ``window``), from the measured output ``y`` (free
-        run: its first samples, or ``y0=`` initial outputs)."""
+        run: its first samples, or ``y0=`` initial outputs). An
+        :class:`narx.ranges.ExtrapolationWarning` names the inputs that leave
+        the training record's range (:func:`narx.ranges.range_warning`), here
+        and in :meth:`predict`."""
         self._check_fitted()
-        return self.get_best(constrained).simulate(predict_inputs(self, u), y, mode, **kw)
+        model = self.get_best(constrained)
+        u = predict_inputs(self, u)
+        _warn_outside(model, u)
+        return model.simulate(u, y, mode, **kw)
 
     def predict(self, u, y0=None, *, y=None, mode="freerun", constrained=None, **kw):
         """The predicted output of the best model (:meth:`get_best`).
@@ -796,7 +894,9 @@ class MGGPRegressor:
             y, y0 = y0, None                    # the measured output, passed as before
         elif y is None and y0 is None:
             y0 = np.zeros(model.max_lag)        # from rest
-        return model.simulate(predict_inputs(self, u), y, mode, y0=y0, **kw).y_hat
+        u = predict_inputs(self, u)
+        _warn_outside(model, u)
+        return model.simulate(u, y, mode, y0=y0, **kw).y_hat
 
     def score(self, u, y, sample_weight=None, *, mode="freerun", **kw):
         """R² of the free-run simulation of ``u`` from the measured initial

@@ -35,6 +35,7 @@ from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 from .checkpoint import CHECKPOINT_SHARE
 from .choices import (GAIN, HEIGHT, LEVEL, PILOT, SIZE_TOLERANCE, class_margins,
                       heldout_samples, holdout_words, percent, size_tolerance)
+from .extrapolation import POWER_CAP, stress_words
 from .operator_stage import OPERATOR_GAIN
 from .primitives import MAX_HEIGHT, auto_classes, max_lag_for_height
 
@@ -348,6 +349,7 @@ _AUTO_TEXT = ", or ".join("with " + " and ".join(names) for names in auto_classe
 _N_EXAMPLE = heldout_samples(500)
 _SIZE_TEXT = (f"within {percent(SIZE_TOLERANCE)} of the least (2/√n on n held-out samples "
               f"when larger: {percent(round(size_tolerance(_N_EXAMPLE), 2))} on {_N_EXAMPLE})")
+_STRESS_TEXT = stress_words()
 _HEIGHT_WHY = (f"trees of height h reach lags up to 1 + 3h, {max_lag_for_height(MAX_HEIGHT)} "
                f"at {MAX_HEIGHT}, and grow exponentially with h")
 _ROWS = (
@@ -456,6 +458,14 @@ _ROWS = (
           default_text="what --max-height reaches"),
     Param("max_degree", None, Int(1, none=True), "largest polynomial degree of a term",
           "model class", "--max-degree", context=True, meta=True, default_text="none"),
+    Param("max_power", "auto", IntOrWords(1, names=("auto", "none")), "largest power of "
+          "one signal in a term (factors v[k-i] of one signal v at any lags: v[k-1]^7 has "
+          "7), which sets how fast a model grows outside its training range; none: no cap; "
+          f"auto: {POWER_CAP}, lifted when a pilot search without the cap (one more pilot, "
+          f"{_PILOT}) has a held-out free-run error ({_HELD_OUT}) lower by more than the "
+          "size tolerance (no pilot when --max-degree is at most "
+          f"{POWER_CAP})", "model class", "--max-power", context="if set", meta=True,
+          metavar="auto|none|N", default_text=f"auto ({POWER_CAP}, or lifted by a pilot)"),
     Param("select", "auto", OneOf(("auto", "fitness", "freerun", "hold")),
           "the result among the best distinct structures of the run: the best fitness, "
           "the least free-run error over the training record, or (hold) the best whose "
@@ -468,6 +478,14 @@ _ROWS = (
           f"held-out free-run error ({_HELD_OUT}) is {_SIZE_TEXT}; the hold selection "
           "keeps its structure",
           "selection", "--size", meta=True),
+    Param("stress", True, Bool(), "the final choices (model class, each pilot's structure, "
+          "size, --select freerun, the local search's moves) refuse a structure whose "
+          "least-squares free run is "
+          f"unbounded on stress inputs made from the training record ({_STRESS_TEXT}); the "
+          "choice line names the structures refused, or says that all within the tolerance "
+          "fail (then none is)", "selection", "--no-stress", meta=True, const=False,
+          flag_help="no stress test of the final choices: a structure is taken on its "
+          "held-out error alone, however it extrapolates", default_text="on"),
     Param("local_search", True, Bool(), "after the search, improve the chosen structure "
           "one term at a time (drop a term, or replace, drop or add one lagged-signal "
           "factor of a term) while the fitness improves; the moves are kept only when the "

@@ -37,15 +37,25 @@ __all__ = ["select_freerun", "select_hold", "run_candidates", "CLSRejectedWarnin
 
 
 def select_freerun(cands: Sequence[Tuple[Term, ...]], data: Data, start: int,
-                   registry=None, scorer: Optional[StructureScorer] = None
+                   registry=None, scorer: Optional[StructureScorer] = None, check=None
                    ) -> Tuple[Optional[Tuple[Term, ...]], List]:
     """Candidate with the lowest whole-record free-run MSE (``scorer``: a
-    free-run scorer of ``data`` from ``start`` to use instead of a new one)."""
+    free-run scorer of ``data`` from ``start`` to use instead of a new one);
+    with ``check`` (:class:`mggp.extrapolation.StressCheck`) the lowest
+    whose free run stays bounded on the stress inputs when one has an RMSE
+    within the size tolerance of the least
+    (:func:`mggp.extrapolation.bounded_first`)."""
+    from .choices import SIZE_TOLERANCE
+    from .extrapolation import bounded_first
     fr = scorer or StructureScorer(data, "freerun", start=start, registry=registry)
     scored = [(fr.score(c), len(c), i) for i, c in enumerate(cands)]
-    scored = [r for r in scored if np.isfinite(r[0])]
-    table = [(float(m), [str(t) for t in cands[i]]) for m, _, i in sorted(scored)]
-    return (cands[min(scored)[2]] if scored else None), table
+    scored = sorted(r for r in scored if np.isfinite(r[0]))
+    table = [(float(m), [str(t) for t in cands[i]]) for m, _, i in scored]
+    if not scored:
+        return None, table
+    rows = {i: (len(cands[i]), float(np.sqrt(m)), cands[i]) for m, _, i in scored}
+    at, _, _ = bounded_first(rows, [i for _, _, i in scored], SIZE_TOLERANCE, check)
+    return cands[at], table
 
 
 def select_hold(cands: Sequence[Tuple[Term, ...]], data: Data, start: int,

@@ -74,6 +74,7 @@ from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
 from narx.output_error import OE_ESTIMATORS
+from narx.ranges import signal_ranges
 
 from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
                       heldout_rmse, heldout_samples, local_search_kept, resolve_select,
@@ -132,6 +133,9 @@ class FitContext:
     choices : dict
         The automatic choices made (:class:`mggp.choices.Choice` by
         parameter name), recorded in ``meta['choices']``.
+    stress : StressCheck or None
+        The stress test of the final choices (``stress``;
+        :class:`mggp.extrapolation.StressCheck`).
     """
 
     est: object
@@ -146,6 +150,7 @@ class FitContext:
     search_class: object = None
     meta: dict = field(default_factory=dict)
     choices: dict = field(default_factory=dict)
+    stress: object = None
     _scorers: Dict[Tuple, StructureScorer] = field(default_factory=dict)
 
     def scorer_for(self, fitness: str, constraints: Optional[str] = None) -> StructureScorer:
@@ -188,7 +193,8 @@ def select(terms, data, ctx):
     if how == "freerun":
         cands = run_candidates(ctx.result, data.signals, ctx.shape, est.select_candidates)
         chosen, est.selection_ = select_freerun(cands, data, ctx.start, ctx.registry,
-                                                scorer=ctx.scorer_for("freerun"))
+                                                scorer=ctx.scorer_for("freerun"),
+                                                check=ctx.stress)
         terms = chosen or terms
     elif how == "hold":
         cands = run_candidates(ctx.result, data.signals, ctx.shape, est.select_candidates)
@@ -222,10 +228,11 @@ def local_search(terms, data, ctx):
     screen (:func:`mggp.local_search.improve`), within
     :data:`LOCAL_EVALS_SHARE` of the search's evaluations; a moved structure is pruned
     again (``prune``), and kept only when its held-out free-run error is not
-    worse than the chosen structure's beyond the size choice's tolerance
-    (:func:`mggp.choices.local_search_kept`; otherwise the choice line says
-    so). A structure chosen for its holding (``select`` 'hold') is kept as
-    chosen."""
+    worse than the chosen structure's beyond the size choice's tolerance and,
+    with ``stress``, its free run stays bounded on the stress inputs when the
+    chosen structure's does (:func:`mggp.choices.local_search_kept`;
+    otherwise the choice line says so). A structure chosen for its holding
+    (``select`` 'hold') is kept as chosen."""
     est = ctx.est
     est.local_search_ = []
     how = selected(ctx)
@@ -254,9 +261,10 @@ def local_search(terms, data, ctx):
     if not steps:
         return terms
     moved = prune(moved, data, ctx)
+    unbounded = "" if ctx.stress is None or ctx.stress(terms) else ctx.stress(moved)
     c = local_search_kept(heldout_rmse(terms, data, ctx.registry),
                           heldout_rmse(moved, data, ctx.registry),
-                          heldout_samples(data.n), len(steps))
+                          heldout_samples(data.n), len(steps), unbounded)
     if not c.value:
         ctx.choices["local_search"] = c
         return terms
@@ -281,7 +289,7 @@ def size(terms, data, ctx):
                                      f"chosen by {by}, not by held-out error", {})
         return terms
     c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry),
-                    heldout_samples(data.n))
+                    heldout_samples(data.n), ctx.stress)
     ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
     return c.value
 
@@ -370,7 +378,8 @@ def record(terms, data, ctx):
     resolved = {name: c.value for name, c in ctx.choices.items()}
     ctx.meta = dict(meta_of(est), **resolved, seed=ctx.seed,
                     cls_refit=est.constraints == "steady-state",
-                    search_fitness_value=est.fitness_, versions=versions())
+                    search_fitness_value=est.fitness_, versions=versions(),
+                    ranges=signal_ranges(data))
     if ctx.choices:
         ctx.meta["choices"] = {name: c.to_dict() for name, c in ctx.choices.items()}
     if ctx.search_class is not None and ctx.search_class.operators:

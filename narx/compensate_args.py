@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .ranges import recorded_ranges
 from .steady import rest_actuator
 
 __all__ = ["check_range", "check_count", "check_reference", "past_values",
@@ -63,16 +64,8 @@ def past_values(name, value, n):
 
 def training_ranges(model) -> dict:
     """``{signal: (low, high)}`` of the ranges the model was fitted on
-    (``meta['ranges']``, written by :meth:`narx.Model.fit`); malformed or
-    absent entries are left out."""
-    ranges = getattr(model, "meta", {}).get("ranges")
-    out = {}
-    if isinstance(ranges, dict):
-        for name, v in ranges.items():
-            if (isinstance(v, (list, tuple)) and len(v) == 2
-                    and all(isinstance(x, (int, float)) and np.isfinite(x) for x in v)):
-                out[name] = (float(v[0]), float(v[1]))
-    return out
+    (:func:`narx.ranges.recorded_ranges`)."""
+    return recorded_ranges(model)
 
 
 def training_magnitudes(model) -> list:

@@ -34,6 +34,7 @@ from .estimate import constrained_least_squares, least_squares
 from .exceptions import EstimationError, ModelFileError, RankWarning, TermError
 from .modelio import fail, model_fields, model_json, model_to_dict, read_model_json
 from .phi import PhiRegistry, default_registry
+from .ranges import signal_ranges
 from .regressors import max_lag, regressor_matrix, term_column
 from .simulate import SimulationResult, simulate
 from .steady import cluster_sums, steady_state_constraints
@@ -176,9 +177,9 @@ class Model(HasSignals):
                           "constraints": labels if S is not None else None}
         self.meta["estimation"] = est.method        # the latest fit's method
         # the training record's signal ranges: compensators and checks use
-        # them for the scale of the signals (units, offsets)
-        self.meta["ranges"] = {name: [float(np.min(x)), float(np.max(x))] for name, x in
-                               [(n, d.input(n)) for n in d.inputs] + [(d.output, d.y)]}
+        # them for the scale of the signals (units, offsets), and
+        # narx.ranges.range_warning names a record's inputs that leave them
+        self.meta["ranges"] = signal_ranges(d)
         return self
 
     def _constraints(self, constraints):

@@ -14,7 +14,9 @@ file's JSON under the limits below (:func:`read_model_json`);
 
 A model file holds ``{"output": "y", "inputs": ["u"], "terms": [TERM, ...],
 "theta": [number, ...]}`` plus metadata (``format``, ``version``, ``meta``:
-fitness mode, seed, package versions). Loading parses JSON with the standard
+fitness mode, seed, package versions, and ``ranges``: the training range
+``[low, high]`` of each signal, :mod:`narx.ranges`; a file without it
+loads, and its models warn of no record). Loading parses JSON with the standard
 library and each term with the term parser (:mod:`narx.terms`), which
 never evaluates text; every problem raises :class:`ModelFileError` naming
 the file, the key (``'terms'[3]``) and the rule. Saving is atomic
@@ -192,9 +194,32 @@ def model_fields(d, source: str = "model", registry=None) -> dict:
         signals = Signals(out, tuple(inputs), noise)
     except (TermError, ValueError) as exc:
         fail(source, f"'output'/'inputs'/'noise': {exc}")
+    _check_ranges(source, meta.get("ranges"), [out] + list(inputs))
     parsed = _parse_terms(source, terms, signals, registry)
     return dict(terms=parsed, theta=theta, inputs=inputs, output=out, noise=noise,
                 meta=meta, registry=registry)
+
+
+def _check_ranges(source, ranges, names) -> None:
+    """``meta['ranges']``, the training range of each signal
+    (:func:`narx.ranges.signal_ranges`): absent (an older file, or one
+    written by hand), or an object whose keys are among the model's signal
+    ``names`` and whose values are ``[low, high]``, two finite numbers with
+    low <= high."""
+    if ranges is None:
+        return
+    where = "'meta'.'ranges'"
+    if not isinstance(ranges, dict):
+        fail(source, f"{where} must be an object {{signal: [low, high]}}, got "
+                      f"{_show(ranges)}")
+    for name, v in ranges.items():
+        if name not in names:
+            fail(source, f"{where}: {_show(name, 30)} is no signal of the model (its "
+                          f"signals are {', '.join(names)})")
+        if not (isinstance(v, list) and len(v) == 2 and all(_is_number(x) and _finite(x)
+                                                           for x in v) and v[0] <= v[1]):
+            fail(source, f"{where}.{_show(name, 30)} must be [low, high], two finite "
+                          f"numbers with low <= high, got {_show(v)}")
 
 
 def model_json(model) -> str:

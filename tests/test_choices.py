@@ -114,16 +114,17 @@ def test_callbacks_are_told_which_search_runs():
     kw = dict(_KW, generations=5, size="search", constant=False)
     est = MGGPRegressor(**dict(kw, callbacks=[cb, plain.append])).fit(d.u, d.y)
     chosen = est.choices_["use_phi"]["figures"]["class"]
-    assert cb.phases == [("pilot 1/4 no Φ", 1), ("pilot 2/4 Φ", 1), ("pilot 3/4 operators", 1),
-                         ("pilot 4/4 Bouc–Wen", 1), (f"search {chosen}", 5)]
+    assert cb.phases == [("pilot 1/5 no Φ", 1), ("pilot 2/5 Φ", 1), ("pilot 3/5 operators", 1),
+                         ("pilot 4/5 Bouc–Wen", 1), (f"pilot 5/5 {chosen}, powers uncapped", 1),
+                         (f"search {chosen}", 5)]
     # each generation is reported under the search it belongs to; the chosen
     # pilot's run continues from its last generation
     assert [g for lab, g in cb.generations if lab == f"search {chosen}"] == [2, 3, 4, 5]
     assert len(plain) == len(cb.generations)        # a plain callable still runs
-    assert cb.planned == len(cb.generations) == 12  # the plan: every report of the fit
-    # control: one class asked for, one search
+    assert cb.planned == len(cb.generations) == 14  # the plan: every report of the fit
+    # control: one class and the power cap asked for, one search
     one = _Phases()
-    MGGPRegressor(**dict(kw, use_phi=False, callbacks=[one])).fit(d.u, d.y)
+    MGGPRegressor(**dict(kw, use_phi=False, max_power=3, callbacks=[one])).fit(d.u, d.y)
     assert one.phases == [("search no Φ", 5)]
     assert one.planned == len(one.generations) == 6
 
@@ -233,7 +234,7 @@ def test_the_search_drops_the_constant_when_its_pilot_gains_nothing():
     constant; on a record without an offset the search continues from it,
     which is the same run as a search with constant=False (same seed, same
     model); control: the offset record continues with the constant."""
-    kw = dict(_KW, population=40, generations=6, use_phi=False)
+    kw = dict(_KW, population=40, generations=6, use_phi=False, max_power=3)
     data = first_order_record(500, 0, noise=0.01)
     cb = _Phases()
     est = MGGPRegressor(**dict(kw, callbacks=[cb])).fit(*data)
@@ -260,7 +261,7 @@ def test_no_constant_under_the_steady_state_constraints():
 def test_explicit_values_disable_the_choices():
     d = system_by_name("S1", n=500, seed=0)
     est = MGGPRegressor(use_phi=False, select="fitness", screen="freerun", size="search",
-                        constant=False, outliers="keep", **_KW).fit(d.u, d.y)
+                        constant=False, outliers="keep", max_power=3, **_KW).fit(d.u, d.y)
     assert est.choices_ == {} and "choices" not in est.model_.meta
 
 
@@ -471,7 +472,7 @@ def test_phi_of_outputs_is_one_class_and_still_pilots_the_constant():
     even when a pilot without the constant runs beside it; control: with
     constant=False no pilot runs and the line is the same."""
     d = first_order_record(500, 0, noise=0.01)
-    kw = dict(_KW, population=30, generations=5, phi_outputs=True)
+    kw = dict(_KW, population=30, generations=5, phi_outputs=True, max_power=3)
     cb = _Phases()
     est = MGGPRegressor(**dict(kw, callbacks=[cb])).fit(*d)
     assert est.choices_["use_phi"]["why"].startswith("Φ: with Φ of outputs the fit is one "
