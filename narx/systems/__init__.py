@@ -511,7 +511,7 @@ def pi_first_order(u, radii=(0.0, 0.2, 0.4, 0.6, 0.8),
     -------
     y : ndarray, shape (N,)
     """
-    from .memory import play
+    from ..memory import play
     u = _signal("u", u)
     r = _signal("radii", np.atleast_1d(radii))
     w = _signal("weights", np.atleast_1d(weights))
@@ -555,7 +555,7 @@ def backlash_second_order(u, r=0.25, motor=0.7, load=0.85):
     -------
     y : ndarray, shape (N,)
     """
-    from .memory import play
+    from ..memory import play
     u = _signal("u", u)
     r = _num("r", r, "nonneg")
     poles = [_num(n, v, "nonneg") for n, v in (("motor", motor), ("load", load))]
