@@ -170,9 +170,11 @@ def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
     return out
 
 
-def _canonical(terms, data: Data, registry) -> List[str]:
+def _canonical(terms, data: Data, registry) -> list:
+    """``terms`` parsed (:class:`narx.terms.Term`, parsed once: a model built
+    from them does not parse again), each once, in order."""
     sig = Signals(data.output, data.inputs)
-    return list(dict.fromkeys(str(parse_term(t, sig, registry=registry)) for t in terms))
+    return list(dict.fromkeys(parse_term(t, sig, registry=registry) for t in terms))
 
 
 def _estimate(terms, data: Data, constraints, registry) -> Optional[Model]:
@@ -187,7 +189,7 @@ def _estimate(terms, data: Data, constraints, registry) -> Optional[Model]:
     return m if m.theta is not None and np.all(np.isfinite(m.theta)) else None
 
 
-def _forward_order(base, new, data: Data, registry) -> List[str]:
+def _forward_order(base, new, data: Data, registry) -> list:
     """``new`` ordered by orthogonal forward selection after ``base``, at
     most :data:`MAX_NEW` of them (columns in the span of those already in
     are left out)."""

@@ -22,6 +22,7 @@ holds is what exposes drift); nothing is fitted on the measuring record.
 """
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
@@ -336,6 +337,19 @@ def _reach_dead_time(fit: Data, budget: Budget):
     return replace(budget, max_height=h), {"height": h, "why": said}
 
 
+def _one_blas_thread(f):
+    """``f`` run with the BLAS on one thread (:func:`narx.linalg.one_blas_thread`:
+    the diagnosis's solves are tall and narrow, and on a busy machine a
+    second BLAS thread made the dead-time scan alone 20 times slower)."""
+    @functools.wraps(f)
+    def run(*args, **kwargs):
+        from narx.linalg import one_blas_thread
+        with one_blas_thread():
+            return f(*args, **kwargs)
+    return run
+
+
+@_one_blas_thread
 def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Model] = None,
              *, budget: Budget = Budget(), seed: int = 0, jobs: int = 1,
              holdout: float = 0.3, alpha: float = 0.01, level: float = 0.05,

@@ -162,7 +162,7 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
     for t in tested:
         p_values[t.effect] = min(p_values.get(t.effect, 1.0), t.p_value)
     winner = None
-    ok_mem = [tested[i] for i in mem if tested[i].p_value <= alpha and tested[i].model]
+    ok_mem = [tested[i] for i in mem if tested[i].p_value <= alpha and tested[i].model is not None]
     if ok_mem:
         winner = min(ok_mem, key=lambda t: t.selection_rmse)
     else:
