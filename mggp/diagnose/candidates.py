@@ -4,7 +4,7 @@ Typical use::
 
     from mggp.diagnose.candidates import candidate_structures, fit_structure
     for s in candidate_structures(baseline, fit_data):
-        model = fit_structure(s, fit_data, baseline.registry)   # None: not estimable
+        model, score = fit_structure(s, fit_data, baseline.registry)  # None: not estimable
         s.effect, s.name, s.changes, model.term_texts
 
 Each :class:`Structure` is the baseline's terms plus a set of new terms
@@ -21,6 +21,8 @@ effect                       candidates
                              (memory driven by the output's velocity: Phi2(y[k-1],y[k-2])
                              terms and plays of y[k-1]), and linear dynamics of order
                              up to 3 driven by plays or by Bouc–Wen variables
+                             (radii :data:`PLAY_FRACTIONS`, shapes
+                             :data:`BOUC_WEN_GRID`, at lags 0 and 1)
 ``unmodelled-dynamics``      more lags: y[k-1..6] and every input at lags 0..6
 ``unmodelled-nonlinearity``  more degree: the products of degree 2 and 3 of y[k-1],
                              y[k-2] and every input at lags 0 and 1 (degree 4 of
@@ -41,7 +43,9 @@ squares [1]_); the nested structures baseline + the first j new terms are
 estimated by LS on the first :data:`HEAD` of the fitting samples and
 scored by their free-run RMSE on the rest; the j with the smallest
 hold-out RMSE is kept and its structure estimated on all the fitting
-samples. The samples that test and measure the candidates play no part.
+samples; that hold-out RMSE is the candidate's *score*, which picks the
+representative of each class (:mod:`.verdict`). The samples that test and
+measure the candidates play no part.
 
 References
 ----------
@@ -64,7 +68,7 @@ from narx.model import ignore_rank_warnings
 from narx.regressors import regressor_matrix
 from narx.terms import Signals, parse_term
 
-from .augmentation import bouc_wen_terms, direction_terms, operator_terms
+from .augmentation import direction_terms
 from .simulation import freerun_rmse
 
 __all__ = ["Structure", "MEMORY", "MEMORY_FREE", "candidate_structures", "fit_structure",
@@ -79,6 +83,38 @@ MEMORY_FREE = ("unmodelled-dynamics", "unmodelled-nonlinearity", "steady-state-d
 HEAD = 0.7
 #: most new terms a structure keeps
 MAX_NEW = 20
+#: play radii of the candidates, as fractions of the signal's range: a grid
+#: dense enough that a weighted sum of neighbours stands in for a play of
+#: any radius up to 0.4 of the range (the search's four radii
+#: :data:`mggp.primitives.PLAY_RADIUS_FRACTIONS` left a play of 0.15 of
+#: the range at 16 times the noise level in free run)
+PLAY_FRACTIONS = tuple(round(0.025 * j, 3) for j in range(1, 17))
+#: Bouc–Wen shapes of the candidates: β·range on a geometric grid from 0.5
+#: to 8, each with γ/β = 1, 0 and -0.5 (:func:`narx.memory.bouc_wen`)
+BOUC_WEN_GRID = tuple((float(f"{0.5 * 2 ** (j / 2):.3g}"), g) for j in range(9)
+                      for g in (1.0, 0.0, -0.5))
+
+
+def _plays(signal: str, x, lags) -> List[str]:
+    """Plays of ``signal`` at ``lags``, radii :data:`PLAY_FRACTIONS` of the range of ``x``."""
+    span = float(np.ptp(x))
+    if not span > 0:
+        return []
+    radii = dict.fromkeys(float(f"{f * span:.3g}") for f in PLAY_FRACTIONS)
+    return [f"Play({t},{r:g})" for t in _lags(signal, lags) for r in radii]
+
+
+def _bouc_wens(signal: str, x, lags) -> List[str]:
+    """Bouc–Wen variables of ``signal`` at ``lags`` on :data:`BOUC_WEN_GRID`
+    (β = grid value / range of ``x``; the gain is the term's coefficient)."""
+    span = float(np.ptp(x))
+    if not span > 0:
+        return []
+    out = []
+    for s, ratio in BOUC_WEN_GRID:
+        beta = float(f"{s / span:.3g}")
+        out += [f"BoucWen({t},{beta:g},{ratio * beta:g})" for t in _lags(signal, lags)]
+    return out
 
 
 @dataclass(frozen=True)
@@ -106,20 +142,17 @@ def _monomials(variables, degrees) -> List[str]:
 
 def _output_memory(data: Data) -> List[str]:
     """Φ of the output lags and plays of y[k-1]: memory driven by the output's
-    velocity (radii: :func:`mggp.primitives.play_radii` of the output)."""
-    from ..primitives import play_radii
+    velocity (radii :data:`PLAY_FRACTIONS` of the output's range)."""
     y = data.output
     s = f"Phi2({y}[k-1],{y}[k-2])"
     out = [s, f"{s}*{y}[k-1]", f"Phi1({y}[k-1],{y}[k-2])*{s}"]
     out += [f"{s}*{n}[k-1]" for n in data.inputs]
-    out += [f"Play({y}[k-1],{r:g})" for r in play_radii(data.y)]
-    return out
+    return out + _plays(y, data.y, (1,))
 
 
 def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
     """The candidate structures of ``baseline`` on the fitting record
     ``data`` (module doc), memory candidates first."""
-    from .extend import bouc_wen_dynamics_terms, operator_dynamics_terms
     y, ins = data.output, list(data.inputs)
     base = tuple(baseline.term_texts)
     now = [f"{n}[k]" for n in ins]
@@ -132,6 +165,9 @@ def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
     if max(t.degree for t in baseline.terms) >= 3:
         degree += _monomials([f"{y}[k-1]"] + [f"{n}[k-1]" for n in ins], (4,))
     M = MEMORY
+    linear = _lags(y, (1, 2, 3)) + [t for n in ins for t in _lags(n, (0, 1, 2))]
+    plays = [t for n in ins for t in _plays(n, data.input(n), (0, 1))]
+    bw = [t for n in ins for t in _bouc_wens(n, data.input(n), (0, 1))]
     out = [
         Structure(M, "Φ of the inputs", "hysteresis: Φ-functions of the inputs (Phi1, Phi2 of "
                   "u[k-1], u[k-2] and the Bouc–Wen direction terms |Δu|, y[k-1]|Δu|, "
@@ -139,22 +175,22 @@ def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
         Structure(M, "plays (Prandtl–Ishlinskii)", "hysteresis: plays of several radii of the "
                   "inputs at lags 0 and 1 (a Prandtl–Ishlinskii operator) added to the "
                   "baseline's terms", base,
-                  tuple(now + operator_terms(data, (0, 1), dengtan=False))),
+                  tuple(now + plays)),
         Structure(M, "Deng–Tan", "hysteresis: Deng–Tan operators of the inputs at lags 0 and 1 "
                   "added to the baseline's terms", base,
                   tuple(now + [f"DengTan({t})" for n in ins for t in _lags(n, (0, 1))])),
         Structure(M, "Bouc–Wen", "hysteresis: Bouc–Wen variables of the inputs at lags 0 and 1 "
                   "on a grid of shapes added to the baseline's terms", base,
-                  tuple(now + bouc_wen_terms(data, (0, 1)))),
+                  tuple(now + bw)),
         Structure(M, "Φ of the output lags", "hysteresis: memory driven by the output's "
                   "velocity (Phi2(y[k-1],y[k-2]) terms and plays of y[k-1]) added to the "
                   "baseline's terms", base, tuple(now + _output_memory(data))),
         Structure(M, "operator dynamics", "hysteresis: linear dynamics of order up to 3 driven "
                   "by the inputs and their plays and Deng–Tan operators, in place of the "
-                  "baseline", (), tuple(now + operator_dynamics_terms(data))),
+                  "baseline", (), tuple(linear + plays + [f"DengTan({t})" for n in ins for t in _lags(n, (0, 1))])),
         Structure(M, "Bouc–Wen dynamics", "hysteresis: linear dynamics of order up to 3 driven "
                   "by the inputs and Bouc–Wen variables of them, in place of the baseline",
-                  (), tuple(now + bouc_wen_dynamics_terms(data))),
+                  (), tuple(linear + bw)),
         Structure("unmodelled-dynamics", "more lags", "unmodelled-dynamics: lags y[k-1..6] and "
                   "u[k..k-6] added to the baseline's terms", base, tuple(lags)),
         Structure("unmodelled-nonlinearity", "more degree", "unmodelled-nonlinearity: products "
@@ -230,18 +266,29 @@ def _forward_order(base, new, data: Data, registry) -> list:
     return order
 
 
-def fit_structure(s: Structure, data: Data, registry=None) -> Optional[Model]:
-    """Fit the candidate ``s`` on the fitting record ``data`` (module doc);
-    None when no structure of it can be estimated or simulated."""
+def fit_structure(s: Structure, data: Data, registry=None) -> Tuple[Optional[Model], float]:
+    """Fit the candidate ``s`` on the fitting record ``data`` (module doc).
+
+    Returns
+    -------
+    (model, score)
+        The model estimated on all of ``data`` (None when no structure of
+        it can be estimated) and its hold-out score: the free-run RMSE on
+        the last ``1 - HEAD`` of ``data`` of the same structure estimated
+        on the first :data:`HEAD` (``inf`` when none simulates). The score
+        uses the fitting samples only, so choosing among candidates by it
+        leaves the selection samples free for an unbiased test.
+    """
     base = _canonical(s.base, data, registry)
+    cut = int(HEAD * data.n)
+    head = data.slice(0, cut)
     if not s.new:
-        return _estimate(base, data, s.constraints, registry)
+        m = _estimate(base, head, s.constraints, registry)
+        return _estimate(base, data, s.constraints, registry), freerun_rmse(m, data, cut)
     new = [t for t in _canonical(s.new, data, registry) if t not in set(base)]
     order = _forward_order(base, new, data, registry)
     if not order:
-        return None
-    cut = int(HEAD * data.n)
-    head = data.slice(0, cut)
+        return None, float("inf")
     best, best_rmse = None, np.inf
     for j in range(1, len(order) + 1):
         terms = base + order[:j]
@@ -252,5 +299,5 @@ def fit_structure(s: Structure, data: Data, registry=None) -> Optional[Model]:
         if r < best_rmse:
             best, best_rmse = terms, r
     if best is None:
-        return None
-    return _estimate(best, data, s.constraints, registry)
+        return None, float("inf")
+    return _estimate(best, data, s.constraints, registry), float(best_rmse)

@@ -35,6 +35,17 @@ long-run variance estimate of :func:`block_length` when that is larger
 n = 500, 1000, 2000 (400 pairs each). For differences correlated over a
 large share of the record (φ = 0.98, n = 500) it remains liberal (14 %).
 
+With a ``floor`` δ the loss is the log loss :math:`L(e) = \ln(e^2 +
+δ^2)`, so :math:`d_k = \ln\frac{(e^b_k)^2 + δ^2}{(e^c_k)^2 + δ^2}`: the
+*relative* accuracy at each sample, errors below δ (the resolution of the
+diagnosis) counting as equal. The squared loss of a free run is dominated
+by its few largest excursions: on a play record whose baseline error was
+two slow excursions over the selection samples, a candidate with a
+20-fold lower RMSE got p = 0.03 before any multiplicity correction; the
+log loss asks whether the candidate is better at most samples, which such
+a record shows clearly. Under the null (equally good errors) the log-loss
+differences are as symmetric as the squared ones.
+
 The block length is the Politis–White automatic choice for the circular
 block bootstrap [4]_ (with the correction of Patton, Politis and White),
 computed from the differences themselves: it grows with their correlation
@@ -66,7 +77,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -173,9 +184,9 @@ class PairedTest:
 
 
 def paired_test(e_base, e_cand, rng: np.random.Generator,
-                draws: int = BOOTSTRAP_DRAWS) -> PairedTest:
-    """One-sided block-bootstrap test that ``e_cand`` has the smaller
-    squared error (module doc: statistic, bootstrap, references).
+                draws: int = BOOTSTRAP_DRAWS, floor: Optional[float] = None) -> PairedTest:
+    r"""One-sided block-bootstrap test that ``e_cand`` has the smaller
+    loss (module doc: statistic, bootstrap, references).
 
     Parameters
     ----------
@@ -186,6 +197,10 @@ def paired_test(e_base, e_cand, rng: np.random.Generator,
         Source of the bootstrap's block starts.
     draws : int
         Bootstrap replicates B.
+    floor : float, optional
+        None: squared-error loss :math:`L(e) = e^2`. A value δ > 0: the
+        log loss :math:`L(e) = \ln(e^2 + δ^2)` (errors below δ count as
+        equal; module doc).
 
     Returns
     -------
@@ -207,7 +222,12 @@ def paired_test(e_base, e_cand, rng: np.random.Generator,
         return PairedTest(-math.inf if fa else math.nan, 1.0, 0, n)
     if not fa:
         return PairedTest(math.inf, 1.0 / (int(draws) + 1), 0, n)
-    d = a * a - b * b
+    if floor is None:
+        d = a * a - b * b
+    elif floor > 0:
+        d = np.log(a * a + floor * floor) - np.log(b * b + floor * floor)
+    else:
+        raise ValueError(f"floor must be positive or None, got {floor!r}")
     dbar = float(d.mean())
     if n < 8 or not np.ptp(d) > 0:
         return PairedTest(dbar, 1.0 if dbar <= 0 else 1.0 / (int(draws) + 1), 0, n)

@@ -435,17 +435,21 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     t2 = time.perf_counter()
     structures = candidate_structures(base, fit)
     say("candidates: " + ", ".join(st.name for st in structures))
-    fitted = [(st, fit_structure(st, fit, base.registry)) for st in structures]
+    fitted = [(st, *fit_structure(st, fit, base.registry)) for st in structures]
     timings["candidates"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     pre = train.slice(0, n_pre)
-    s_start = max([base.max_lag] + [m.max_lag for _, m in fitted if m is not None])
+    s_start = max([base.max_lag] + [m.max_lag for _, m, _ in fitted if m is not None])
     if n_pre - n_fit <= s_start + 20:
         raise DataError(f"{rec_names[0]}: {n_pre - n_fit} selection samples are too few for "
                         f"models with largest lag {s_start}")
     e_base = _errors(base, pre, n_fit, s_start, n_pre)
-    cands = [(st, m, _errors(m, pre, n_fit, s_start, n_pre)) for st, m in fitted]
-    vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]))
+    cands = [(st, m, _errors(m, pre, n_fit, s_start, n_pre), score)
+             for st, m, score in fitted]
+    # the log loss of the tests, floored at the resolution (errors below it
+    # are equal); a zero resolution leaves a floor of 1e-9 of the range
+    floor = max(ctx.floor, 1e-9 * (float(np.ptp(fit.y)) or 1.0))
+    vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]), floor)
     timings["test"] = time.perf_counter() - t3
     winner = vd.winner
     ext_model = winner.model if winner is not None else base
@@ -471,7 +475,8 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     findings = [Finding(t.effect, f"{t.structure.name}: {t.structure.changes}; free-run RMSE "
                         f"on the selection samples {number_text(vd.baseline_rmse)} (baseline) "
                         f"-> {number_text(t.selection_rmse)}, one-sided p-value "
-                        f"{number_text(t.p_value)} (paired block bootstrap, Holm) <= level "
+                        f"{number_text(t.p_value)} (paired block bootstrap of the log-loss differences, "
+                        f"Holm) <= level "
                         f"{level:g}", t.p_value, level) for t in ([winner] if winner else [])]
     separation = separation_note(pre)
     settings = {"seed": int(seed), "jobs": int(jobs), "alpha": alpha, "level": level,
