@@ -14,6 +14,7 @@ from mggp.diagnose import Budget, diagnose
 from mggp.diagnose.candidates import MEMORY, Structure
 from mggp.diagnose.paired import block_length, holm, paired_test
 from mggp.diagnose.verdict import decide, separation_note
+from test_diagnose import _play_record
 
 ALPHA = 0.05
 
@@ -152,18 +153,6 @@ def _piezo_random(seed, n=4000):
     return Data(u, piezo_bouc_wen(u) + 0.01 * rng.standard_normal(n))
 
 
-def _play_record(seed, n=4000, width=0.3):
-    g = np.random.default_rng(seed)
-    u = np.clip(np.cumsum(g.uniform(-0.1, 0.1, n)), -1, 1)
-    z = np.zeros(n)
-    for k in range(1, n):                      # play (backlash) operator
-        z[k] = min(max(z[k - 1], u[k] - width), u[k] + width)
-    x = np.zeros(n)
-    for k in range(1, n):
-        x[k] = 0.5 * x[k - 1] + 0.5 * z[k - 1]
-    return Data(u, x + 0.002 * g.standard_normal(n))
-
-
 def _control(kind, seed, n=3000):
     from narx.testsystems import hammerstein
     if kind == "hammerstein":
@@ -174,7 +163,7 @@ def _control(kind, seed, n=3000):
     return Data(u, y + 0.01 * np.std(y) * np.random.default_rng(seed).standard_normal(n))
 
 
-@pytest.mark.parametrize("record", [lambda: _piezo_random(1), lambda: _play_record(1)],
+@pytest.mark.parametrize("record", [lambda: _piezo_random(1), lambda: _play_record(1, n=4000)],
                          ids=["piezo-bouc-wen-random-input", "play"])
 def test_hidden_hysteresis_is_named_and_the_winner_gains(record):
     dx = diagnose(record(), budget=SMALL, seed=0)
