@@ -97,8 +97,7 @@ def terminal_summary(dx) -> str:
         lines.append(f"named: nothing (no candidate extension beat the baseline at level "
                      f"{v.level:g}, Holm-corrected)")
     lines.append("candidates (free-run RMSE on the selection samples, baseline "
-                 f"{_g(v.baseline_rmse)}; one-sided p of each class's representative "
-                 f"against the baseline, Holm):")
+                 f"{_g(v.baseline_rmse)}; one-sided p against the baseline, Holm):")
     lines += ["  " + t for t in v.lines()]
     if dx.separation:
         lines.append(f"note: {dx.separation}")
@@ -421,10 +420,9 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
     L += _model_lines(dx.extended, "Extended")
     v = dx.verdict
     L += [f"Candidates, each fitted on the fitting samples and simulated in free run on the "
-          f"selection samples. Each class is represented by its candidate with the best "
-          f"hold-out score on the fitting samples; p: one-sided paired block-bootstrap "
-          f"p-value that the representative beats the baseline (Holm-adjusted over the "
-          f"classes); the memory representative must also beat the best memory-free one. "
+          f"selection samples; p: one-sided paired block-bootstrap p-value that it beats "
+          f"the baseline (log loss, Holm-adjusted over the candidates); a memory candidate "
+          f"must also beat the best memory-free one. "
           f"Level {v.level:g}; baseline RMSE {_g(v.baseline_rmse)}.", ""]
     L += _table([[t.effect, t.structure.name, str(0 if t.model is None else t.model.n_terms),
                   _g(t.selection_rmse), _g(t.p_adjusted),

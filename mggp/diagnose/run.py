@@ -3,22 +3,30 @@
 Typical use::
 
     from mggp.diagnose import diagnose, Budget
-    dx = diagnose(train, validation=val, model=None, budget=Budget(), seed=0, jobs=2)
+    dx = diagnose(train, validation=val, model=None, budget=Budget(), seed=0, jobs=2,
+                  level=0.05)
     print(dx.summary())
+    dx.verdict.p_values, dx.split.describe()
     json.dump(dx.to_dict(), fh)          # the --json schema
 
-Sample bookkeeping (never modifies the data): with a validation record,
-the baseline and the extension are fitted on every training sample and the
-gain is measured on the validation record; without one, they are fitted on
-the first ``1 − holdout`` of the training samples and the gain is measured
-on the rest (the *tail*). Either way the measuring record is simulated free
-from its first L measured samples (L = the larger largest lag of the two
-models), and RMSE and MAPE are computed on the samples after them, the same
-samples for both models; on the training tail the models' memory operators
-(:mod:`narx.memory`) carry their state from the inputs before it (they are
-measured), while a validation record starts them at rest. The evidence comes from the fitting samples;
-held-input segments are searched in both records (a validation record with
-holds is what exposes drift); nothing is fitted on the measuring record.
+Sample bookkeeping (never modifies the data): three sets of samples, each
+with one job. With a validation record, the baseline and the candidates
+are fitted on the first ``1 − SELECT`` of the training record, the paired
+test that names the effect and picks the extension uses the rest of the
+training record (the *selection* samples), and the gain is measured on
+the validation record; without one, the last ``holdout`` of the training
+record measures and the samples before it are cut the same way. The
+models measured are those fitted on the fitting samples (no refit: the
+model recommended is the one the test chose). Each record is simulated
+free from its first L measured samples (L = the largest lag of the
+models compared), and the errors are scored after them, the same samples
+for every model; on a training-record part the models' memory operators
+(:mod:`narx.memory`) carry their state from the inputs before it (they
+are measured), while a validation record starts them at rest. The
+evidence comes from the fitting samples; held-input segments are
+searched in both records; nothing is fitted or chosen on the measuring
+samples, so the gain there is an out-of-sample measurement of the
+choice.
 """
 from __future__ import annotations
 

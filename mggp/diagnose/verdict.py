@@ -10,32 +10,28 @@ Typical use::
     v.named, v.winner, v.p_values              # e.g. ('hysteresis',), ..., {...}
     separation_note(train)                      # None, or one line
 
-Rule. Within each class (``hysteresis``: the memory candidates; lags;
-degree; CLS) the *representative* is the candidate with the smallest
-hold-out score on the fitting samples (:func:`~.candidates.fit_structure`);
-the selection samples play no part in that choice. Each representative's
-free-run errors on the selection samples are compared with the baseline's
-by the one-sided paired block-bootstrap test of :mod:`.paired`, and the
-p-values are adjusted over the representatives by Holm's procedure. A
-representative *wins* when its adjusted p-value is at most the level α.
-``hysteresis`` needs more: the memory representative must also beat the
-best memory-free representative (lags, degree, CLS: the one with the
-smallest hold-out score), by the same one-sided test — so a baseline too
-weak for a memoryless system (a Wiener saturation, say) that more degree
-fixes as well is not read as hysteresis. Its p-value is the larger of the
-two (intersection–union: both nulls must be rejected, each at α). Every
-other effect's p-value is its representative's adjusted p-value.
-
-Testing one representative per class instead of every candidate keeps
-the multiplicity at the number of classes (4) rather than the number of
-candidates (11); on a play record with a random-walk input whose
-baseline error is a few slow excursions, the multiplicity of 11 alone
-kept a 20-fold lower free-run RMSE from significance.
+Rule. Every candidate's free-run errors on the selection samples are
+compared with the baseline's by the one-sided paired block-bootstrap test
+of :mod:`.paired`; the p-values are adjusted over all candidates by
+Holm's procedure. ``hysteresis`` needs more: a memory candidate must also
+beat the best memory-free candidate (lags, degree, CLS: the one with the
+smallest selection RMSE, the strongest comparator), by the same test with
+Holm's adjustment over the memory candidates — so a baseline too weak for
+a memoryless system (a Wiener saturation, say) that more degree fixes as
+well is not read as hysteresis. A memory candidate's p-value is the
+larger of its two adjusted p-values (intersection–union: both nulls must
+be rejected); each class's p-value is the smallest p-value of its
+candidates. (Testing only one representative per class, picked by its
+hold-out score on the fitting samples, cut the multiplicity but the pick
+was noisy: on the piezo record a representative with a good score on the
+fitting samples' tail had 6 times the best memory candidate's selection
+RMSE.)
 
 The effect named is ``hysteresis`` when its p-value is at most α and
-the memory representative's free-run RMSE on the selection samples is
-below the baseline's and the best memory-free representative's; otherwise
-that of the winning memory-free representative (p-value at most α, RMSE
+the memory candidate's free-run RMSE on the selection samples is below
+the baseline's and the best memory-free candidate's (the winner: the
+qualifying memory candidate with the smallest RMSE); otherwise that of
+the winning memory-free candidate (p-value at most α, RMSE
 below the baseline's) with the smallest selection RMSE; otherwise nothing.
 The winner is then the extension. The tests use the log loss with the
 diagnosis's resolution floor (:mod:`.paired`), robust to a few large
@@ -70,9 +66,8 @@ class Tested:
     fitting samples (None: it could not be fitted), its free-run RMSE on
     the selection samples, the paired test against the baseline and its
     Holm-adjusted p-value, and (memory candidates) the test against the
-    best memory-free representative and its p-value (NaN otherwise); a
-    candidate that did not represent its class was not tested (NaN
-    p-values)."""
+    best memory-free candidate and its Holm-adjusted p-value (NaN
+    otherwise)."""
 
     structure: Structure
     model: Optional[Model]
@@ -94,11 +89,6 @@ class Tested:
             return float(max(self.p_adjusted, self.p_free_adjusted))
         return float(self.p_adjusted)
 
-    @property
-    def represents(self) -> bool:
-        """True when this candidate represented its class in the test."""
-        return self.p_adjusted == self.p_adjusted
-
     def to_dict(self) -> dict:
         d = {"effect": self.effect, "name": self.structure.name,
              "changes": [self.structure.changes],
@@ -106,8 +96,8 @@ class Tested:
              "selection_rmse": json_number(self.selection_rmse),
              "p_value": json_number(self.p_value),
              "p_versus_baseline": json_number(self.p_adjusted),
-             "represents_class": self.represents, "block": self.test.block}
-        if self.effect == MEMORY and self.represents:
+             "block": self.test.block}
+        if self.effect == MEMORY:
             d["p_versus_memory_free"] = json_number(self.p_free_adjusted)
         return d
 
@@ -135,12 +125,9 @@ class Verdict:
         out = []
         for t in sorted(self.tested, key=lambda t: (t.selection_rmse, t.structure.name)):
             mark = "*" if t is self.winner else " "
-            if not t.represents:
-                p = "(not its class's representative)"
-            else:
-                p = f"p {number_text(t.p_adjusted)}" + (
-                    f", vs best memory-free p {number_text(t.p_free_adjusted)}"
-                    if t.effect == MEMORY else "")
+            p = f"p {number_text(t.p_adjusted)}" + (
+                f", vs best memory-free p {number_text(t.p_free_adjusted)}"
+                if t.effect == MEMORY else "")
             out.append(f"{mark} {t.effect:<24s} {t.structure.name:<28s} RMSE "
                        f"{number_text(t.selection_rmse):>9s}  {p}")
         return out
@@ -148,7 +135,7 @@ class Verdict:
 
 def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.ndarray, float]],
            alpha: float, rng: np.random.Generator, floor: Optional[float] = None) -> Verdict:
-    """Test each class's representative against the baseline and name the effect.
+    """Test every candidate against the baseline and name the effect.
 
     Parameters
     ----------
@@ -157,9 +144,9 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
     candidates : sequence of (Structure, Model or None, errors, score)
         Each candidate with its free-run errors on the same samples (a
         candidate that could not be fitted: model None, errors inf) and its
-        hold-out score on the fitting samples (picks the representatives).
+        hold-out score on the fitting samples (reported, not used here).
     alpha : float
-        Level of the tests (family-wise over the classes, by Holm).
+        Level of the tests (family-wise, by Holm).
     rng : numpy.random.Generator
         Source of the bootstrap draws.
     floor : float, optional
@@ -167,44 +154,33 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
         error, else the log loss with this floor.
     """
     e_base = np.asarray(e_base, dtype=float)
-    rm = [_rmse(e) for _, _, e, _ in candidates]
-    reps: Dict[str, int] = {}
-    for i, (st, m, _, score) in enumerate(candidates):
-        if m is None:
-            continue
-        j = reps.get(st.effect)
-        if j is None or (score, rm[i]) < (candidates[j][3], rm[j]):
-            reps[st.effect] = i
-    order = list(reps.values())
-    tests = {i: paired_test(e_base, candidates[i][2], rng, floor=floor) for i in order}
-    adj = dict(zip(order, holm([tests[i].p_value for i in order])))
-    free = [i for e, i in reps.items() if e in MEMORY_FREE]
-    best_free = min(free, key=lambda i: (candidates[i][3], rm[i])) if free else None
-    vs = None
-    if MEMORY in reps:
-        i = reps[MEMORY]
-        vs = (PairedTest(float("nan"), 0.0, 0, e_base.size) if best_free is None
-              else paired_test(candidates[best_free][2], candidates[i][2], rng, floor=floor))
-    nan = PairedTest(float("nan"), float("nan"), 0, e_base.size)
-    tested = []
-    for i, (st, m, _, _) in enumerate(candidates):
-        if i in adj and st.effect == MEMORY:
-            tested.append(Tested(st, m, rm[i], tests[i], adj[i], vs, vs.p_value))
-        elif i in adj:
-            tested.append(Tested(st, m, rm[i], tests[i], adj[i]))
-        else:
-            tested.append(Tested(st, m, rm[i], nan, float("nan")))
-    p_values = {tested[i].effect: tested[i].p_value for i in order}
-    winner = None
     base_rmse = _rmse(e_base)
-    m = reps.get(MEMORY)
-    if m is not None and tested[m].p_value <= alpha and rm[m] < base_rmse and (
-            best_free is None or rm[m] < rm[best_free]):
-        winner = tested[m]
-    else:
+    rm = [_rmse(e) for _, _, e, _ in candidates]
+    tests = [paired_test(e_base, e, rng, floor=floor) for _, _, e, _ in candidates]
+    adj = holm([t.p_value for t in tests])
+    tested = [Tested(st, m, r, t, float(a))
+              for (st, m, _, _), r, t, a in zip(candidates, rm, tests, adj)]
+    free = [i for i, t in enumerate(tested) if t.effect in MEMORY_FREE and t.model is not None]
+    best_free = min(free, key=lambda i: rm[i]) if free else None
+    mem = [i for i, t in enumerate(tested) if t.effect == MEMORY]
+    if mem:
+        if best_free is None:
+            vs = [PairedTest(float("nan"), 0.0, 0, e_base.size)] * len(mem)
+        else:
+            vs = [paired_test(candidates[best_free][2], candidates[i][2], rng, floor=floor)
+                  for i in mem]
+        for i, t, a in zip(mem, vs, holm([t.p_value for t in vs])):
+            tested[i] = Tested(tested[i].structure, tested[i].model, rm[i], tested[i].test,
+                               tested[i].p_adjusted, t, float(a))
+    p_values: Dict[str, float] = {}
+    for t in tested:
+        p_values[t.effect] = min(p_values.get(t.effect, 1.0), t.p_value)
+    free_rmse = rm[best_free] if best_free is not None else np.inf
+    ok = [tested[i] for i in mem if tested[i].model is not None
+          and tested[i].p_value <= alpha and rm[i] < base_rmse and rm[i] < free_rmse]
+    if not ok:
         ok = [tested[i] for i in free if tested[i].p_value <= alpha and rm[i] < base_rmse]
-        if ok:
-            winner = min(ok, key=lambda t: t.selection_rmse)
+    winner = min(ok, key=lambda t: t.selection_rmse) if ok else None
     return Verdict(float(alpha), tuple(tested), (winner.effect,) if winner else (), winner,
                    tested[best_free] if best_free is not None else None, base_rmse,
                    p_values)
