@@ -195,3 +195,15 @@ def test_false_alarm_rate_for_hysteresis_on_controls_is_within_the_binomial_inte
             alarms += "hysteresis" in dx.effects
             trials += 1
     assert alarms / trials <= _interval(trials)[1], (alarms, trials)
+
+
+def test_probe_inputs_rule_out_a_model_that_leaves_the_range_off_its_own_input():
+    from mggp.diagnose.candidates import stays_bounded
+    d = _control("linear", 2)
+    good = narx.Model(["y[k-1]", "y[k-2]", "u[k-1]", "u[k-2]"]).fit(d)
+    assert stays_bounded(good, d)
+    # a cubic that fits the record but runs away on a staircase over its range
+    bad = narx.Model(["y[k-1]", "u[k-1]", "y[k-1]*y[k-1]*y[k-1]"],
+                     theta=[1.0, 0.05, 40.0 / np.ptp(d.y) ** 2])
+    assert not stays_bounded(bad, d)
+    assert not stays_bounded(None, d)

@@ -43,7 +43,7 @@ from narx.metrics import mape
 from narx.outliers import find_spikes, repaired
 
 from .context import Context
-from .candidates import candidate_structures, fit_structure
+from .candidates import candidate_structures, fit_structure, stays_bounded
 from .extend import Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
@@ -452,12 +452,15 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
         raise DataError(f"{rec_names[0]}: {n_pre - n_fit} selection samples are too few for "
                         f"models with largest lag {s_start}")
     e_base = _errors(base, pre, n_fit, s_start, n_pre)
-    cands = [(st, m, _errors(m, pre, n_fit, s_start, n_pre), score)
-             for st, m, score in fitted]
+    cands = [(st, m, _errors(m, pre, n_fit, s_start, n_pre), score) for st, m, score in fitted]
+    # a candidate whose free run leaves the output's range on probe inputs
+    # (:func:`~.candidates.stays_bounded`) cannot win
+    eligible = [stays_bounded(m, fit) for _, m, _ in fitted]
     # the log loss of the tests, floored at the resolution (errors below it
     # are equal); a zero resolution leaves a floor of 1e-9 of the range
     floor = max(ctx.floor, 1e-9 * (float(np.ptp(fit.y)) or 1.0))
-    vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]), floor)
+    vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]), floor,
+                eligible)
     timings["test"] = time.perf_counter() - t3
     winner = vd.winner
     ext_model = winner.model if winner is not None else base

@@ -33,7 +33,13 @@ the baseline's and the best memory-free candidate's (the winner: the
 qualifying memory candidate with the smallest RMSE); otherwise that of
 the winning memory-free candidate (p-value at most α, RMSE
 below the baseline's) with the smallest selection RMSE; otherwise nothing.
-The winner is then the extension. The tests use the log loss with the
+The winner is then the extension; a candidate whose free run leaves the
+output's range on probe inputs (:func:`~.candidates.stays_bounded`) is
+tested and compared like the others but cannot win (the comparator of
+the memory candidates stays the best memory-free fit: a probe that rules
+out the polynomial must not hand the memory candidates a weaker rival —
+on a development Hammerstein draw it did, and hysteresis was named).
+The tests use the log loss with the
 diagnosis's resolution floor (:mod:`.paired`), robust to a few large
 excursions; the RMSE conditions make the winner better in the measured
 metric too.
@@ -134,7 +140,8 @@ class Verdict:
 
 
 def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.ndarray, float]],
-           alpha: float, rng: np.random.Generator, floor: Optional[float] = None) -> Verdict:
+           alpha: float, rng: np.random.Generator, floor: Optional[float] = None,
+           eligible: Optional[Sequence[bool]] = None) -> Verdict:
     """Test every candidate against the baseline and name the effect.
 
     Parameters
@@ -152,8 +159,13 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
     floor : float, optional
         The loss of the tests (:func:`~.paired.paired_test`): None squared
         error, else the log loss with this floor.
+    eligible : sequence of bool, optional
+        Which candidates may win (default all): an ineligible candidate is
+        tested and compared like the others (it may be the best memory-free
+        comparator) but is never the extension.
     """
     e_base = np.asarray(e_base, dtype=float)
+    ok_to_win = list(eligible) if eligible is not None else [True] * len(candidates)
     base_rmse = _rmse(e_base)
     rm = [_rmse(e) for _, _, e, _ in candidates]
     tests = [paired_test(e_base, e, rng, floor=floor) for _, _, e, _ in candidates]
@@ -176,10 +188,11 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
     for t in tested:
         p_values[t.effect] = min(p_values.get(t.effect, 1.0), t.p_value)
     free_rmse = rm[best_free] if best_free is not None else np.inf
-    ok = [tested[i] for i in mem if tested[i].model is not None
+    ok = [tested[i] for i in mem if tested[i].model is not None and ok_to_win[i]
           and tested[i].p_value <= alpha and rm[i] < base_rmse and rm[i] < free_rmse]
     if not ok:
-        ok = [tested[i] for i in free if tested[i].p_value <= alpha and rm[i] < base_rmse]
+        ok = [tested[i] for i in free if ok_to_win[i] and tested[i].p_value <= alpha
+              and rm[i] < base_rmse]
     winner = min(ok, key=lambda t: t.selection_rmse) if ok else None
     return Verdict(float(alpha), tuple(tested), (winner.effect,) if winner else (), winner,
                    tested[best_free] if best_free is not None else None, base_rmse,
