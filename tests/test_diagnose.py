@@ -73,15 +73,17 @@ def test_a_prandtl_ishlinskii_record_that_a_polynomial_fits_as_well_is_not_hyste
     record (3000 samples, small budget) the memory candidates beat the
     baseline, but the polynomial with more lags and degree is as good on
     the selection samples, so the record does not show memory beyond what
-    it fits and hysteresis is not named; the memory-free winner still
-    helps out of sample. Should the memory candidates pull ahead, this
-    test says so."""
+    it fits and hysteresis is not named (the polynomial itself leaves the
+    output's range on the probe inputs, so it cannot win either). Should
+    the memory candidates pull ahead, this test says so."""
     train, val = hysteretic(prandtl_ishlinskii)
     dx = diagnose(train, val, budget=SMALL, seed=0)
     mem = [t for t in dx.verdict.tested if t.effect == "hysteresis"]
     assert min(t.p_adjusted for t in mem) <= dx.verdict.level          # beat the baseline
     assert dx.verdict.p_values["hysteresis"] > dx.verdict.level         # not the polynomial
-    assert dx.effects == ["unmodelled-nonlinearity"] and dx.gain.ratio > 1
+    assert "hysteresis" not in dx.effects, dx.verdict.lines()
+    if dx.effects:                      # a memory-free winner must help out of sample
+        assert dx.gain.ratio > 1
 
 
 def drifting_case(seed=0):

@@ -123,10 +123,10 @@ class Budget:
 
     The defaults are the published population of 500 and 100 generations.
     ``mggp diagnose`` on a 10,000-sample record without a validation record
-    searches the baseline on 4,900 samples; measured on a machine shared
-    with other jobs (load 12-17 on 2 cores): 5 min 24 s wall, 36 s of CPU
-    in the main process (``jobs=2``), of which the diagnosis beyond the
-    search (evidence, 11 candidates, tests) took 2.1 s.
+    searches the baseline on 4,900 samples: 27 s wall with ``jobs=2`` on
+    the 2-core development machine at load 1.4 (5 min 24 s at load 12-17,
+    when it got 11 % of a core); the diagnosis beyond the search
+    (evidence, 11 candidates, tests) took 2.1 s of CPU.
     """
 
     population: int = 500
