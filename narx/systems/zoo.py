@@ -51,7 +51,8 @@ as they were):
   :math:`z = (1 - s)\,x + s\,H(x)` with the share s uniform in 0.4–0.9 (the
   hysteresis is a sizeable part of the output by construction, drawn, not
   picked). Linear dynamics of order 0–3 (uniform; order 0 is the static
-  memory, placement ``static``) with random stable poles and unit static
+  memory, placement ``static``, one sample late: :math:`y_k = H(u)_{k-1}`,
+  as every model of the search is strictly proper) with random stable poles and unit static
   gain; the hysteresis is placed (uniformly) ``before`` them (on the
   input), ``after`` them (on the filtered input) or inside the
   ``feedback``: :math:`y_k = \sum a_i y_{k-i} + \sum b_j u_{k-j} +
@@ -83,9 +84,9 @@ as they were):
   scaling by a.
 * **Validation record** (the rule): with probability 0.3 a
   ``sine-holds`` record, else another realisation of the training kind
-  (its parameters drawn afresh from the same ranges); its amplitude is 0.9
-  of the training one, so the validation stays inside the range the
-  training spans.
+  (its parameters drawn afresh from the same ranges), spanning 0.9 of the
+  training input's range about its centre, so the validation stays inside
+  the range the training spans.
 * **Noise.** White, or coloured (AR(1), pole uniform in 0.5–0.95) with
   probability 1/2, added to the output at an SNR uniform in 20–60 dB:
   standard deviation :math:`\sigma_y 10^{-\mathrm{SNR}/20}` with
@@ -138,7 +139,7 @@ from ..memory import bouc_wen, bouc_wen_step, play, play_step
 from ..terms import format_param, parse_term
 from . import training_input
 
-__all__ = ["Draw", "Truth", "SeedLeak", "draw", "draws", "tuning", "split_of",
+__all__ = ["Draw", "Truth", "SeedLeak", "draw", "draws", "tuning", "guard", "split_of",
            "HYSTERETIC_FAMILIES", "CONTROL_FAMILIES", "FAMILIES", "INPUT_KINDS",
            "PLACEMENTS", "STATICS", "DEVELOPMENT_SEEDS", "EVALUATION_SEEDS"]
 
@@ -283,11 +284,18 @@ def _check(seed, n, validation, family) -> Tuple[int, Optional[int]]:
     if family is not None and family not in FAMILIES:
         raise ValueError(f"family must be None (drawn) or one of {list(FAMILIES)}, "
                          f"got {family!r}")
+    return guard(seed), None if n is None else int(n)
+
+
+def guard(seed: int) -> int:
+    """``seed``, checked: inside :func:`tuning` an evaluation seed raises
+    :class:`SeedLeak` (call it before long work on a list of seeds)."""
+    seed = _seed(seed)
     if _TUNING.get() and seed in EVALUATION_SEEDS:
         raise SeedLeak(f"seed {seed} is an evaluation seed (EVALUATION_SEEDS = "
                        f"{EVALUATION_SEEDS.start}-{EVALUATION_SEEDS.stop - 1}): tuning code "
                        f"may only draw development seeds")
-    return seed, None if n is None else int(n)
+    return seed
 
 
 # ------------------------------------------------------------- helpers
@@ -664,10 +672,11 @@ def _hysteretic_system(family: str, rng, a: float, K: float) -> _System:
     H = H0.mixed(s)
     params.update(share=s, operator=H.to_dict(), **hp)
     if placement == "static":
-        terms = H.factors("u[k]")
+        terms = H.factors("u[k-1]")
 
         def simulate(u):
-            return gain * H(u)
+            z = H(u)
+            return gain * np.r_[z[:1], z[:-1]]
     elif placement == "before":
         terms = lin.y_terms() + [f for j in lin.in_lags for f in H.factors(_lag("u", j))]
 
@@ -686,7 +695,7 @@ def _hysteretic_system(family: str, rng, a: float, K: float) -> _System:
     if not H.exact:
         why.append("Preisach relays are not operators of our terms; plays at the quartiles "
                    "of their half-widths instead")
-    where = {"static": "static (order 0)", "before": "before the linear dynamics",
+    where = {"static": "static (order 0, one sample late)", "before": "before the linear dynamics",
              "after": "after the linear dynamics"}[placement]
     return _System(simulate, _canonical(terms), exact,
                    _words(family, f"{where}, share {s:.2f}", order, "; ".join(why)),
@@ -870,7 +879,9 @@ def draw(seed: int, n: Optional[int] = 4000, validation: bool = True,
     val_kind = "sine-holds" if r_val.random() < _VAL_HOLDS else kind
     uv_n, val_params = _input(val_kind, n_val, r_val)
     a, K = (_sig(v) for v in _loguniform(r_scale, *_SCALE, 2))
-    u, uv = a * u_n, _VAL_AMPLITUDE * a * uv_n
+    u = a * u_n
+    mid, half = 0.5 * (u.max() + u.min()), 0.5 * (u.max() - u.min())
+    uv = mid + _VAL_AMPLITUDE * half * uv_n
     for _ in range(_TRIES):
         system = _system(family, r_sys, a, K)
         with np.errstate(all="ignore"):
@@ -887,7 +898,7 @@ def draw(seed: int, n: Optional[int] = 4000, validation: bool = True,
     params = {"family": family, "n": n, "n_validation": n_val, "amplitude": a,
               "output_scale": K, "input": dict(in_params, kind=kind),
               "validation_input": dict(val_params, kind=val_kind,
-                                       amplitude=_VAL_AMPLITUDE * a),
+                                       amplitude=_VAL_AMPLITUDE * half, centre=mid),
               "system": _jsonable(system.params), "noise": dict(noise, sigma=sigma)}
     return Draw(seed=seed, family=family, hysteretic=family in HYSTERETIC_FAMILIES,
                 placement=system.placement, input_kind=kind, noise=noise, params=params,

@@ -1,0 +1,484 @@
+"""The zoo study: ``mggp diagnose`` on draws of :mod:`narx.systems.zoo`, against an oracle.
+
+Run::
+
+    python -m benchmarks.zoo evaluate --seeds 1000-1149 --json zoo.jsonl --jobs 2
+    python -m benchmarks.zoo table zoo.jsonl --figure zoo_power.png
+    python -m benchmarks.zoo show 7
+    python -m benchmarks.zoo calibrate --seeds 0-99 --json dev.jsonl    # tuning: dev seeds only
+
+For each draw (4,000 training samples, the validation record of the draw),
+``evaluate`` runs :func:`mggp.diagnose.diagnose` at the **study budget**
+(:data:`STUDY_BUDGET`: population 100, 20 generations, everything else
+the :class:`~mggp.diagnose.Budget` defaults, so the statistics are the
+product's; see the measurement below) and the
+:func:`oracle`, and appends one JSON line per draw to the file as it
+finishes (a killed run keeps its records; a new run skips the seeds
+already there). Fields: ``seed, split, family, hysteretic, placement,
+input_kind, validation_kind, snr_db, colour, n, exact, identifiable,
+oracle_gain, oracle_rmse, oracle_method, baseline_rmse, extended_rmse,
+named, gain, recommended, p_values, diagnose_seconds, seconds`` (``error``
+instead of the diagnosis fields when it failed, ``oracle_error`` when the
+oracle did; ``seconds`` counts the draw, the oracle and the diagnosis).
+
+**Oracle.** The truth's terms (:attr:`narx.systems.zoo.Draw.truth`) are
+fitted on the first 75 % of the training record by least squares and by
+simulation-error θ (:func:`narx.refine` in free run, from the LS θ); the
+one with the smaller free-run RMSE on the last 25 % (the memory operators
+carrying their state from the samples before) is chosen, then *refitted on
+every training sample* by the same method, and its free-run RMSE on the
+validation record is the oracle's error. ``oracle_gain`` = the RMSE of the
+best model without memory at the study budget (the diagnosis's baseline:
+MGGP, multiple-shooting fitness, no Φ, no operators; its validation RMSE
+from the diagnosis, or :func:`baseline_rmse` standalone) / the oracle's.
+A hysteretic draw is *identifiable* when ``oracle_gain >= 1.5``: knowing
+the structure buys at least that much, so a diagnosis could.
+
+**Study budget.** Measured on 4,000-sample development draws, CPU time
+of one process (``jobs=1``; the machine was shared, load about 18 on 2
+cores, so wall times were 5-9 times longer): with the default budget
+(population 500, 100 generations) one diagnosis took 91 s (seed 1,
+quadratic damping, nothing named, so no extension search); with
+population 100 and 20 generations 60 s (seed 1) and 67 s (seed 2,
+Wiener-Hammerstein), of which the baseline search about 10 s and the
+evidence about 50 s, 48 s of it the operator-augmentation test, which runs
+in one process and does not depend on the search budget. No search budget
+therefore brings a diagnosis under 30 s on 2 cores; population 100 and 20
+generations makes the search a small share (about 5 s with ``jobs=2``)
+and the diagnosis about 55 s on 2 idle cores, plus an extension search
+when a cause is named.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+import warnings
+from dataclasses import dataclass
+from typing import Dict, Iterable, List, Optional
+
+import numpy as np
+
+#: the study budget of :func:`evaluate` (the rest: Budget defaults)
+STUDY_BUDGET = {"population": 100, "generations": 20}
+#: samples of each training record in the study
+STUDY_N = 4000
+#: oracle_gain from which a hysteretic draw is identifiable
+IDENTIFIABLE = 1.5
+#: the tail of the training record that chooses the oracle's method
+ORACLE_HOLDOUT = 0.25
+#: the test level of the diagnosis (mggp.diagnose default) marked on the figure
+ALPHA = 0.01
+
+__all__ = ["Oracle", "oracle", "oracle_gain", "baseline_rmse", "evaluate", "records",
+           "table", "parse_seeds", "calibrate", "STUDY_BUDGET", "IDENTIFIABLE"]
+
+
+# ------------------------------------------------------------------ oracle
+@dataclass(frozen=True)
+class Oracle:
+    """The truth's terms fitted by the better of LS and simulation-error θ.
+
+    Attributes
+    ----------
+    method : {'ls', 'freerun'}
+        The method chosen on the training tail.
+    holdout_rmse : dict
+        Free-run RMSE on the last 25 % of the training record of each
+        method fitted on the first 75 %.
+    rmse : float
+        Free-run RMSE on the validation record of the chosen method refitted
+        on all training samples (``inf``: diverged).
+    model : narx.Model
+        That refitted model.
+    """
+
+    method: str
+    holdout_rmse: Dict[str, float]
+    rmse: float
+    model: object
+
+    def to_dict(self) -> dict:
+        return {"method": self.method, "holdout_rmse": dict(self.holdout_rmse),
+                "rmse": self.rmse, "terms": self.model.term_texts,
+                "theta": [float(v) for v in self.model.theta]}
+
+
+def _freerun_error(model, record, first: int = 0) -> float:
+    """Free-run RMSE on ``record`` from ``first`` (operators carry their state
+    from the samples before it), scored after the model's largest lag."""
+    from mggp.diagnose.simulation import freerun_after
+    with np.errstate(all="ignore"):
+        r = freerun_after(model, record, first)
+        if r.diverged:
+            return math.inf
+        e = (r.y - r.y_hat)[r.valid]
+    return float(np.sqrt(np.mean(e * e))) if e.size and np.all(np.isfinite(e)) else math.inf
+
+
+def _fit(terms, data, method: str):
+    import narx
+    from narx.model import ignore_rank_warnings
+    with ignore_rank_warnings(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = narx.Model(list(terms)).fit(data)
+        if method == "freerun":
+            model = narx.refine(model, data, mode="freerun").model
+    return model
+
+
+def oracle(draw, holdout: float = ORACLE_HOLDOUT) -> Oracle:
+    """Fit the truth of ``draw`` (see the module doc) and score it.
+
+    Parameters
+    ----------
+    draw : narx.systems.zoo.Draw
+        With a validation record.
+    holdout : float
+        Tail of the training record that chooses the method, in (0, 0.5].
+    """
+    from mggp.diagnose.run import slice_data
+    if draw.validation is None:
+        raise ValueError("draw must have a validation record (zoo.draw(..., validation=True))")
+    if not 0.0 < holdout <= 0.5:
+        raise ValueError(f"holdout must be in (0, 0.5], got {holdout!r}")
+    train, terms = draw.train, draw.truth.terms
+    cut = int(round(train.n * (1.0 - holdout)))
+    head = slice_data(train, 0, cut)
+    scores = {m: _freerun_error(_fit(terms, head, m), train, cut) for m in ("ls", "freerun")}
+    method = min(scores, key=lambda m: (scores[m], m != "ls"))
+    model = _fit(terms, train, method)
+    return Oracle(method, scores, _freerun_error(model, draw.validation), model)
+
+
+def oracle_gain(baseline: float, truth: float) -> float:
+    """``baseline / truth`` validation RMSE: inf for a perfect truth, 0 when
+    only the truth diverges, NaN when both do."""
+    if not math.isfinite(truth):
+        return math.nan if not math.isfinite(baseline) else 0.0
+    if truth == 0:
+        return math.inf
+    return baseline / truth
+
+
+def baseline_rmse(draw, population: int = STUDY_BUDGET["population"],
+                  generations: int = STUDY_BUDGET["generations"], seed: int = 0,
+                  jobs: int = 1) -> float:
+    """Validation free-run RMSE of the best model without memory at a budget,
+    searched standalone: the diagnosis's baseline
+    (:func:`mggp.diagnose.extend.baseline_search`: MGGP, multiple-shooting
+    fitness, no Φ, no operators) on the training record."""
+    from mggp.diagnose import Budget
+    from mggp.diagnose.extend import baseline_search
+    model, _ = baseline_search(draw.train, Budget(population=population,
+                                                  generations=generations), seed, jobs)
+    return _freerun_error(model, draw.validation)
+
+
+# ------------------------------------------------------------------ evaluate
+def parse_seeds(tokens: Iterable[str]) -> List[int]:
+    """``['3', '10-12']`` -> ``[3, 10, 11, 12]`` (ranges inclusive, order kept)."""
+    out = []
+    for tok in tokens:
+        a, sep, b = str(tok).partition("-")
+        try:
+            lo, hi = int(a), int(b) if sep else int(a)
+        except ValueError:
+            raise ValueError(f"--seeds takes integers or ranges A-B, got {tok!r}") from None
+        if lo < 0 or hi < lo:
+            raise ValueError(f"--seeds ranges need 0 <= A <= B, got {tok!r}")
+        out.extend(s for s in range(lo, hi + 1) if s not in out)
+    return out
+
+
+def _num(x):
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dict:
+    """Diagnose the draw of ``seed`` at the budget and score it (one record)."""
+    from mggp.diagnose import Budget, diagnose
+    from narx.systems import zoo
+    t0 = time.perf_counter()
+    d = zoo.draw(seed, n=STUDY_N)
+    rec = {"seed": seed, "split": d.split, "family": d.family, "hysteretic": d.hysteretic,
+           "placement": d.placement, "input_kind": d.input_kind,
+           "validation_kind": d.params["validation_input"]["kind"],
+           "snr_db": d.noise["snr_db"], "colour": d.noise["colour"], "n": d.train.n,
+           "exact": d.truth.exact}
+    try:
+        orc = oracle(d)
+    except Exception as exc:               # recorded: the draw still measures diagnose
+        orc = Oracle("failed", {}, math.nan, None)
+        rec["oracle_error"] = f"{type(exc).__name__}: {exc}"
+    rec.update(oracle_rmse=_num(orc.rmse), oracle_method=orc.method)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            dx = diagnose(d.train, validation=d.validation,
+                          budget=Budget(population=population, generations=generations),
+                          seed=seed, jobs=jobs)
+    except Exception as exc:               # a failure is a finding of the study
+        rec.update(error=f"{type(exc).__name__}: {exc}",
+                   seconds=time.perf_counter() - t0)
+        return rec
+    doc = dx.to_dict()
+    base = doc["baseline"]["validation"]["rmse"]
+    base = math.inf if base is None else float(base)
+    og = oracle_gain(base, orc.rmse)
+    rec.update(baseline_rmse=_num(base),
+               extended_rmse=_num(doc["extended"]["validation"]["rmse"]),
+               oracle_gain=_num(og), identifiable=bool(og >= IDENTIFIABLE),  # NaN: False
+               named=list(dx.effects), gain=_num(dx.gain.ratio),
+               recommended=dx.gain.recommended,
+               p_values=doc.get("verdict", {}).get("p_values", {}),
+               diagnose_seconds=float(dx.timings.get("total", math.nan)),
+               seconds=time.perf_counter() - t0)
+    return rec
+
+
+def records(path) -> List[dict]:
+    """The records of a JSON-lines file (a torn last line is left out)."""
+    if not os.path.exists(path):
+        return []
+    out = []
+    with open(path, encoding="utf-8") as fh:
+        for line in fh:
+            try:
+                out.append(json.loads(line))
+            except json.JSONDecodeError:
+                continue
+    return out
+
+
+def evaluate(seeds, path, population=STUDY_BUDGET["population"],
+             generations=STUDY_BUDGET["generations"], jobs=1, say=print) -> List[dict]:
+    """Evaluate each seed not yet in ``path``, appending its record there."""
+    from narx.atomic import atomic_write_text
+    done = records(path)
+    have = {r["seed"] for r in done}
+    if os.path.exists(path):              # drop a torn last line before appending
+        atomic_write_text(path, "".join(json.dumps(r) + "\n" for r in done))
+    out = list(done)
+    for seed in seeds:
+        if seed in have:
+            continue
+        rec = evaluate_one(seed, population, generations, jobs)
+        with open(path, "a", encoding="utf-8") as fh:
+            fh.write(json.dumps(rec) + "\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+        out.append(rec)
+        say(f"seed {seed}: {rec['family']} ({rec['placement']}), named "
+            f"{rec.get('named', rec.get('error'))}, gain {rec.get('gain')}, oracle gain "
+            f"{rec.get('oracle_gain')}, {rec['seconds']:.0f} s")
+    return out
+
+
+def calibrate(seeds, path, **kw) -> List[dict]:
+    """:func:`evaluate` inside :func:`narx.systems.zoo.tuning`: the tuning
+    entry; an evaluation seed raises :class:`~narx.systems.zoo.SeedLeak`
+    before anything is run."""
+    from narx.systems import zoo
+    with zoo.tuning():
+        for s in seeds:                    # refuse before the first long run
+            zoo.guard(s)
+        return evaluate(seeds, path, **kw)
+
+
+# ------------------------------------------------------------------ table
+def _rate(k: int, n: int) -> str:
+    return f"{k}/{n} ({100.0 * k / n:.0f} %)" if n else "0/0 (–)"
+
+
+def _gain(r) -> float:
+    """The record's gain; null (JSON of an infinite or undefined ratio) is
+    read back from the RMSEs, null where a simulation diverged: inf when
+    only the baseline diverged, 0 when only the extension did, NaN when both."""
+    g = r.get("gain")
+    if g is not None:
+        return float(g)
+    b, e = r.get("baseline_rmse"), r.get("extended_rmse")
+    if b is None and e is not None:
+        return math.inf
+    return 0.0 if e is None and b is not None else math.nan
+
+
+def table(recs: List[dict], figure: Optional[str] = None) -> str:
+    """The Markdown report of ``recs`` (conclusion, confusion table by family,
+    headline rates, non-identifiable draws) and the power figure."""
+    from narx.systems.zoo import FAMILIES
+    ok = [r for r in recs if "error" not in r]
+    failed = [r for r in recs if "error" in r]
+    hy = [r for r in ok if r["hysteretic"]]
+    ident = [r for r in hy if r["identifiable"]]
+    ctrl = [r for r in ok if not r["hysteretic"]]
+    named_h = lambda r: "hysteresis" in r["named"]           # noqa: E731
+    power = sum(map(named_h, ident))
+    alarms = sum(map(named_h, ctrl))
+    good = sum(_gain(r) >= 1.5 for r in ident)
+    worse = sum(_gain(r) < 0.95 for r in ok)
+    lines = [f"**Conclusion.** On {len(ok)} draws, `mggp diagnose` named hysteresis on "
+             f"{_rate(power, len(ident))} identifiable hysteretic draws and on "
+             f"{_rate(alarms, len(ctrl))} controls; its extension gained ≥ 1.5× (and was "
+             f"recommended) on {_rate(good, len(ident))} identifiable hysteretic draws, and "
+             f"was worse than the baseline (gain < 0.95, the baseline kept) on "
+             f"{_rate(worse, len(ok))} draws.", ""]
+    seeds = sorted(r["seed"] for r in recs)
+    splits = sorted({r["split"] for r in recs})
+    lines += [f"Seeds {seeds[0]}–{seeds[-1]} ({', '.join(splits)}), {len(recs)} draws"
+              + (f", {len(failed)} failed" if failed else "") + ".", ""]
+    head = ["family", "draws", "identifiable", "hysteresis named", "other effects named",
+            "gain ≥ 1.5", "gain < 0.95"]
+    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for fam in FAMILIES:
+        rows = [r for r in ok if r["family"] == fam]
+        if not rows:
+            continue
+        lines.append("| " + " | ".join(str(v) for v in (
+            fam, len(rows), sum(r["identifiable"] for r in rows), sum(map(named_h, rows)),
+            sum(bool(set(r["named"]) - {"hysteresis"}) for r in rows),
+            sum(_gain(r) >= 1.5 for r in rows), sum(_gain(r) < 0.95 for r in rows))) + " |")
+    lines += ["", "Identifiable: the truth's structure, fitted, beats the best model without "
+              f"memory at the study budget by ≥ {IDENTIFIABLE}× on the validation record "
+              "(oracle gain). Gain: baseline / extended validation RMSE of the diagnosis "
+              "(< 1: the extension is worse, and the baseline is recommended).", ""]
+    lines += ["**Headline rates**", "",
+              f"- hysteresis named on identifiable hysteretic draws: {_rate(power, len(ident))}",
+              f"- hysteresis named on controls: {_rate(alarms, len(ctrl))}",
+              f"- recommended gain ≥ 1.5 on identifiable hysteretic draws: "
+              f"{_rate(good, len(ident))}",
+              f"- any gain < 0.95 (all draws): {_rate(worse, len(ok))}", ""]
+    non = [r for r in hy if not r["identifiable"]]
+    lines += [f"**Non-identifiable hysteretic draws** (oracle gain < {IDENTIFIABLE}): "
+              f"{len(non)}; hysteresis named on {_rate(sum(map(named_h, non)), len(non))}.", ""]
+    if non:
+        lines += ["| seed | family | placement | input | oracle gain | named | gain |",
+                  "|---|---|---|---|---|---|---|"]
+        lines += [f"| {r['seed']} | {r['family']} | {r['placement']} | {r['input_kind']} | "
+                  f"{_fmt(r['oracle_gain'])} | {', '.join(r['named']) or '–'} | "
+                  f"{_fmt(r['gain'])} |" for r in non]
+        lines.append("")
+    if failed:
+        lines += ["**Failed draws**", ""] + [f"- seed {r['seed']} ({r['family']}): "
+                                              f"{r['error']}" for r in failed] + [""]
+    div_b = sum(r.get("baseline_rmse") is None for r in ok)
+    div_e = sum(r.get("extended_rmse") is None for r in ok)
+    if div_b or div_e:
+        lines += [f"Diverged free runs on the validation record: baseline {div_b}, extended "
+                  f"{div_e} draws (a diverged baseline with a finite extension counts as "
+                  f"gain ∞, the reverse as gain 0, both as neither).", ""]
+    secs = [r["seconds"] for r in recs]
+    lines.append(f"Seconds per draw (diagnosis and oracle): median {np.median(secs):.0f}, "
+                 f"max {np.max(secs):.0f}.")
+    if figure:
+        lines += ["", _figure(ident, ctrl, figure)]
+    return "\n".join(lines) + "\n"
+
+
+def _fmt(x) -> str:
+    return "–" if x is None else f"{x:.2f}"
+
+
+def _p(r) -> float:
+    p = (r.get("p_values") or {}).get("hysteresis")
+    return math.nan if p is None else float(p)
+
+
+def _figure(ident, ctrl, path) -> str:
+    """Power against false-alarm rate as α varies; returns the caption."""
+    from mggp.plotting import figure, save
+    ph = np.array([_p(r) for r in ident])
+    pc = np.array([_p(r) for r in ctrl])
+    if not (np.isfinite(ph).any() and np.isfinite(pc).any()):
+        return ("No figure: the records hold no p-value of hysteresis (`p_values` of the "
+                "diagnosis's verdict) for both identifiable hysteretic draws and controls.")
+    alphas = np.unique(np.r_[np.logspace(-6, 0, 200), ph[np.isfinite(ph)],
+                             pc[np.isfinite(pc)]])
+    pw = np.array([np.mean(ph <= a) for a in alphas])          # NaN p: never named
+    fa = np.array([np.mean(pc <= a) for a in alphas])
+    fig, ax = figure(figsize=(5, 4.2))
+    ax.step(fa, pw, where="post", label="α from 1e-6 to 1")
+    a0 = np.searchsorted(alphas, ALPHA, side="right") - 1
+    ax.plot(fa[a0], pw[a0], "o", label=f"α = {ALPHA:g} (default)")
+    ax.plot([0, 1], [0, 1], ":", color="grey", label="chance")
+    ax.set_xlabel(f"false-alarm rate on controls (fraction of {len(pc)} draws)")
+    ax.set_ylabel(f"power on identifiable hysteretic draws\n(fraction of {len(ph)} draws)")
+    ax.set_xlim(-0.02, 1.02)
+    ax.set_ylim(-0.02, 1.02)
+    ax.legend(loc="lower right", fontsize=8)
+    save(fig, path)
+    return (f"![power against false-alarm rate]({os.path.basename(path)})\n\n*Figure: share "
+            f"of the {len(ph)} identifiable hysteretic draws on which the paired test's "
+            f"p-value of hysteresis is ≤ α (power) against the share of the {len(pc)} controls "
+            f"on which it is (false-alarm rate), as the test level α varies; the dot is the "
+            f"default α = {ALPHA:g}; a missing p-value counts as not named.*")
+
+
+# ------------------------------------------------------------------ show
+def show(seed: int) -> str:
+    """A draw's family, parameters, truth and oracle, as text."""
+    from narx.systems import zoo
+    d = zoo.draw(seed, n=STUDY_N)
+    orc = oracle(d)
+    return "\n".join([
+        f"seed {seed} ({d.split}): {d.family}, placement {d.placement}, input {d.input_kind}, "
+        f"noise {d.noise['colour']} at {d.noise['snr_db']:.1f} dB",
+        f"truth ({'exact' if d.truth.exact else 'expert structure'}): {d.truth.description}",
+        "  " + "\n  ".join(d.truth.terms),
+        f"oracle: {orc.method} (hold-out RMSE ls {orc.holdout_rmse['ls']:.4g}, freerun "
+        f"{orc.holdout_rmse['freerun']:.4g}); validation free-run RMSE {orc.rmse:.4g} "
+        f"(output std {np.std(d.validation.y):.4g})",
+        "  " + orc.model.equation(),
+        "parameters: " + json.dumps(d.params, indent=1)])
+
+
+# ------------------------------------------------------------------ CLI
+def _parser():
+    p = argparse.ArgumentParser(prog="python -m benchmarks.zoo", description=__doc__.split(
+        "\n")[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    for name, helptext in (("evaluate", "diagnose draws and append their records"),
+                           ("calibrate", "evaluate development seeds (inside zoo.tuning())")):
+        e = sub.add_parser(name, help=helptext)
+        e.add_argument("--seeds", nargs="+", required=True, help="seeds or ranges A-B")
+        e.add_argument("--json", required=True, help="JSON-lines file (appended, resumed)")
+        e.add_argument("--population", type=int, default=STUDY_BUDGET["population"])
+        e.add_argument("--generations", type=int, default=STUDY_BUDGET["generations"])
+        e.add_argument("--jobs", type=int, default=1)
+    t = sub.add_parser("table", help="Markdown table of a records file")
+    t.add_argument("file")
+    t.add_argument("--figure", help="PNG of power against false-alarm rate")
+    s = sub.add_parser("show", help="a draw's family, parameters, truth and oracle")
+    s.add_argument("seed", type=int)
+    return p
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        if args.command in ("evaluate", "calibrate"):
+            for name in ("population", "generations", "jobs"):
+                if getattr(args, name) < 1:
+                    raise ValueError(f"--{name} must be >= 1, got {getattr(args, name)}")
+            run = evaluate if args.command == "evaluate" else calibrate
+            run(parse_seeds(args.seeds), args.json, population=args.population,
+                generations=args.generations, jobs=args.jobs)
+        elif args.command == "table":
+            recs = records(args.file)
+            if not recs:
+                raise ValueError(f"{args.file}: no records")
+            print(table(recs, args.figure), end="")
+        else:
+            print(show(args.seed))
+    except (ValueError, OSError, RuntimeError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
