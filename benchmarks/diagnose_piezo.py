@@ -57,7 +57,9 @@ def run(n=50_000, seed=0, jobs=1, population=500, generations=100, out=None,
                       names=("piezo train", "held sine"), model_name=name, progress=progress)
         row = {"case": name, "expected": expected, "findings": dx.effects,
                "named_expected": all(e in dx.effects for e in expected),
-               "changes": list(dx.changes), "chosen": dx.extension.chosen,
+               "evidence": [f.effect for f in dx.evidence_findings],
+               "changes": list(dx.changes),
+               "chosen": dx.verdict.winner.structure.name if dx.verdict.winner else "baseline",
                "gain": dx.gain.to_dict(),
                "baseline_mape": dx.baseline.mape, "extended_mape": dx.extended.mape,
                "seconds": time.perf_counter() - t0}

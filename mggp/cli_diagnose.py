@@ -14,8 +14,9 @@ fitness and no Φ-functions. Without ``--validation`` the last
 The terminal shows a short summary; ``--json`` writes the findings,
 both models and the gain (schema in :mod:`mggp.diagnose`); ``--report``
 writes ``summary.md`` and figures; ``--out`` writes the recommended model
-(the extension if it lowered the free-run RMSE on the measuring samples,
-else the baseline; ``meta['diagnose']`` says which, why, and the gain).
+(the extension if it won the paired held-out test on the selection
+samples, else the baseline; ``meta['diagnose']`` says which, why, and the
+gain measured on the measuring samples).
 The validation record's columns default to the training record's names;
 ``--validation-input``/``--validation-output`` name them otherwise. Each
 MGGP search shows the generation line of ``mggp fit`` (``--quiet``: no
@@ -64,12 +65,17 @@ DIAGNOSE_OPTIONS = (
 ) + tuple(DIAGNOSE_PARAMS.values())
 
 
+#: what the default budget costs, as measured (the --help of the budget group)
+BUDGET_TIME = ("defaults: about 30 s for 10,000 samples with --jobs 2 on an idle 2-core "
+               "machine, most of it the baseline search")
+
+
 def register(sub):
     p = sub.add_parser("diagnose", help="name what a model's simulation gets wrong, "
                        "extend the model, measure the gain")
     p.add_argument("train", metavar="TRAIN.csv", help="training record")
     groups = add_options(p, DIAGNOSE_OPTIONS)
-    groups["budget"].description = "defaults: about 40 s for 10,000 samples with --jobs 2"
+    groups["budget"].description = BUDGET_TIME
     add_signal_args(groups["data"])
     p.set_defaults(func=_cmd_diagnose, files=Files(
         {"train": "TRAIN.csv", "validation": "--validation", "model": "--model"},
@@ -184,7 +190,7 @@ def _cmd_diagnose(args) -> int:
     names = (os.path.basename(args.train),
              os.path.basename(args.validation) if args.validation else "")
     dx = diagnose(train, val, model, budget=budget, seed=args.random_state, jobs=args.n_jobs,
-                  holdout=args.holdout, alpha=args.alpha, resolution=args.resolution,
+                  holdout=args.holdout, alpha=args.alpha, level=args.level, resolution=args.resolution,
                   names=names, model_name=os.path.basename(args.model or ""), progress=say,
                   search_callbacks=search_progress, outliers=args.outliers)
     print(dx.summary())

@@ -622,7 +622,12 @@ DIAGNOSE_PARAMS: Dict[str, Param] = {p.name: p for p in (
           "--holdout", estimator=False),
     Param("alpha", 0.01, Real(0, 0.5, lo_open=True, hi_open=True,
                               words="between 0 and 0.5"),
-          "false-alarm probability of each test", "tests", "--alpha", estimator=False),
+          "false-alarm probability of each residual test (the evidence)", "tests", "--alpha",
+          estimator=False),
+    Param("level", 0.05, Real(0, 0.5, lo_open=True, hi_open=True,
+                              words="between 0 and 0.5"),
+          "level of the paired held-out test that names an effect (family-wise over the "
+          "candidate extensions, Holm)", "tests", "--level", estimator=False),
     Param("resolution", 0.005, Real(0, 1, hi_open=True), "smallest effect named, as a "
           "fraction of the output range", "tests", "--resolution", estimator=False),
 )}

@@ -1,10 +1,12 @@
 """mggp diagnose: hidden effects are named and fixed, controls stay silent, CLI contract.
 
 Each hidden-effect test generates data with one effect the baseline cannot
-express, requires the diagnosis to name it and the extension to beat the
-baseline on the validation record. Controls (polynomial NARX, Hammerstein,
-both with noise) must get no finding. Budgets are small and records short
-so the default run stays fast; more seeds run with ``-m slow``.
+express, requires the diagnosis to name it (the candidate of its class won
+the paired held-out test) and the extension to beat the baseline on the
+validation record. Controls (polynomial NARX, Hammerstein, both with noise)
+must not be named hysteresis (a weak baseline may be extended by more lags
+or degree, and then the extension must help). Budgets are small and records
+short so the default run stays fast; more seeds run with ``-m slow``.
 """
 import hashlib
 import json
@@ -44,26 +46,44 @@ def hysteretic(system, seed=0):
 def assert_named_and_fixed(dx, effect):
     assert effect in dx.effects, [(c.test, c.statistic, c.threshold) for c in dx.checks]
     f = next(f for f in dx.findings if f.effect == effect)
-    assert f.statistic > f.threshold and f.evidence
+    assert f.statistic <= f.threshold and f.evidence          # p-value <= level
+    assert dx.gain.recommended == "extended"
     assert dx.gain.extended < dx.gain.baseline
     assert dx.gain.ratio > 1
 
 
 # ------------------------------------------------------------ hidden effects
-@pytest.mark.parametrize("system", [piezo_bouc_wen, prandtl_ishlinskii],
-                         ids=["bouc-wen", "prandtl-ishlinskii"])
-def test_hysteresis_is_named_and_phi_extension_beats_baseline(system):
-    train, val = hysteretic(system)
+def test_hysteresis_is_named_and_phi_extension_beats_baseline():
+    train, val = hysteretic(piezo_bouc_wen)
     before = (train.U.copy(), train.y.copy())
     dx = diagnose(train, val, budget=SMALL, seed=0)
     assert_named_and_fixed(dx, "hysteresis")
-    assert dx.extension.plan.setting.use_phi
+    assert dx.verdict.winner.effect == "hysteresis"
+    assert dx.verdict.p_values["hysteresis"] <= dx.verdict.level
     hyst = ("Phi", "Play(", "DengTan(", "BoucWen(")
     assert any(h in t for t in dx.extended.model.term_texts for h in hyst)
     assert not any(h in t for t in dx.baseline.model.term_texts for h in hyst)
-    assert "hysteresis" in " ".join(dx.changes) or "Φ-functions" in " ".join(dx.changes)
+    assert "hysteresis" in " ".join(dx.changes)
     np.testing.assert_array_equal(train.U, before[0])     # data never modified
     np.testing.assert_array_equal(train.y, before[1])
+
+
+def test_a_prandtl_ishlinskii_record_that_a_polynomial_fits_as_well_is_not_hysteresis():
+    """A known miss of the rule, kept in view: on this Prandtl–Ishlinskii
+    record (3000 samples, small budget) the memory candidates beat the
+    baseline, but the polynomial with more lags and degree is as good on
+    the selection samples, so the record does not show memory beyond what
+    it fits and hysteresis is not named (the polynomial itself leaves the
+    output's range on the probe inputs, so it cannot win either). Should
+    the memory candidates pull ahead, this test says so."""
+    train, val = hysteretic(prandtl_ishlinskii)
+    dx = diagnose(train, val, budget=SMALL, seed=0)
+    mem = [t for t in dx.verdict.tested if t.effect == "hysteresis"]
+    assert min(t.p_adjusted for t in mem) <= dx.verdict.level          # beat the baseline
+    assert dx.verdict.p_values["hysteresis"] > dx.verdict.level         # not the polynomial
+    assert "hysteresis" not in dx.effects, dx.verdict.lines()
+    if dx.effects:                      # a memory-free winner must help out of sample
+        assert dx.gain.ratio > 1
 
 
 def drifting_case(seed=0):
@@ -77,34 +97,29 @@ def drifting_case(seed=0):
     return Data(u, y), Data(hs.u, piezo_bouc_wen(hs.u)), model, hs
 
 
-def test_drift_where_the_system_holds_is_named_and_the_extension_holds():
+def test_drift_where_the_system_holds_is_evidence_and_the_winner_holds():
+    """The piezo is hysteretic: a memory candidate fixes the drifting model's
+    error, drift included, and is named; the drift stays as evidence."""
     train, val, model, hs = drifting_case()
     assert not model.steady_state_constraints().satisfied(model.theta)
     dx = diagnose(train, val, model, budget=SMALL, seed=0)
-    assert_named_and_fixed(dx, "steady-state-drift")
+    assert_named_and_fixed(dx, "hysteresis")
     ext = dx.extended.model
-    if ext.meta["estimation"] == "cls":
-        assert ext.steady_state_constraints().satisfied(ext.theta, tol=1e-8)
-    else:       # a memory-operator structure: it holds by itself, without the constraints
-        assert any("(" in t and not t.startswith("Phi") for t in ext.term_texts)
-    assert probe_holds(ext, train) < 1e-6 * np.ptp(train.y)     # the extension keeps still
+    assert probe_holds(ext, train) < 1e-3 * np.ptp(train.y)     # the extension keeps still
     assert probe_holds(model, train) > 1e-2 * np.ptp(train.y)   # control: the drifting model
-    f = next(f for f in dx.findings if f.effect == "steady-state-drift")
+    f = next(f for f in dx.evidence_findings if f.effect == "steady-state-drift")
     assert "Σ_y" in f.evidence and "validation" in f.evidence
     starts = sorted(h.start for h in dx.evidence.holds)
     assert starts == [hs.hold_rising.start, hs.hold_falling.start]
-    if ext.meta["estimation"] == "cls":       # rests at any level: a continuum
-        assert abs(steady_rate(ext, 10.0, [20.0])) < 1e-9
 
 
-def test_pem_structure_failing_in_free_run_is_named_and_ms_extension_beats_it():
+def test_pem_structure_failing_in_free_run_is_evidence_and_memory_fixes_it():
     train, val = hysteretic(piezo_bouc_wen)
     pem = narx.Model(PEM32, meta={"fitness": "pem"}).fit(train)
     assert pem.simulate(train, mode="osa").rmse < 1e-3            # one step: excellent
     dx = diagnose(train, val, pem, budget=SMALL, seed=0)
-    assert_named_and_fixed(dx, "prediction-bias")
-    assert dx.extension.plan.setting.fitness == "ms"
-    assert any("multiple-shooting fitness" in c for c in dx.changes)
+    assert "prediction-bias" in [f.effect for f in dx.evidence_findings]
+    assert_named_and_fixed(dx, "hysteresis")
 
 
 # ------------------------------------------------------------------ controls
@@ -113,12 +128,16 @@ CONTROLS = [(polynomial_narx, s) for s in (0, 1)] + [(hammerstein, s) for s in (
 
 @pytest.mark.parametrize("system, seed", CONTROLS,
                          ids=[f"{f.__name__}-{s}" for f, s in CONTROLS])
-def test_controls_without_hidden_effect_get_no_finding(system, seed):
+def test_controls_without_hidden_effect_are_not_named_hysteresis(system, seed):
     s = system(n=2000, seed=seed, noise_std=0.02)
     dx = diagnose(Data(s.u, s.y), budget=CONTROL, seed=seed)
-    assert dx.findings == [], [(c.test, c.statistic, c.threshold) for c in dx.checks if c.beats]
-    assert dx.extended.model is dx.baseline.model and dx.gain.ratio == 1.0
-    assert dx.to_dict()["extended"]["changes"] == []
+    assert "hysteresis" not in dx.effects, dx.verdict.lines()
+    assert dx.verdict.p_values["hysteresis"] > dx.verdict.level
+    if not dx.effects:
+        assert dx.extended.model is dx.baseline.model and dx.gain.ratio == 1.0
+        assert dx.to_dict()["extended"]["changes"] == []
+    else:           # a weak baseline extended by lags or degree: the extension helps
+        assert dx.gain.ratio > 1 and dx.to_dict()["extended"]["changes"]
 
 
 @pytest.mark.slow
@@ -129,7 +148,7 @@ def test_controls_more_seeds_and_noise(system, seed, noise):
     s = system(n=3000, seed=seed, noise_std=noise)
     dx = diagnose(Data(s.u, s.y), budget=Budget(population=200, generations=40,
                                                 max_height=3), seed=seed)
-    assert dx.findings == [], [(c.test, c.statistic, c.threshold) for c in dx.checks if c.beats]
+    assert "hysteresis" not in dx.effects, dx.verdict.lines()
 
 
 def test_true_model_of_a_control_gets_no_finding():
@@ -140,31 +159,22 @@ def test_true_model_of_a_control_gets_no_finding():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("system,seed,extension_wins", [
-    (piezo_bouc_wen, 1, True), (piezo_bouc_wen, 2, True), (piezo_bouc_wen, 3, True),
-    (prandtl_ishlinskii, 1, True), (prandtl_ishlinskii, 2, False),
-    (prandtl_ishlinskii, 3, True)])
-def test_hysteresis_more_seeds(system, seed, extension_wins):
-    """Hysteresis is named on every seed. The one known miss at this small
-    budget (Prandtl-Ishlinskii, seed 2): the extension chosen on the fitting
-    samples (14 terms, tail hold-out RMSE 0.84 against the baseline's 2.11)
-    loses on the validation sine (2.095 against 1.105), and the summary then
-    recommends the baseline; should it start to win, this test says so."""
+@pytest.mark.parametrize("system,seed", [(f, s) for f in (piezo_bouc_wen, prandtl_ishlinskii)
+                                         for s in (1, 2, 3)])
+def test_hysteresis_more_seeds(system, seed):
+    """Hysteresis is named on every seed and the winner beats the baseline
+    on the validation sine."""
     train, val = hysteretic(system, seed)
-    dx = diagnose(train, val, budget=SMALL, seed=seed)
-    if extension_wins:
-        assert_named_and_fixed(dx, "hysteresis")
-    else:
-        assert "hysteresis" in dx.effects and dx.gain.ratio < 1
-        assert "recommended: the baseline, which is kept" in dx.summary()
+    assert_named_and_fixed(diagnose(train, val, budget=SMALL, seed=seed), "hysteresis")
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_drift_more_seeds(seed):
     train, val, model, _ = drifting_case(seed)
-    assert_named_and_fixed(diagnose(train, val, model, budget=SMALL, seed=seed),
-                           "steady-state-drift")
+    dx = diagnose(train, val, model, budget=SMALL, seed=seed)
+    assert "steady-state-drift" in [f.effect for f in dx.evidence_findings]
+    assert_named_and_fixed(dx, "hysteresis")
 
 
 # ---------------------------------------------------------------- statistics
@@ -248,12 +258,19 @@ def test_cli_json_schema_report_and_untouched_data(capsys, drift_files):
                          js, "--report", rep, "--population", 30, "--generations", 3,
                          "--quiet")
     assert code == 0, err
-    assert "steady-state-drift" in out and "gain:" in out and len(out.splitlines()) < 15
+    assert "steady-state-drift" in out and "gain:" in out and len(out.splitlines()) < 30
     doc = json.loads(js.read_text())
-    assert {"findings", "baseline", "extended", "gain"} <= set(doc)
+    assert {"findings", "baseline", "extended", "gain", "samples", "tests", "settings",
+            "verdict"} <= set(doc)
     for f in doc["findings"]:
         assert set(f) == {"effect", "evidence", "statistic", "threshold"}
-        assert f["effect"] in VOCABULARY and f["statistic"] > f["threshold"]
+        assert f["effect"] in VOCABULARY and f["statistic"] <= f["threshold"]  # p <= level
+    vd = doc["verdict"]
+    assert vd["level"] == 0.05 and set(vd["p_values"]) >= {"hysteresis", "unmodelled-dynamics"}
+    for f in doc["findings"]:            # named: its class's p-value is at most the level
+        assert vd["p_values"][f["effect"]] <= vd["level"]
+    for c in vd["candidates"]:
+        assert {"effect", "changes", "terms", "selection_rmse", "p_value"} <= set(c)
     assert set(doc["baseline"]) == {"terms", "theta", "validation"}
     assert set(doc["extended"]) == {"terms", "theta", "validation", "changes"}
     for k in ("baseline", "extended"):
@@ -262,10 +279,12 @@ def test_cli_json_schema_report_and_untouched_data(capsys, drift_files):
     g = doc["gain"]
     assert g["metric"] == "rmse" and g["ratio"] == pytest.approx(g["baseline"] / g["extended"])
     assert g["ratio"] > 1
-    assert doc["samples"]["fit"] == {"record": "train.csv", "first": 0, "last": 2999}
+    assert doc["samples"]["fit"] == {"record": "train.csv", "first": 0, "last": 2099}
+    assert doc["samples"]["select"]["first"] == 2100 and doc["samples"]["select"]["last"] == 2999
     assert doc["samples"]["measure"]["record"] == "held.csv"
     text = (rep / "summary.md").read_text()
-    assert "fitted on samples 0-2999 of train.csv" in text and "held.csv" in text
+    assert "fitted on samples 0-2099 of train.csv" in text and "held.csv" in text
+    assert "selected by free run on samples 2100-2999 of train.csv" in text
     for png in ("models.png", "residual_direction.png", "correlation.png", "holds.png"):
         assert (rep / png).stat().st_size > 1000
     assert [digest(p) for p in (t, v, m)] == hashes
@@ -279,10 +298,12 @@ def test_cli_tail_holdout_without_validation(capsys, tmp_path):
                          "--generations", 6, "--max-height", 3, "--holdout", 0.25, "--quiet")
     assert code == 0, err
     doc = json.loads(js.read_text())
-    assert doc["samples"]["fit"] == {"record": "c.csv", "first": 0, "last": 1124}
+    # 1125 samples before the tail: 788 fit, 337 select, 375 measure
+    assert doc["samples"]["fit"] == {"record": "c.csv", "first": 0, "last": 787}
+    assert doc["samples"]["select"]["first"] == 788
     assert doc["samples"]["measure"]["first"] == 1125
     assert doc["samples"]["measure"]["last"] == 1499
-    assert "findings: none" in out
+    assert "hysteresis" not in [f["effect"] for f in doc["findings"]]
 
 
 def one_error_line(err):
@@ -317,7 +338,7 @@ def test_cli_bad_files(capsys, tmp_path, drift_files):
     assert code == 2 and "input 'u' is constant" in one_error_line(err)
     short = write_csv(tmp_path / "s.csv", {"u": np.arange(60.0), "y": np.arange(60.0)})
     code, _, err = run(capsys, "diagnose", short)
-    assert code == 2 and "too few to hold out a tail" in one_error_line(err)
+    assert code == 2 and "too few to split" in one_error_line(err)
     code, _, err = run(capsys, "diagnose", t, "--json", str(tmp_path))
     assert code == 2 and "is a folder, not a file" in one_error_line(err)
     two = tmp_path / "two.json"
@@ -340,8 +361,8 @@ def test_published_piezo_models_small_budget():
     from benchmarks.diagnose_piezo import run as run_piezo
     rows = {r["case"]: r for r in run_piezo(population=60, generations=10, jobs=2)}
     pem, ms = rows["PEM (32), LS"], rows["MS (33), LS"]
-    assert {"prediction-bias", "hysteresis"} <= set(pem["findings"])
-    assert "steady-state-drift" in ms["findings"]
+    assert "prediction-bias" in pem["evidence"] and "hysteresis" in pem["findings"]
+    assert "steady-state-drift" in ms["evidence"]
     assert pem["gain"]["ratio"] > 1 and ms["gain"]["ratio"] > 1
 
 
@@ -411,8 +432,10 @@ def test_a_drifting_model_of_a_memoryless_system_is_drift_not_hysteresis():
                      theta=[1.29, -0.297, 0.7, -0.7 * 0.985])
     dx = diagnose(train, val, bad, budget=Budget(population=40, generations=5), seed=0,
                   jobs=1)
-    assert "steady-state-drift" in dx.effects
-    assert "hysteresis" not in dx.effects
+    assert "steady-state-drift" in [f.effect for f in dx.evidence_findings]
+    assert "hysteresis" not in [f.effect for f in dx.evidence_findings]
+    assert "hysteresis" not in dx.effects, dx.verdict.lines()
+    assert dx.effects and dx.gain.ratio > 1          # a memory-free candidate fixes it
 
 
 @pytest.mark.parametrize("name, f, named, not_named", [
@@ -428,24 +451,30 @@ def test_correlation_findings_name_the_missing_kind_of_term(name, f, named, not_
     train, val = _aug_record(f, 1), _aug_record(f, 2)
     linear = narx.Model(["y[k-1]", "u[k-1]"]).fit(train)
     dx = diagnose(train, val, linear, budget=SMALL, seed=0, jobs=1)
-    assert named in dx.effects and not_named not in dx.effects, (name, dx.effects)
-    assert "hysteresis" not in dx.effects
+    evidence = [f.effect for f in dx.evidence_findings]
+    assert named in evidence and not_named not in evidence, (name, evidence)
+    # the verdict: a memory-free candidate wins, not memory
+    assert dx.effects and "hysteresis" not in dx.effects, dx.verdict.lines()
     assert dx.gain.ratio > 1.5
 
 
 def test_summary_says_which_evidence_could_not_be_measured():
-    from mggp.diagnose.report import terminal_summary
-    train, val = _aug_record(lambda y, u, k: 0.6 * y[k - 1] + 0.5 * u[k - 1], 1, n=24), \
-        _aug_record(lambda y, u, k: 0.6 * y[k - 1] + 0.5 * u[k - 1], 2, n=400)
-    m = narx.Model(["y[k-1]", "u[k-1]"]).fit(train)
-    text = terminal_summary(diagnose(train, val, m, budget=SMALL, seed=0, jobs=1))
-    missing = next(ln for ln in text.splitlines() if ln.startswith("not tested: "))
-    assert "correlation tests (fewer than 21 one-step residuals)" in missing
+    # a diagnosis needs 100 fitting samples, so the evidence of a record too
+    # short for the correlation tests is read from the tests themselves
+    from mggp.diagnose.context import Context
+    from mggp.diagnose.registry import run_tests
+    from mggp.diagnose.report import untested
+    f = lambda y, u, k: 0.6 * y[k - 1] + 0.5 * u[k - 1]                  # noqa: E731
+    val = _aug_record(f, 2, n=400)
+
+    def missing(train):
+        m = narx.Model(["y[k-1]", "u[k-1]"]).fit(train)
+        ev = run_tests(Context(m, train, val, ("train", "val"), 0, SMALL, 0.01, 0.005, 0))
+        return "; ".join(untested(ev, ev.checks))
+    assert "correlation tests (fewer than 21 one-step residuals)" in missing(
+        _aug_record(f, 1, n=24))
     # control: a long record measures them
-    long = _aug_record(lambda y, u, k: 0.6 * y[k - 1] + 0.5 * u[k - 1], 1, n=2000)
-    text = terminal_summary(diagnose(long, val, narx.Model(["y[k-1]", "u[k-1]"]).fit(long),
-                                     budget=SMALL, seed=0, jobs=1))
-    assert "correlation tests (fewer" not in text
+    assert "correlation tests (fewer" not in missing(_aug_record(f, 1, n=2000))
 
 
 # ------------------------------------------------------------ hand back the model

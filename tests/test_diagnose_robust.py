@@ -72,7 +72,8 @@ def test_a_held_input_with_noise_is_found_and_drift_named_as_without_noise():
     dx = diagnose(train, noisy, model, budget=SMALL, seed=0)
     drift = [[c.test for c in d.checks if c.effect == "steady-state-drift" and c.beats]
              for d in (clean, dx)]
-    assert "steady-state-drift" in clean.effects and "steady-state-drift" in dx.effects
+    assert all("steady-state-drift" in [f.effect for f in d.evidence_findings]
+               for d in (clean, dx))
     # the drifting model also rests at the wrong level in both holds (rest error)
     assert drift[0] == drift[1] == ["hold validation:562", "rest error validation:562",
                                     "hold validation:1188", "rest error validation:1188"]
@@ -190,32 +191,31 @@ def test_a_correlation_test_without_power_says_which_resolution_would_give_it():
 
 
 # ------------------------------------------------- an extension that does not help
-def test_an_extension_worse_than_the_baseline_is_not_recommended(base_diagnosis, tmp_path):
+def test_an_extension_that_lost_the_test_is_not_recommended(base_diagnosis, tmp_path):
     from dataclasses import replace
 
     from mggp.diagnose import Gain
-    # an extension 1.5 times worse than the baseline (the tiny search used to
-    # make one; with the rest-error check naming drift its CLS extension helps)
-    dx = replace(base_diagnosis, gain=Gain(base_diagnosis.gain.baseline,
-                                           1.5 * base_diagnosis.gain.baseline))
-    assert dx.findings and dx.gain.ratio < 1
+    b = base_diagnosis.gain.baseline
+    # no candidate won the test: the baseline is kept, whatever the measurement
+    dx = replace(base_diagnosis, gain=Gain(b, b / 4, won=False))
     text = dx.summary()
-    assert ("recommended: the baseline, which is kept: the extension did not help (in free "
-            "run on the measuring samples the extended model is worse: RMSE "
-            f"{dx.gain.extended:.4g} against RMSE {dx.gain.baseline:.4g} for the baseline)"
-            in text), text
+    assert ("recommended: the baseline (no candidate extension won the test, so nothing was "
+            "changed)" in text), text
     assert dx.to_dict()["gain"]["recommended"] == "baseline"
     report = open(write_report(tmp_path / "r", dx)).read()
-    assert "Recommended: the baseline, which is kept: the extension did not help" in report
-    # an extension that diverges is not recommended either
-    div = replace(dx, gain=Gain(dx.gain.baseline, float("inf")))
-    assert "the extended model is worse: diverges against RMSE" in div.summary()
-    # control: the same diagnosis with a better extension recommends it
-    better = replace(dx, gain=Gain(dx.gain.baseline, dx.gain.baseline / 4))
-    assert "recommended: the extended model (on the measuring samples its free-run RMSE " \
-           "is 4 times lower than the baseline's)" in better.summary()
+    assert "Recommended: the baseline (no candidate extension won the test" in report
+    # a winner that measures worse out of sample is said so, with both RMSEs
+    worse = replace(dx, gain=Gain(b, 1.5 * b, won=True))
+    assert (f"yet there it is worse: RMSE {1.5 * b:.4g} against RMSE {b:.4g} for the baseline"
+            in worse.summary()), worse.summary()
+    div = replace(dx, gain=Gain(b, float("inf"), won=True))
+    assert "it is worse: diverges against RMSE" in div.summary()
+    # control: a winner that measures better recommends it, with its gain
+    better = replace(dx, gain=Gain(b, b / 4, won=True))
+    assert ("recommended: the extended model (it won the test on the selection samples; on "
+            "the measuring samples its free-run RMSE there is 4 times lower than the "
+            "baseline's)" in better.summary()), better.summary()
     assert better.to_dict()["gain"]["recommended"] == "extended"
-    assert "did not help" not in better.summary()
 
 
 def test_diverging_baseline_gives_an_undefined_ratio_and_a_warning(base_diagnosis, tmp_path):
@@ -234,11 +234,10 @@ def test_diverging_baseline_gives_an_undefined_ratio_and_a_warning(base_diagnosi
     assert dx.gain.recommended == "baseline"
     # without a finding the recommendation itself says the baseline diverges;
     # control: a finite baseline's recommendation does not
-    quiet = replace(dx, findings=[])
-    assert "recommended: the baseline (no finding, so nothing was changed); its free run " \
-           "diverges on the measuring samples" in quiet.summary()
-    assert "diverges" not in replace(base_diagnosis, findings=[]).summary().split(
-        "recommended:")[1]
+    assert "recommended: the baseline (no candidate extension won the test, so nothing was " \
+           "changed); its free run diverges on the measuring samples" in text
+    quiet = replace(base_diagnosis, gain=Gain(1.0, 1.0))
+    assert "diverges" not in quiet.summary().split("recommended:")[1]
     row = _table([["hysteresis", "corr(|Δu|, e) = 0.3"]], ["finding", "evidence"])[2]
     assert row.count("|") - row.count("\\|") == 3
 
@@ -278,14 +277,15 @@ def test_a_model_that_lands_at_a_wrong_level_when_the_input_stops_is_named():
     train, val = memoryless_record(1), memoryless_record(2)
     bad = jumping_model(20.0)
     dx = diagnose(train, val, bad, budget=TINY, seed=0)
-    assert "steady-state-drift" in dx.effects, [(c.test, c.statistic) for c in dx.checks]
+    evidence = [f.effect for f in dx.evidence_findings]
+    assert "steady-state-drift" in evidence, [(c.test, c.statistic) for c in dx.checks]
     resp = hold_responses(bad, val, "validation", 20)
     assert resp and all(abs(r.model_move) < 1e-9 for r in resp)      # keeps still ...
     assert max(r.rest_error for r in resp) > 0.2                      # ... at a wrong level
     hits = [c for c in dx.checks if c.test.startswith("rest error") and c.beats]
     assert hits and all(c.effect == "steady-state-drift" for c in hits)
     assert "error at rest" in hits[0].detail and "resolution floor" in hits[0].detail
-    f = next(f for f in dx.findings if f.effect == "steady-state-drift")
+    f = next(f for f in dx.evidence_findings if f.effect == "steady-state-drift")
     assert f.statistic > f.threshold and "error at rest" in f.evidence
     tests = {t["test"]: t for t in dx.to_dict()["tests"]}
     assert tests[hits[0].test]["beats_threshold"] is True
@@ -295,7 +295,8 @@ def test_a_model_that_lands_at_a_wrong_level_when_the_input_stops_is_named():
     dx = diagnose(train, val, good, budget=TINY, seed=0)
     rest = [c for c in dx.checks if c.test.startswith("rest error")]
     assert rest and not any(c.beats for c in rest)
-    assert "steady-state-drift" not in dx.effects, dx.effects
+    assert "steady-state-drift" not in [f.effect for f in dx.evidence_findings]
+    assert dx.effects == [], dx.verdict.lines()      # nothing beats the exact model
 
 
 def test_a_hold_test_that_could_not_run_says_why_not_no_power(tmp_path):
@@ -323,24 +324,20 @@ def test_a_hold_test_that_could_not_run_says_why_not_no_power(tmp_path):
 
 
 def test_the_summary_describes_the_extension_that_was_chosen(base_diagnosis):
-    # the summary printed the plan's search ('new search with up to 8 terms')
-    # under 'extension (baseline + direction terms, ...)': the changes must be
-    # those of the candidate chosen, the search named only as not chosen
     dx = base_diagnosis
+    w = dx.verdict.winner
+    assert w is not None and dx.changes == (w.structure.changes,)
     text = dx.summary()
-    block = text.split(f"extension ({dx.extension.chosen}, ")[1].split("\ngain:")[0]
-    lines = block.splitlines()[1:]
-    for change in dx.changes:                # the chosen candidate's changes, in order
+    block = text.split(f"extension ({w.structure.name}, ")[1].split("\ngain:")[0]
+    for change in dx.changes:                # the winner's changes
         assert " ".join(change.split())[:60] in " ".join(block.split()), (change, block)
-    if not dx.extension.chosen.startswith("search"):
-        for line in lines:
-            assert "new search" not in line or line.strip().startswith("not chosen:"), block
     assert dx.to_dict()["extended"]["changes"] == list(dx.changes)
     assert dx.extended.model.meta["changes"] == list(dx.changes)
-    assert dx.extended.source == f"{dx.extension.chosen}: " + "; ".join(dx.changes)
-    # control: a candidate from the search keeps the plan's changes
-    from mggp.diagnose.extend import candidate_changes
-    plan = dx.extension.plan
+    assert dx.extended.source == f"{w.structure.name}: " + "; ".join(dx.changes)
+    assert dx.extended.model.term_texts == w.model.term_texts
+    # control: the search-based extension of the library keeps the plan's changes
+    from mggp.diagnose.extend import Setting, candidate_changes, plan_extension
+    plan = plan_extension(["hysteresis"], Setting("ms", 100, False, None, 3, 5, 15), TINY)
     assert candidate_changes("search", plan)[:-1] == plan.changes
     assert candidate_changes("search", plan)[-1] == "chosen candidate: the search's terms"
 

@@ -7,24 +7,32 @@ Typical use::
     dx = diagnose(read_csv("train.csv"), validation=read_csv("val.csv"),
                   budget=Budget(population=100, generations=20), seed=0, jobs=2)
     print(dx.summary())                 # findings, changes, gain
-    dx.effects                          # e.g. ['hysteresis', 'prediction-bias']
+    dx.effects                          # e.g. ['hysteresis']
+    dx.verdict.p_values                 # p-value of each effect class
     dx.to_dict()                        # the ``mggp diagnose --json`` document
     from mggp.diagnose.report import write_report
     write_report("report/", dx)         # Markdown + figures
 
-Steps (:func:`diagnose`): the baseline (the user's model, or MGGP with
-multiple-shooting fitness and no Φ-functions); evidence from the
-registered diagnose tests (:mod:`.registry`, the built-in ones listed in
-:mod:`.catalogue`), each returning its checks: loop gap (:mod:`.loopgap`),
-Φ-augmentation in sample and held out, and operator augmentation
-(:mod:`.augmentation`), rest levels (:mod:`.restlevels`),
-prediction-bias bootstrap (:mod:`.bias`), drift in held-input segments
-(:mod:`.drift`, segments found by :mod:`.holds`) and the Billings–Voon
-correlation tests of one-step residuals (:mod:`.correlation`); findings
-named from the checks by the rule and vocabulary of :mod:`.findings`; the
-extension the causes call for (:mod:`.extend`); the gain measured on
-samples not used for fitting (:mod:`.run`); report and figures
-(:mod:`.report`).
+Steps (:func:`diagnose`): the samples are cut into fitting, selection
+and measuring samples (:class:`Split`: with a validation record, the
+training record's head fits and its tail selects, the validation record
+measures; without one, three consecutive parts of the training record);
+the baseline (the user's model, or MGGP with multiple-shooting fitness
+and no Φ-functions, fitted on the fitting samples); evidence from the
+registered residual tests (:mod:`.registry`, the built-in ones listed in
+:mod:`.catalogue`: loop gap, rest levels, prediction-bias bootstrap,
+drift in held-input segments, Billings–Voon correlation tests), which
+explains but does not decide; candidate extensions grouped by the effect
+they fix (:mod:`.candidates`: Φ-functions, plays, Deng–Tan, Bouc–Wen
+and output-driven memory for ``hysteresis``; more lags, more degree, CLS
+for the memory-free effects), each fitted on the fitting samples; the
+verdict (:mod:`.verdict`): every candidate against the baseline by a
+paired block-bootstrap test of their free-run losses on the selection
+samples (:mod:`.paired`, Holm over the candidates;
+``hysteresis`` must also beat the best memory-free class), the effect
+named by the class that wins; the gain of the winner measured on the
+measuring samples, which played no part in any choice; report and
+figures (:mod:`.report`).
 
 A new test is one module and one line (:mod:`.registry`)::
 
@@ -33,18 +41,29 @@ A new test is one module and one line (:mod:`.registry`)::
 
 JSON document (``Diagnosis.to_dict``)::
 
-    {"findings": [{"effect", "evidence", "statistic", "threshold"}],
+    {"findings": [{"effect", "evidence", "statistic": p-value, "threshold": level}],
      "baseline": {"terms", "theta", "validation": {"rmse", "mape"}},
      "extended": {"terms", "theta", "validation": {"rmse", "mape"}, "changes"},
      "gain": {"metric": "rmse", "baseline", "extended", "ratio", "recommended"},
-     "samples": {"fit": {...}, "measure": {...}}, "tests": [...], "settings": {...}}
+     "samples": {"fit": {...}, "select": {...}, "measure": {...}},
+     "tests": [...], "evidence": [...],
+     "verdict": {"level", "candidates": [{"effect", "name", "changes", "terms",
+                 "selection_rmse", "p_value", ...}],
+                 "p_values": {effect: p}, "baseline_selection_rmse", "winner"},
+     "separation": null or one line, "settings": {...}}
 
-``validation`` holds the free-run errors on the measuring samples (the
-validation record, or the training tail); ``ratio`` = baseline / extended
-RMSE (> 1: the extension is better); ``recommended`` is ``"extended"``
-only when the ratio is above 1, else ``"baseline"`` (an extension that did
-not help is not recommended, and the summary says so); ``null`` stands for
-a diverged simulation (an infinite error).
+``findings`` are the named effects (one: the class of the winner), each
+with its p-value and the level; ``evidence`` the effects the residual
+tests point to (their checks are in ``tests``). ``verdict.p_values``
+holds each class's p-value: an effect is named at level α only if its
+p-value is at most α (for ``hysteresis`` the larger of its p-values
+against the baseline and against the best memory-free class).
+``validation`` holds the free-run errors on the measuring samples;
+``ratio`` = baseline / extended RMSE (> 1: the extension is better);
+``recommended`` is ``"extended"`` when the extension won the test on the
+selection samples, else ``"baseline"`` (then extended = baseline); the
+ratio is measured on samples no choice has seen. ``null`` stands for a
+diverged simulation (an infinite error) or a class not tested.
 """
 from .budget import Budget
 from .context import Context

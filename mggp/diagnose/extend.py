@@ -1,4 +1,11 @@
-"""Baseline search and the extension that follows the named causes.
+"""Baseline search, the diagnosis budget, and the search-based extension.
+
+:func:`mggp.diagnose.diagnose` uses :class:`Budget`,
+:func:`baseline_search` and :func:`user_setting` from here; its
+extensions are the candidates of :mod:`.candidates`, chosen by the test of
+:mod:`.verdict`. :func:`plan_extension` and :func:`fit_extension` (an MGGP
+search set up for named effects) remain as a library route to a searched
+extension once the effect is known.
 
 Typical use::
 

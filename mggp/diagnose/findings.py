@@ -7,8 +7,10 @@ Typical use::
     [f.effect for f in findings]           # e.g. ['hysteresis', 'prediction-bias']
 
 Each diagnose test (:mod:`mggp.diagnose.registry`) returns its
-:class:`Check` s; a finding is named here, from the checks alone, by one
-rule: an effect is named when one of its checks beats its threshold.
+:class:`Check` s; :func:`name_findings` turns them into *evidence* by one
+rule: an effect is pointed to when one of its checks beats its threshold.
+The effect a diagnosis *names* comes from the paired test of the candidate
+extensions (:mod:`mggp.diagnose.verdict`); the evidence explains it.
 
 Vocabulary (the causes a diagnosis can name, and the extension each calls for):
 

@@ -29,7 +29,6 @@ from ..plotting import figure, save as _save
 from ..quasistatic_report import diagnosis_figure
 from ..report import figure_lines
 from .correlation import propagation_factor
-from .extend import HOLDOUT_FIT
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
 from .simulation import direction_of_change, simulation_residual
@@ -87,22 +86,35 @@ def untested(ev, checks=()) -> list:
 def terminal_summary(dx) -> str:
     """A short readable summary (the CLI prints it)."""
     b, e, g = dx.baseline, dx.extended, dx.gain
+    v = dx.verdict
     lines = [f"baseline: {b.source}, {b.model.n_terms} terms",
              f"samples:  {dx.split.describe()}"]
     if dx.findings:
-        lines.append("findings:")
+        lines.append("named:")
         for f in dx.findings:
+            lines.append(f"  {f.effect:<24s} p {_g(f.statistic)} <= level {_g(f.threshold)}")
+    else:
+        lines.append(f"named: nothing (no candidate extension beat the baseline at level "
+                     f"{v.level:g}, Holm-corrected)")
+    lines.append("candidates (free-run RMSE on the selection samples, baseline "
+                 f"{_g(v.baseline_rmse)}; one-sided p against the baseline, Holm):")
+    lines += ["  " + t for t in v.lines()]
+    if dx.separation:
+        lines.append(f"note: {dx.separation}")
+    if dx.evidence_findings:
+        lines.append("evidence (residual statistics, explanation only):")
+        for f in dx.evidence_findings:
             lines.append(f"  {f.effect:<24s} {_g(f.statistic)} > threshold {_g(f.threshold)}")
     else:
-        lines.append("findings: none (no statistic beat its threshold)")
+        lines.append("evidence (residual statistics): no statistic beat its threshold")
     missing = untested(dx.evidence, dx.checks)
     if missing:
         lines.append("not tested: " + "; ".join(missing))
-    if not dx.findings:
+    if not dx.evidence_findings:
         lines += [f"{'closest' if k == 0 else 'also below'}: {t}"
                   for k, t in enumerate(closest_misses(dx))]
     if dx.findings:
-        lines.append(f"extension ({dx.extension.chosen}, {e.model.n_terms} terms):")
+        lines.append(f"extension ({v.winner.structure.name}, {e.model.n_terms} terms):")
         lines += [f"  {c}" for c in dx.changes]
     if not np.isfinite(g.baseline):
         lines.append("warning: the baseline's free run diverges on the measuring samples, "
@@ -162,20 +174,19 @@ def _rmse(v) -> str:
 def verdict(dx) -> str:
     """Which model to use, and why, in one sentence (``dx.gain.recommended``)."""
     g = dx.gain
-    if not dx.findings:
-        return "the baseline (no finding, so nothing was changed)" + (
+    if g.recommended == "baseline":
+        return "the baseline (no candidate extension won the test, so nothing was changed)" + (
             "; its free run diverges on the measuring samples, so it is no usable model of "
             "them either: fit with other settings or more data" if not np.isfinite(g.baseline)
             else "")
-    if g.recommended == "extended":
-        return (f"the extended model (on the measuring samples its free-run RMSE is "
-                f"{_g(g.ratio)} times lower than the baseline's)")
     if not (np.isfinite(g.baseline) or np.isfinite(g.extended)):
-        how = "both models diverge"
+        how = "both models diverge there"
+    elif g.ratio > 1:
+        how = f"its free-run RMSE there is {_g(g.ratio)} times lower than the baseline's"
     else:
-        how = (f"the extended model {'is no better' if g.ratio == 1 else 'is worse'}: "
+        how = (f"yet there it {'is no better' if g.ratio == 1 else 'is worse'}: "
                f"{_rmse(g.extended)} against {_rmse(g.baseline)} for the baseline")
-    return (f"the baseline, which is kept: the extension did not help (in free run on the "
+    return (f"the extended model (it won the test on the selection samples; on the "
             f"measuring samples {how})")
 
 
@@ -376,18 +387,25 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
     if dx.settings.get("user_model") and dx.split.measure_record == dx.split.fit_record:
         L += ["The baseline's θ come from the model file: whether the data it was fitted "
               "on overlap the measuring samples is not known to this diagnosis.", ""]
-    L += ["## Findings", ""]
+    L += ["## Named", ""]
     if dx.findings:
         L += _table([[f"`{f.effect}`", _g(f.statistic), _g(f.threshold), f.evidence]
-                     for f in dx.findings], ["effect", "statistic", "threshold", "evidence"])
+                     for f in dx.findings], ["effect", "p-value", "level", "why"])
     else:
-        L.append("None: no statistic beat its threshold, so nothing was changed.")
+        L.append("Nothing: no candidate extension beat the baseline significantly on the "
+                 "selection samples, so nothing was changed.")
+    if dx.separation:
+        L += ["", f"Note: {dx.separation}."]
+    L += ["", "Evidence from the residual statistics (explanation, not the gate): "
+          + ("; ".join(f"`{f.effect}` ({_g(f.statistic)} > {_g(f.threshold)})"
+                       for f in dx.evidence_findings) or "none") + "."]
     if untested(dx.evidence, dx.checks):
         L += ["", "Not tested (a finding of these kinds could not be made): "
               + "; ".join(untested(dx.evidence, dx.checks)) + "."]
     L += ["", "## Every test", "", f"False-alarm probability α = {dx.evidence.alpha:g} per "
-          f"test; resolution floor {dx.evidence.resolution:g} × output range. A finding is "
-          f"named when a statistic is above its threshold.", ""]
+          f"test; resolution floor {dx.evidence.resolution:g} × output range. A statistic "
+          f"above its threshold is evidence for its effect; what is named comes from the "
+          f"paired test of the candidates.", ""]
     L += _table([[c.test, c.effect, _g(c.statistic), _g(c.threshold),
                   "**yes**" if c.beats else "no" if c.power else
                   "no power" if np.isfinite(c.ceiling) else "could not run"]
@@ -400,19 +418,22 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
     L += ["", "## Models", ""]
     L += _model_lines(dx.baseline, "Baseline")
     L += _model_lines(dx.extended, "Extended")
-    if dx.extension.candidates:
-        cut = round(100 * HOLDOUT_FIT)
-        L += [f"Candidates (each estimated on the first {cut} % of the fitting samples "
-              f"and scored by its free-run RMSE on the remaining {100 - cut} %, then "
-              "estimated on all of them; ranked by the larger of that RMSE and this "
-              "model's free-run RMSE on the fitting samples; under CLS a candidate must "
-              "also keep still, within the resolution floor, in holds inserted into the "
-              "fitting input):", ""]
-        L += _table([[n, str(k), _g(s), "-" if h != h else _g(h)]
-                     for n, k, s, h in dx.extension.candidates],
-                    ["candidate", "terms", "free-run RMSE (max of hold-out, fitting)",
-                     "movement in probe holds"])
-        L.append("")
+    v = dx.verdict
+    L += [f"Candidates, each fitted on the fitting samples and simulated in free run on the "
+          f"selection samples; p: one-sided paired block-bootstrap p-value that it beats "
+          f"the baseline (log loss, Holm-adjusted over the candidates); a memory candidate "
+          f"must also beat the best memory-free one. "
+          f"Level {v.level:g}; baseline RMSE {_g(v.baseline_rmse)}.", ""]
+    L += _table([[t.effect, t.structure.name, str(0 if t.model is None else t.model.n_terms),
+                  _g(t.selection_rmse), _g(t.p_adjusted),
+                  _g(t.p_free_adjusted) if t.effect == "hysteresis" else "-",
+                  "**yes**" if t is v.winner else ""]
+                 for t in sorted(v.tested, key=lambda t: t.selection_rmse)],
+                ["effect", "candidate", "terms", "selection RMSE", "p vs baseline",
+                 "p vs memory-free", "winner"])
+    L.append("")
+    if dx.separation:
+        L += [f"Note: {dx.separation}.", ""]
     g = dx.gain
     L += ["## Gain", "", f"Free-run RMSE on the measuring samples: baseline {_g(g.baseline)}, "
           f"extended {_g(g.extended)}, ratio baseline/extended {_g(g.ratio)}.", "",

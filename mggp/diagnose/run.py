@@ -3,25 +3,34 @@
 Typical use::
 
     from mggp.diagnose import diagnose, Budget
-    dx = diagnose(train, validation=val, model=None, budget=Budget(), seed=0, jobs=2)
+    dx = diagnose(train, validation=val, model=None, budget=Budget(), seed=0, jobs=2,
+                  level=0.05)
     print(dx.summary())
+    dx.verdict.p_values, dx.split.describe()
     json.dump(dx.to_dict(), fh)          # the --json schema
 
-Sample bookkeeping (never modifies the data): with a validation record,
-the baseline and the extension are fitted on every training sample and the
-gain is measured on the validation record; without one, they are fitted on
-the first ``1 − holdout`` of the training samples and the gain is measured
-on the rest (the *tail*). Either way the measuring record is simulated free
-from its first L measured samples (L = the larger largest lag of the two
-models), and RMSE and MAPE are computed on the samples after them, the same
-samples for both models; on the training tail the models' memory operators
-(:mod:`narx.memory`) carry their state from the inputs before it (they are
-measured), while a validation record starts them at rest. The evidence comes from the fitting samples;
-held-input segments are searched in both records (a validation record with
-holds is what exposes drift); nothing is fitted on the measuring record.
+Sample bookkeeping (never modifies the data): three sets of samples, each
+with one job. With a validation record, the baseline and the candidates
+are fitted on the first ``1 − SELECT`` of the training record, the paired
+test that names the effect and picks the extension uses the rest of the
+training record (the *selection* samples), and the gain is measured on
+the validation record; without one, the last ``holdout`` of the training
+record measures and the samples before it are cut the same way. The
+models measured are those fitted on the fitting samples (no refit: the
+model recommended is the one the test chose). Each record is simulated
+free from its first L measured samples (L = the largest lag of the
+models compared), and the errors are scored after them, the same samples
+for every model; on a training-record part the models' memory operators
+(:mod:`narx.memory`) carry their state from the inputs before it (they
+are measured), while a validation record starts them at rest. The
+evidence comes from the fitting samples; held-input segments are
+searched in both records; nothing is fitted or chosen on the measuring
+samples, so the gain there is an out-of-sample measurement of the
+choice.
 """
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
@@ -34,11 +43,12 @@ from narx.metrics import mape
 from narx.outliers import find_spikes, repaired
 
 from .context import Context
-from .extend import (Budget, Extension, baseline_search, fit_extension, plan_extension,
-                     user_setting)
+from .candidates import candidate_structures, fit_structure, stays_bounded
+from .extend import Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
 from .simulation import freerun_after
+from .verdict import Verdict, decide, separation_note
 
 __all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data",
            "outside_fit_range"]
@@ -52,17 +62,27 @@ def slice_data(data: Data, a: int, b: int) -> Data:
 
 @dataclass(frozen=True)
 class Split:
-    """Which samples fitted the models and which measured the gain
-    (ranges are 0-based, ``stop`` exclusive, in each record's own numbering)."""
+    """Which samples fitted the models, which tested and selected the
+    candidates, and which measured the gain (ranges are 0-based, ``stop``
+    exclusive, in each record's own numbering; the selection samples are
+    always those of the fitting record right after the fitting samples)."""
 
     fit_record: str
     fit: Tuple[int, int]
     measure_record: str
     measure: Tuple[int, int]
     scored_from: int
+    select: Tuple[int, int] = (0, 0)
+    select_scored_from: int = 0
 
     def describe(self) -> str:
+        sel = ""
+        if self.select[1] > self.select[0]:
+            sel = (f"candidates tested and selected by free run on samples {self.select[0]}-"
+                   f"{self.select[1] - 1} of {self.fit_record} ({self.select_scored_from}-"
+                   f"{self.select[1] - 1} scored); ")
         return (f"fitted on samples {self.fit[0]}-{self.fit[1] - 1} of {self.fit_record}; "
+                + sel +
                 f"gain measured by free run on samples {self.measure[0]}-"
                 f"{self.measure[1] - 1} of {self.measure_record} (samples {self.measure[0]}-"
                 f"{self.scored_from - 1} are the initial conditions, {self.scored_from}-"
@@ -71,6 +91,8 @@ class Split:
     def to_dict(self) -> dict:
         return {"fit": {"record": self.fit_record, "first": self.fit[0],
                         "last": self.fit[1] - 1},
+                "select": {"record": self.fit_record, "first": self.select[0],
+                           "last": self.select[1] - 1, "scored_from": self.select_scored_from},
                 "measure": {"record": self.measure_record, "first": self.measure[0],
                             "last": self.measure[1] - 1, "scored_from": self.scored_from}}
 
@@ -97,11 +119,14 @@ class Scored:
 class Gain:
     """RMSE of both models on the measuring samples; ratio = baseline / extended
     (> 1: the extension is better). ``recommended`` is ``'extended'`` only
-    when the ratio is above 1; otherwise the baseline is kept."""
+    when the extension won the paired test on the selection samples
+    (``won``); otherwise the baseline is kept. The measuring samples play
+    no part in that choice, so the ratio is an honest out-of-sample gain."""
 
     baseline: float
     extended: float
     metric: str = "rmse"
+    won: bool = False
 
     @property
     def ratio(self) -> float:
@@ -115,8 +140,8 @@ class Gain:
 
     @property
     def recommended(self) -> str:
-        """``'extended'`` if the extension lowered the RMSE, else ``'baseline'``."""
-        return "extended" if self.ratio > 1 else "baseline"
+        """``'extended'`` if the extension won the paired test, else ``'baseline'``."""
+        return "extended" if self.won else "baseline"
 
     def to_dict(self) -> dict:
         return {"metric": self.metric, "baseline": _num(self.baseline),
@@ -126,14 +151,20 @@ class Gain:
 
 @dataclass
 class Diagnosis:
-    """Result of :func:`diagnose` (every field named; see ``to_dict`` for JSON)."""
+    """Result of :func:`diagnose` (every field named; see ``to_dict`` for JSON).
+
+    ``findings`` are the named effects (from ``verdict``, each with its
+    p-value against the level); ``evidence_findings`` the effects the
+    residual statistics point to (explanation, not the gate);
+    ``separation`` one line when the record cannot separate memory from
+    dynamics (else None)."""
 
     findings: List[Finding]
     checks: List[Check]
     evidence: Evidence
     baseline: Scored
     extended: Scored
-    extension: Extension
+    verdict: Verdict
     gain: Gain
     split: Split
     fit_data: Data
@@ -142,14 +173,18 @@ class Diagnosis:
     records: Tuple[str, str]
     settings: Dict[str, object]
     timings: Dict[str, float] = field(default_factory=dict)
+    evidence_findings: List[Finding] = field(default_factory=list)
+    separation: Optional[str] = None
 
     @property
     def effects(self) -> List[str]:
-        return [f.effect for f in self.findings]
+        """The named effects (the class of the candidate that won the test)."""
+        return list(self.verdict.named)
 
     @property
     def changes(self) -> Tuple[str, ...]:
-        return self.extension.changes if self.findings else ()
+        w = self.verdict.winner
+        return (w.structure.changes,) if w is not None else ()
 
     def to_dict(self) -> dict:
         return {"findings": [f.to_dict() for f in self.findings],
@@ -158,6 +193,9 @@ class Diagnosis:
                 "gain": self.gain.to_dict(),
                 "samples": self.split.to_dict(),
                 "tests": [c.to_dict() for c in self.checks],
+                "evidence": [f.to_dict() for f in self.evidence_findings],
+                "verdict": self.verdict.to_dict(),
+                "separation": self.separation,
                 "settings": self.settings}
 
     def recommended_model(self, command: str = "") -> Model:
@@ -172,16 +210,15 @@ class Diagnosis:
         which = self.gain.recommended
         chosen = self.extended if which == "extended" else self.baseline
         g = self.gain
+        w = self.verdict.winner
         if which == "extended":
-            why = (f"the extension's free-run RMSE {number_text(g.extended)} on the measuring "
-                   f"samples is below the baseline's {number_text(g.baseline)} (gain "
-                   f"{number_text(g.ratio)}x)")
-        elif not self.findings:
-            why = "nothing was named, so the baseline was not changed"
+            why = (f"the extension ({w.structure.name}) beat the baseline in free run on the "
+                   f"selection samples (p {number_text(w.p_value)} <= {self.verdict.level:g}); "
+                   f"on the measuring samples its RMSE is {number_text(g.extended)} against "
+                   f"the baseline's {number_text(g.baseline)} (gain {number_text(g.ratio)}x)")
         else:
-            why = (f"the extension's free-run RMSE {number_text(g.extended)} on the measuring "
-                   f"samples is not below the baseline's {number_text(g.baseline)}: the "
-                   f"baseline is kept")
+            why = ("no candidate extension beat the baseline significantly on the selection "
+                   "samples, so the baseline was not changed")
         m = Model(chosen.model.term_texts, theta=np.array(chosen.model.theta, dtype=float),
                   inputs=chosen.model.inputs, output=chosen.model.output,
                   registry=chosen.model.registry)
@@ -216,17 +253,48 @@ def _check_records(train: Data, validation: Optional[Data], model: Optional[Mode
                             f"be diagnosed")
 
 
+#: share of the samples before the measuring ones that tests and selects the
+#: candidates (the rest, before it, fits them)
+SELECT = 0.3
+
+
 def _split(train: Data, validation: Optional[Data], holdout: float, names):
-    if validation is not None:
-        return train, validation, (names[0], (0, train.n)), (names[1], (0, validation.n))
-    if not 0.0 < holdout < 1.0:
+    """``(fit, measure, n_fit, n_select_stop, fit range, measure range)``:
+    with a validation record the training record is cut into fit (head) and
+    selection (tail, :data:`SELECT`) samples and the validation record
+    measures; without one, its last ``holdout`` measures and the samples
+    before are cut the same way."""
+    if validation is None and not 0.0 < holdout < 1.0:
         raise ValueError(f"holdout must be a fraction in (0, 1), got {holdout!r}")
-    n_fit = int(round(train.n * (1.0 - holdout)))
-    if n_fit < 100 or train.n - n_fit < 50:
-        raise DataError(f"{names[0]}: {train.n} samples are too few to hold out a tail "
-                        f"(need at least 100 to fit and 50 to measure); give --validation")
-    return (slice_data(train, 0, n_fit), slice_data(train, n_fit, train.n),
-            (names[0], (0, n_fit)), (names[0], (n_fit, train.n)))
+    n_pre = train.n if validation is not None else int(round(train.n * (1.0 - holdout)))
+    n_fit = int(round(n_pre * (1.0 - SELECT)))
+    if n_fit < 100 or n_pre - n_fit < 50 or (validation is None and train.n - n_pre < 50):
+        need = "100 to fit, 50 to select" + ("" if validation is not None else
+                                              " and 50 to measure")
+        raise DataError(f"{names[0]}: {train.n} samples are too few to split (need at least "
+                        f"{need})" + ("" if validation is not None else "; give --validation"))
+    fit = slice_data(train, 0, n_fit)
+    if validation is not None:
+        return fit, validation, n_fit, n_pre, (names[0], (0, n_fit)), (names[1], (0, validation.n))
+    return (fit, slice_data(train, n_pre, train.n), n_fit, n_pre, (names[0], (0, n_fit)),
+            (names[0], (n_pre, train.n)))
+
+
+def _errors(model: Optional[Model], record: Data, first: int, start: int,
+            stop: int) -> np.ndarray:
+    """Free-run errors y − ŷ of ``model`` on samples ``first + start`` ..
+    ``stop - 1`` of ``record``, the free run started at ``first``
+    (:func:`~mggp.diagnose.simulation.freerun_after`); all ``inf`` when it
+    diverges or there is no model."""
+    n = stop - first - start
+    if model is None:
+        return np.full(n, np.inf)
+    with np.errstate(all="ignore"):
+        r = freerun_after(model, record.slice(0, stop), first)
+    e = (r.y - r.y_hat)[start:]
+    if r.diverged or not np.all(np.isfinite(e)):
+        return np.full(n, np.inf)
+    return e
 
 
 def _score(model: Model, record: Data, first: int,
@@ -277,9 +345,23 @@ def _reach_dead_time(fit: Data, budget: Budget):
     return replace(budget, max_height=h), {"height": h, "why": said}
 
 
+def _one_blas_thread(f):
+    """``f`` run with the BLAS on one thread (:func:`narx.linalg.one_blas_thread`:
+    the diagnosis's solves are tall and narrow, and on a busy machine a
+    second BLAS thread made the dead-time scan alone 20 times slower)."""
+    @functools.wraps(f)
+    def run(*args, **kwargs):
+        from narx.linalg import one_blas_thread
+        with one_blas_thread():
+            return f(*args, **kwargs)
+    return run
+
+
+@_one_blas_thread
 def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Model] = None,
              *, budget: Budget = Budget(), seed: int = 0, jobs: int = 1,
-             holdout: float = 0.3, alpha: float = 0.01, resolution: float = 0.005,
+             holdout: float = 0.3, alpha: float = 0.01, level: float = 0.05,
+             resolution: float = 0.005,
              names: Tuple[str, str] = ("train", "validation"), model_name: str = "model",
              progress: Optional[Callable[[str], None]] = None,
              search_callbacks: Optional[Callable[[int], list]] = None,
@@ -299,7 +381,10 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     holdout : float
         Tail fraction measuring the gain when there is no validation record.
     alpha : float
-        False-alarm probability of each test.
+        False-alarm probability of each residual test (the evidence).
+    level : float
+        Level α of the paired test that names an effect (family-wise over
+        the candidates, by Holm's procedure; :mod:`.verdict`).
     resolution : float
         Smallest effect worth naming, as a fraction of the output's range.
     progress : callable, optional
@@ -316,6 +401,8 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     say = progress or (lambda msg: None)
     if not 0.0 < alpha < 0.5:
         raise ValueError(f"alpha must be in (0, 0.5), got {alpha!r}")
+    if not 0.0 < level < 0.5:
+        raise ValueError(f"level must be in (0, 0.5), got {level!r}")
     if not 0.0 <= resolution < 1.0:
         raise ValueError(f"resolution must be in [0, 1), got {resolution!r}")
     _check_records(train, validation, model)
@@ -329,7 +416,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
         train = repaired(train, glitches[names[0]])
         if validation is not None:
             validation = repaired(validation, glitches[names[1]])
-    fit, measure, (fit_name, fit_rng), (meas_name, meas_rng) = _split(
+    fit, measure, n_fit, n_pre, (fit_name, fit_rng), (meas_name, meas_rng) = _split(
         train, validation, holdout, names)
     rec_names = (fit_name, meas_name if validation is not None else f"{fit_name} (tail)")
     budget, dead_time = _reach_dead_time(fit, budget)
@@ -351,18 +438,38 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     ctx = Context(base, fit, measure, rec_names, meas_rng[0], budget, alpha, resolution, seed)
     ev = run_tests(ctx)
     checks = ev.checks
-    findings = name_findings(checks)
+    evidence_findings = name_findings(checks)
     timings["evidence"] = time.perf_counter() - t1
     t2 = time.perf_counter()
-    plan = plan_extension([f.effect for f in findings], base_setting, budget, fit.n)
-    if findings:
-        say("extension: " + "; ".join(plan.changes))
-        ext = fit_extension(plan, base, fit, budget, seed, jobs, ev.floor,
-                            search_callbacks)
-    else:
-        ext = Extension(base, "baseline (no finding)", (), plan)
-    timings["extension"] = time.perf_counter() - t2
-    start = max(base.max_lag, ext.model.max_lag)
+    structures = candidate_structures(base, fit)
+    say("candidates: " + ", ".join(st.name for st in structures))
+    fitted = [(st, *fit_structure(st, fit, base.registry)) for st in structures]
+    timings["candidates"] = time.perf_counter() - t2
+    t3 = time.perf_counter()
+    pre = train.slice(0, n_pre)
+    s_start = max([base.max_lag] + [m.max_lag for _, m, _ in fitted if m is not None])
+    if n_pre - n_fit <= s_start + 20:
+        raise DataError(f"{rec_names[0]}: {n_pre - n_fit} selection samples are too few for "
+                        f"models with largest lag {s_start}")
+    e_base = _errors(base, pre, n_fit, s_start, n_pre)
+    cands = [(st, m, _errors(m, pre, n_fit, s_start, n_pre), score) for st, m, score in fitted]
+    # a candidate whose free run leaves the output's range on probe inputs
+    # (:func:`~.candidates.stays_bounded`) cannot win
+    eligible = [stays_bounded(m, fit) for _, m, _ in fitted]
+    # the log loss of the tests, floored at the resolution (errors below it
+    # are equal); a zero resolution leaves a floor of 1e-9 of the range
+    floor = max(ctx.floor, 1e-9 * (float(np.ptp(fit.y)) or 1.0))
+    vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]), floor,
+                eligible)
+    timings["test"] = time.perf_counter() - t3
+    winner = vd.winner
+    ext_model = winner.model if winner is not None else base
+    if winner is not None:
+        say(f"verdict: {winner.effect} ({winner.structure.name})")
+        ext_model.meta.update({"source": "mggp diagnose extension",
+                               "estimation": "cls" if winner.structure.constraints else "ls",
+                               "changes": [winner.structure.changes]})
+    start = max(base.max_lag, ext_model.max_lag)
     if measure.n <= start + 10:
         raise DataError(f"{rec_names[1]}: {measure.n} samples are too few to measure models "
                         f"with largest lag {start}")
@@ -370,27 +477,33 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     # operators carry their state); a validation record starts on its own
     record, first = (train, meas_rng[0]) if validation is None else (measure, 0)
     b_rmse, b_mape, b_hat = _score(base, record, first, start)
-    e_rmse, e_mape, e_hat = _score(ext.model, record, first, start)
+    e_rmse, e_mape, e_hat = _score(ext_model, record, first, start)
     off = meas_rng[0]
-    split = Split(fit_name, fit_rng, meas_name, meas_rng, off + start)
-    ext_source = ("the baseline (nothing named, nothing changed)" if not findings else
-                  f"{ext.chosen}: " + "; ".join(ext.changes))
-    settings = {"seed": int(seed), "jobs": int(jobs), "alpha": alpha,
+    split = Split(fit_name, fit_rng, meas_name, meas_rng, off + start, (n_fit, n_pre),
+                  n_fit + s_start)
+    ext_source = ("the baseline (no candidate won the test, nothing changed)" if winner is None
+                  else f"{winner.structure.name}: {winner.structure.changes}")
+    findings = [Finding(t.effect, f"{t.structure.name}: {t.structure.changes}; free-run RMSE "
+                        f"on the selection samples {number_text(vd.baseline_rmse)} (baseline) "
+                        f"-> {number_text(t.selection_rmse)}, one-sided p-value "
+                        f"{number_text(t.p_value)} (paired block bootstrap of the log-loss differences, "
+                        f"Holm) <= level "
+                        f"{level:g}", t.p_value, level) for t in ([winner] if winner else [])]
+    separation = separation_note(pre)
+    settings = {"seed": int(seed), "jobs": int(jobs), "alpha": alpha, "level": level,
                 "user_model": model is not None,
                 "resolution": resolution, "holdout": None if validation is not None
-                else holdout, "budget": dict(budget.__dict__),
-                "baseline": base_source, "extension_search": plan.setting.describe(),
+                else holdout, "select": SELECT, "budget": dict(budget.__dict__),
+                "baseline": base_source,
                 "measure_outside_fit_range": outside_fit_range(fit, measure, start),
                 "dead_time": dead_time,
                 "outliers": {label: [sp.to_dict() for sp in found]
                              for label, found in glitches.items()} if outliers == "auto"
-                else "keep",
-                "candidates": [{"name": n, "terms": k, "fit_freerun_rmse": _num(s),
-                                "probe_hold_movement": _num(h)}
-                               for n, k, s, h in ext.candidates]}
+                else "keep"}
     timings["total"] = time.perf_counter() - t0
     return Diagnosis(findings, checks, ev,
                      Scored(base, base_source, b_rmse, b_mape, b_hat),
-                     Scored(ext.model, ext_source, e_rmse, e_mape, e_hat), ext,
-                     Gain(b_rmse, e_rmse), split, fit, measure, ctx.measure_holds, rec_names,
-                     settings, timings)
+                     Scored(ext_model, ext_source, e_rmse, e_mape, e_hat), vd,
+                     Gain(b_rmse, e_rmse, won=winner is not None), split, fit, measure,
+                     ctx.measure_holds, rec_names, settings, timings, evidence_findings,
+                     separation)

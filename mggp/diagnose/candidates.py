@@ -1,0 +1,346 @@
+r"""Candidate extensions of a baseline, grouped by the effect each one fixes.
+
+Typical use::
+
+    from mggp.diagnose.candidates import candidate_structures, fit_structure
+    for s in candidate_structures(baseline, fit_data):
+        model, score = fit_structure(s, fit_data, baseline.registry)  # None: not estimable
+        s.effect, s.name, s.changes, model.term_texts
+
+Each :class:`Structure` is the baseline's terms plus a set of new terms
+(or, for the operator-dynamics forms, a structure of its own), of one
+class:
+
+===========================  ============================================================
+effect                       candidates
+===========================  ============================================================
+``hysteresis`` (memory)      Φ-functions of the inputs (Phi1, Phi2 and the Bouc–Wen
+                             direction terms), plays of several radii
+                             (Prandtl–Ishlinskii), Deng–Tan, Bouc–Wen variables of
+                             the inputs on a grid of shapes, Φ of the output lags
+                             (memory driven by the output's velocity: Phi2(y[k-1],y[k-2])
+                             terms and plays of y[k-1]), and linear dynamics of order
+                             up to 3 driven by plays or by Bouc–Wen variables
+                             (radii :data:`PLAY_FRACTIONS`, the search's
+                             Bouc–Wen shapes, at lags 0 and 1)
+``unmodelled-dynamics``      more lags: y[k-1..6] and every input at lags 0..6
+``unmodelled-nonlinearity``  more degree: the products of degree 2 and 3 of y[k-1],
+                             y[k-2] and every input at lags 0 and 1 (degree 4 of
+                             y[k-1], u[k-1] when the baseline has degree 3 or more);
+                             and more lags and degree together
+``steady-state-drift``       the baseline's terms by CLS under the derived
+                             continuum-of-steady-states constraints
+===========================  ============================================================
+
+Every input at lag 0 joins the new terms of every class (a direct
+feedthrough is then no reason to prefer one class over another).
+
+A structure is fitted on the fitting samples only (:func:`fit_structure`):
+its new terms are ordered by forward selection on the one-step error
+(each step adds the term whose column, orthogonalised against those
+already in, lowers the residual sum of squares most — orthogonal least
+squares [1]_); the nested structures baseline + the first j new terms are
+estimated by LS on the first :data:`HEAD` of the fitting samples and
+scored by their free-run RMSE on the rest; the j with the smallest
+hold-out RMSE is kept and its structure estimated on all the fitting
+samples; that hold-out RMSE is the candidate's *score*, which picks the
+representative of each class (:mod:`.verdict`). The samples that test and
+measure the candidates play no part.
+
+References
+----------
+.. [1] Chen, S., Billings, S. A., Luo, W., "Orthogonal least squares
+   methods and their application to non-linear system identification",
+   Int. J. Control 50(5), 1989, 1873-1896.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations_with_replacement
+from typing import List, Optional, Tuple
+
+import numpy as np
+
+from narx import Model
+from narx.data import Data
+from narx.estimate import EstimationError
+from narx.model import ignore_rank_warnings
+from narx.regressors import regressor_matrix
+from narx.terms import Signals, parse_term
+
+from .augmentation import direction_terms
+from .simulation import freerun_rmse
+
+__all__ = ["Structure", "MEMORY", "MEMORY_FREE", "candidate_structures", "fit_structure",
+           "HEAD", "MAX_NEW", "probe_inputs", "stays_bounded"]
+
+#: the class of the memory candidates
+MEMORY = "hysteresis"
+#: the classes of the memory-free candidates
+MEMORY_FREE = ("unmodelled-dynamics", "unmodelled-nonlinearity", "steady-state-drift")
+#: share of the fitting samples that estimates each nested structure while
+#: its number of new terms is chosen (the rest scores it in free run)
+HEAD = 0.7
+#: most new terms a structure keeps
+MAX_NEW = 20
+#: play radii of the candidates, as fractions of the signal's range: a grid
+#: dense enough that a weighted sum of neighbours stands in for a play of
+#: any radius up to 0.4 of the range (the search's four radii
+#: :data:`mggp.primitives.PLAY_RADIUS_FRACTIONS` left a play of 0.15 of
+#: the range at 16 times the noise level in free run)
+PLAY_FRACTIONS = tuple(round(0.025 * j, 3) for j in range(1, 17))
+def _plays(signal: str, x, lags) -> List[str]:
+    """Plays of ``signal`` at ``lags``, radii :data:`PLAY_FRACTIONS` of the range of ``x``."""
+    span = float(np.ptp(x))
+    if not span > 0:
+        return []
+    radii = dict.fromkeys(float(f"{f * span:.3g}") for f in PLAY_FRACTIONS)
+    return [f"Play({t},{r:g})" for t in _lags(signal, lags) for r in radii]
+
+
+def _bouc_wens(signal: str, x, lags) -> List[str]:
+    """Bouc–Wen variables of ``signal`` at ``lags`` on the search's grid of
+    shapes (:func:`mggp.primitives.bouc_wen_shapes` of ``x``; the gain is
+    the term's coefficient). A denser grid (9 × 3 shapes) made the
+    forward selection pick near-collinear columns: on the piezo record the
+    candidate's selection RMSE rose from 0.34 to 1.6."""
+    from ..primitives import bouc_wen_shapes
+    return [f"BoucWen({t},{beta:g},{gamma:g})" for beta, gamma in bouc_wen_shapes(x)
+            for t in _lags(signal, lags)]
+
+
+@dataclass(frozen=True)
+class Structure:
+    """A candidate: the ``effect`` it fixes, its ``name``, what it changes in
+    words, the terms kept as they are (``base``: the baseline's, or none
+    when the candidate replaces it), the new terms offered (``new``), and
+    the estimation (``constraints``: None for LS)."""
+
+    effect: str
+    name: str
+    changes: str
+    base: Tuple[str, ...]
+    new: Tuple[str, ...]
+    constraints: Optional[str] = None
+
+
+def _lags(name: str, lags) -> List[str]:
+    return [f"{name}[k-{j}]" if j else f"{name}[k]" for j in lags]
+
+
+def _monomials(variables, degrees) -> List[str]:
+    return ["*".join(c) for d in degrees for c in combinations_with_replacement(variables, d)]
+
+
+def _output_memory(data: Data) -> List[str]:
+    """Φ of the output lags and plays of y[k-1]: memory driven by the output's
+    velocity (radii :data:`PLAY_FRACTIONS` of the output's range)."""
+    y = data.output
+    s = f"Phi2({y}[k-1],{y}[k-2])"
+    out = [s, f"{s}*{y}[k-1]", f"Phi1({y}[k-1],{y}[k-2])*{s}"]
+    out += [f"{s}*{n}[k-1]" for n in data.inputs]
+    return out + _plays(y, data.y, (1,))
+
+
+def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
+    """The candidate structures of ``baseline`` on the fitting record
+    ``data`` (module doc), memory candidates first."""
+    y, ins = data.output, list(data.inputs)
+    base = tuple(baseline.term_texts)
+    now = [f"{n}[k]" for n in ins]
+    phi = [t for n in ins for t in direction_terms(n, y)
+           + [f"Phi1({n}[k-1],{n}[k-2])", f"Phi2({n}[k-1],{n}[k-2])",
+              f"{y}[k-1]*Phi2({n}[k-1],{n}[k-2])", f"{n}[k-1]*Phi2({n}[k-1],{n}[k-2])"]]
+    lags = _lags(y, range(1, 7)) + [t for n in ins for t in _lags(n, range(0, 7))]
+    vars2 = [f"{y}[k-1]", f"{y}[k-2]"] + [t for n in ins for t in _lags(n, (0, 1))]
+    degree = _monomials(vars2, (2, 3))
+    if max(t.degree for t in baseline.terms) >= 3:
+        degree += _monomials([f"{y}[k-1]"] + [f"{n}[k-1]" for n in ins], (4,))
+    M = MEMORY
+    linear = _lags(y, (1, 2, 3)) + [t for n in ins for t in _lags(n, (0, 1, 2))]
+    plays = [t for n in ins for t in _plays(n, data.input(n), (0, 1))]
+    bw = [t for n in ins for t in _bouc_wens(n, data.input(n), (0, 1))]
+    out = [
+        Structure(M, "Φ of the inputs", "hysteresis: Φ-functions of the inputs (Phi1, Phi2 of "
+                  "u[k-1], u[k-2] and the Bouc–Wen direction terms |Δu|, y[k-1]|Δu|, "
+                  "u[k-1]|Δu|) added to the baseline's terms", base, tuple(now + phi)),
+        Structure(M, "plays (Prandtl–Ishlinskii)", "hysteresis: plays of several radii of the "
+                  "inputs at lags 0 and 1 (a Prandtl–Ishlinskii operator) added to the "
+                  "baseline's terms", base,
+                  tuple(now + plays)),
+        Structure(M, "Deng–Tan", "hysteresis: Deng–Tan operators of the inputs at lags 0 and 1 "
+                  "added to the baseline's terms", base,
+                  tuple(now + [f"DengTan({t})" for n in ins for t in _lags(n, (0, 1))])),
+        Structure(M, "Bouc–Wen", "hysteresis: Bouc–Wen variables of the inputs at lags 0 and 1 "
+                  "on a grid of shapes added to the baseline's terms", base,
+                  tuple(now + bw)),
+        Structure(M, "Φ of the output lags", "hysteresis: memory driven by the output's "
+                  "velocity (Phi2(y[k-1],y[k-2]) terms and plays of y[k-1]) added to the "
+                  "baseline's terms", base, tuple(now + _output_memory(data))),
+        Structure(M, "operator dynamics", "hysteresis: linear dynamics of order up to 3 driven "
+                  "by the inputs and their plays and Deng–Tan operators, in place of the "
+                  "baseline", (), tuple(linear + plays + [f"DengTan({t})" for n in ins for t in _lags(n, (0, 1))])),
+        Structure(M, "Bouc–Wen dynamics", "hysteresis: linear dynamics of order up to 3 driven "
+                  "by the inputs and Bouc–Wen variables of them, in place of the baseline",
+                  (), tuple(linear + bw)),
+        Structure("unmodelled-dynamics", "more lags", "unmodelled-dynamics: lags y[k-1..6] and "
+                  "u[k..k-6] added to the baseline's terms", base, tuple(lags)),
+        Structure("unmodelled-nonlinearity", "more degree", "unmodelled-nonlinearity: products "
+                  "of degree 2 and 3 of y[k-1], y[k-2], u[k], u[k-1] added to the baseline's "
+                  "terms", base, tuple(now + degree)),
+        Structure("unmodelled-nonlinearity", "more lags and degree", "unmodelled-nonlinearity: "
+                  "longer lags and products of degree 2 and 3 added to the baseline's terms",
+                  base, tuple(lags + degree)),
+        Structure("steady-state-drift", "CLS", "steady-state-drift: the baseline's terms by CLS "
+                  "under the derived continuum-of-steady-states constraints (Σ_y = 1, other "
+                  "cluster sums 0)", base, (), "steady-state"),
+    ]
+    return out
+
+
+def _canonical(terms, data: Data, registry) -> list:
+    """``terms`` parsed (:class:`narx.terms.Term`, parsed once: a model built
+    from them does not parse again), each once, in order."""
+    sig = Signals(data.output, data.inputs)
+    return list(dict.fromkeys(parse_term(t, sig, registry=registry) for t in terms))
+
+
+def _estimate(terms, data: Data, constraints, registry) -> Optional[Model]:
+    if not terms:
+        return None
+    try:
+        with ignore_rank_warnings(), np.errstate(all="ignore"):
+            m = Model(list(terms), inputs=data.inputs, output=data.output,
+                      registry=registry).fit(data, constraints=constraints)
+    except (EstimationError, ValueError, np.linalg.LinAlgError):
+        return None
+    return m if m.theta is not None and np.all(np.isfinite(m.theta)) else None
+
+
+def _forward_order(base, new, data: Data, registry) -> list:
+    """``new`` ordered by orthogonal forward selection after ``base``, at
+    most :data:`MAX_NEW` of them (columns in the span of those already in
+    are left out)."""
+    sig = dict(inputs=data.inputs, output=data.output, registry=registry)
+    start = Model(list(base) + list(new), **sig).max_lag
+    if start >= data.n - 10:
+        return []
+    with np.errstate(all="ignore"):
+        C, target, _ = regressor_matrix(Model(list(new), **sig).terms, data, start=start,
+                                        registry=registry)
+        if base:
+            B = regressor_matrix(Model(list(base), **sig).terms, data, start=start,
+                                 registry=registry)[0]
+        else:
+            B = np.empty((C.shape[0], 0))
+    ok = np.all(np.isfinite(C), axis=0)
+    nb = np.linalg.norm(B, axis=0)
+    Q = np.linalg.qr(B[:, nb > 0] / nb[nb > 0])[0] if np.any(nb > 0) else B[:, :0]
+    r = target - Q @ (Q.T @ target)
+    nc = np.linalg.norm(C, axis=0)
+    keep = ok & (nc > 0)
+    C = np.where(keep, C / np.where(nc > 0, nc, 1.0), 0.0)
+    C = C - Q @ (Q.T @ C)
+    order = []
+    left = list(np.flatnonzero(keep))
+    while left and len(order) < MAX_NEW:
+        X = C[:, left]
+        norms = np.einsum("ij,ij->j", X, X)
+        gain = np.where(norms > 1e-16, (X.T @ r) ** 2 / np.where(norms > 0, norms, 1.0), -1.0)
+        j = int(np.argmax(gain))
+        if gain[j] <= 0:
+            break
+        col = left.pop(j)
+        q = C[:, col] / np.sqrt(norms[j])
+        order.append(new[col])
+        r = r - q * (q @ r)
+        C = C - np.outer(q, q @ C)
+    return order
+
+
+def fit_structure(s: Structure, data: Data, registry=None) -> Tuple[Optional[Model], float]:
+    """Fit the candidate ``s`` on the fitting record ``data`` (module doc).
+
+    Returns
+    -------
+    (model, score)
+        The model estimated on all of ``data`` (None when no structure of
+        it can be estimated) and its hold-out score: the free-run RMSE on
+        the last ``1 - HEAD`` of ``data`` of the same structure estimated
+        on the first :data:`HEAD` (``inf`` when none simulates). The score
+        uses the fitting samples only, so choosing among candidates by it
+        leaves the selection samples free for an unbiased test.
+    """
+    base = _canonical(s.base, data, registry)
+    cut = int(HEAD * data.n)
+    head = data.slice(0, cut)
+    if not s.new:
+        m = _estimate(base, head, s.constraints, registry)
+        return _estimate(base, data, s.constraints, registry), freerun_rmse(m, data, cut)
+    new = [t for t in _canonical(s.new, data, registry) if t not in set(base)]
+    order = _forward_order(base, new, data, registry)
+    if not order:
+        return None, float("inf")
+    best, best_rmse = None, np.inf
+    for j in range(1, len(order) + 1):
+        terms = base + order[:j]
+        m = _estimate(terms, head, s.constraints, registry)
+        if m is None:
+            continue
+        r = freerun_rmse(m, data, cut)
+        if r < best_rmse:
+            best, best_rmse = terms, r
+    if best is None:
+        return None, float("inf")
+    return _estimate(best, data, s.constraints, registry), float(best_rmse)
+
+
+def probe_inputs(data: Data) -> List[Data]:
+    """Inputs unlike the fitting record's, over its range: a staircase of 12
+    levels (up by every other level, down by the rest, each held 60
+    samples) and a triangle wave of period 300 samples at half and full
+    amplitude, per input (the other inputs at their
+    means); the output column is a placeholder."""
+    out = []
+    for name in data.inputs:
+        u = data.input(name)
+        lo, hi = float(np.min(u)), float(np.max(u))
+        mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        stairs = np.repeat(np.linspace(lo, hi, 12)[np.r_[0:12:2, 11:0:-2]], 60)
+        t = np.arange(1200)
+        tri = 2 * np.abs((t / 150.0) % 2 - 1) - 1
+        wave = mid + half * np.where(t < 600, 0.5, 1.0) * tri
+        for x in (stairs, wave):
+            U = np.column_stack([x if n == name else np.full(x.size, float(np.mean(data.input(n))))
+                                 for n in data.inputs])
+            out.append(Data(U, np.zeros(x.size), inputs=data.inputs, output=data.output))
+    return out
+
+
+def stays_bounded(model: Optional[Model], data: Data, margin: float = 1.0) -> bool:
+    r"""True when the free run of ``model`` on every :func:`probe_inputs` of
+    ``data`` stays finite and within the fitting output's range widened by
+    ``margin`` × its span on each side.
+
+    A candidate chosen on the selection samples is simulated there on the
+    same kind of input it was fitted on; a user's next record may be
+    another kind. On development draws of the zoo, 3 of 15 winners whose
+    free run was bounded on the selection samples diverged on the
+    validation record (steps, chirps, holds); a staircase over the range
+    and a slow triangle wave expose such a model without using any
+    measured sample. The free run starts at rest at the output's mean.
+    """
+    if model is None:
+        return False
+    y = data.y
+    lo, hi = float(np.min(y)), float(np.max(y))
+    span = hi - lo or 1.0
+    for d in probe_inputs(data):
+        d.y[:] = float(np.mean(y))
+        with np.errstate(all="ignore"):
+            r = model.simulate(d, mode="freerun")
+        yh = r.y_hat[model.max_lag:]
+        if r.diverged or not np.all(np.isfinite(yh)) or np.min(yh) < lo - margin * span \
+                or np.max(yh) > hi + margin * span:
+            return False
+    return True

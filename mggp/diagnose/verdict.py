@@ -1,0 +1,258 @@
+r"""The verdict: which candidate extension wins a paired held-out test, and
+the effect it names.
+
+Typical use::
+
+    import numpy as np
+    from mggp.diagnose.verdict import decide, separation_note
+    v = decide(e_base, [(structure, model, e_cand), ...], alpha=0.05,
+               rng=np.random.default_rng(0))
+    v.named, v.winner, v.p_values              # e.g. ('hysteresis',), ..., {...}
+    separation_note(train)                      # None, or one line
+
+Rule. Every candidate's free-run errors on the selection samples are
+compared with the baseline's by the one-sided paired block-bootstrap test
+of :mod:`.paired`; the p-values are adjusted over all candidates by
+Holm's procedure. ``hysteresis`` needs more: a memory candidate must also
+beat the best memory-free candidate (lags, degree, CLS: the one with the
+smallest selection RMSE, the strongest comparator), by the same test with
+Holm's adjustment over the memory candidates — so a baseline too weak for
+a memoryless system (a Wiener saturation, say) that more degree fixes as
+well is not read as hysteresis. A memory candidate's p-value is the
+larger of its two adjusted p-values (intersection–union: both nulls must
+be rejected); each class's p-value is the smallest p-value of its
+candidates. (Testing only one representative per class, picked by its
+hold-out score on the fitting samples, cut the multiplicity but the pick
+was noisy: on the piezo record a representative with a good score on the
+fitting samples' tail had 6 times the best memory candidate's selection
+RMSE.)
+
+The effect named is ``hysteresis`` when its p-value is at most α and
+the memory candidate's free-run RMSE on the selection samples is below
+the baseline's and the best memory-free candidate's (the winner: the
+qualifying memory candidate with the smallest RMSE); otherwise that of
+the winning memory-free candidate (p-value at most α, RMSE
+below the baseline's) with the smallest selection RMSE; otherwise nothing.
+The winner is then the extension; a candidate whose free run leaves the
+output's range on probe inputs (:func:`~.candidates.stays_bounded`) is
+tested and compared like the others but cannot win (the comparator of
+the memory candidates stays the best memory-free fit: a probe that rules
+out the polynomial must not hand the memory candidates a weaker rival —
+on a development Hammerstein draw it did, and hysteresis was named).
+The tests use the log loss with the
+diagnosis's resolution floor (:mod:`.paired`), robust to a few large
+excursions; the RMSE conditions make the winner better in the measured
+metric too.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from narx import Model
+from narx.data import Data
+
+from .candidates import MEMORY, MEMORY_FREE, Structure
+from .findings import json_number, number_text
+from .paired import PairedTest, holm, paired_test
+
+__all__ = ["Tested", "Verdict", "decide", "separation_note", "reversal_levels"]
+
+
+def _rmse(e) -> float:
+    e = np.asarray(e, dtype=float)
+    return float(np.sqrt(np.mean(e * e))) if e.size and np.all(np.isfinite(e)) else np.inf
+
+
+@dataclass(frozen=True)
+class Tested:
+    """A candidate and its tests: the structure, the model fitted on the
+    fitting samples (None: it could not be fitted), its free-run RMSE on
+    the selection samples, the paired test against the baseline and its
+    Holm-adjusted p-value, and (memory candidates) the test against the
+    best memory-free candidate and its Holm-adjusted p-value (NaN
+    otherwise)."""
+
+    structure: Structure
+    model: Optional[Model]
+    selection_rmse: float
+    test: PairedTest
+    p_adjusted: float
+    versus_free: Optional[PairedTest] = None
+    p_free_adjusted: float = float("nan")
+
+    @property
+    def effect(self) -> str:
+        return self.structure.effect
+
+    @property
+    def p_value(self) -> float:
+        """The p-value that decides this candidate (for memory candidates
+        the larger of the two adjusted p-values)."""
+        if self.effect == MEMORY and self.versus_free is not None:
+            return float(max(self.p_adjusted, self.p_free_adjusted))
+        return float(self.p_adjusted)
+
+    def to_dict(self) -> dict:
+        d = {"effect": self.effect, "name": self.structure.name,
+             "changes": [self.structure.changes],
+             "terms": [] if self.model is None else self.model.term_texts,
+             "selection_rmse": json_number(self.selection_rmse),
+             "p_value": json_number(self.p_value),
+             "p_versus_baseline": json_number(self.p_adjusted),
+             "block": self.test.block}
+        if self.effect == MEMORY:
+            d["p_versus_memory_free"] = json_number(self.p_free_adjusted)
+        return d
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The outcome of :func:`decide` (module doc)."""
+
+    level: float
+    tested: Tuple[Tested, ...]
+    named: Tuple[str, ...]
+    winner: Optional[Tested]
+    best_free: Optional[Tested]
+    baseline_rmse: float
+    p_values: Dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"level": self.level, "candidates": [t.to_dict() for t in self.tested],
+                "p_values": {k: json_number(v) for k, v in self.p_values.items()},
+                "baseline_selection_rmse": json_number(self.baseline_rmse),
+                "winner": None if self.winner is None else self.winner.structure.name}
+
+    def lines(self) -> List[str]:
+        """The tests in words, one line per candidate."""
+        out = []
+        for t in sorted(self.tested, key=lambda t: (t.selection_rmse, t.structure.name)):
+            mark = "*" if t is self.winner else " "
+            p = f"p {number_text(t.p_adjusted)}" + (
+                f", vs best memory-free p {number_text(t.p_free_adjusted)}"
+                if t.effect == MEMORY else "")
+            out.append(f"{mark} {t.effect:<24s} {t.structure.name:<28s} RMSE "
+                       f"{number_text(t.selection_rmse):>9s}  {p}")
+        return out
+
+
+def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.ndarray, float]],
+           alpha: float, rng: np.random.Generator, floor: Optional[float] = None,
+           eligible: Optional[Sequence[bool]] = None) -> Verdict:
+    """Test every candidate against the baseline and name the effect.
+
+    Parameters
+    ----------
+    e_base : array
+        The baseline's free-run errors on the selection samples.
+    candidates : sequence of (Structure, Model or None, errors, score)
+        Each candidate with its free-run errors on the same samples (a
+        candidate that could not be fitted: model None, errors inf) and its
+        hold-out score on the fitting samples (reported, not used here).
+    alpha : float
+        Level of the tests (family-wise, by Holm).
+    rng : numpy.random.Generator
+        Source of the bootstrap draws.
+    floor : float, optional
+        The loss of the tests (:func:`~.paired.paired_test`): None squared
+        error, else the log loss with this floor.
+    eligible : sequence of bool, optional
+        Which candidates may win (default all): an ineligible candidate is
+        tested and compared like the others (it may be the best memory-free
+        comparator) but is never the extension.
+    """
+    e_base = np.asarray(e_base, dtype=float)
+    ok_to_win = list(eligible) if eligible is not None else [True] * len(candidates)
+    base_rmse = _rmse(e_base)
+    rm = [_rmse(e) for _, _, e, _ in candidates]
+    tests = [paired_test(e_base, e, rng, floor=floor) for _, _, e, _ in candidates]
+    adj = holm([t.p_value for t in tests])
+    tested = [Tested(st, m, r, t, float(a))
+              for (st, m, _, _), r, t, a in zip(candidates, rm, tests, adj)]
+    free = [i for i, t in enumerate(tested) if t.effect in MEMORY_FREE and t.model is not None]
+    best_free = min(free, key=lambda i: rm[i]) if free else None
+    mem = [i for i, t in enumerate(tested) if t.effect == MEMORY]
+    if mem:
+        if best_free is None:
+            vs = [PairedTest(float("nan"), 0.0, 0, e_base.size)] * len(mem)
+        else:
+            vs = [paired_test(candidates[best_free][2], candidates[i][2], rng, floor=floor)
+                  for i in mem]
+        for i, t, a in zip(mem, vs, holm([t.p_value for t in vs])):
+            tested[i] = Tested(tested[i].structure, tested[i].model, rm[i], tested[i].test,
+                               tested[i].p_adjusted, t, float(a))
+    p_values: Dict[str, float] = {}
+    for t in tested:
+        p_values[t.effect] = min(p_values.get(t.effect, 1.0), t.p_value)
+    free_rmse = rm[best_free] if best_free is not None else np.inf
+    ok = [tested[i] for i in mem if tested[i].model is not None and ok_to_win[i]
+          and tested[i].p_value <= alpha and rm[i] < base_rmse and rm[i] < free_rmse]
+    if not ok:
+        ok = [tested[i] for i in free if ok_to_win[i] and tested[i].p_value <= alpha
+              and rm[i] < base_rmse]
+    winner = min(ok, key=lambda t: t.selection_rmse) if ok else None
+    return Verdict(float(alpha), tuple(tested), (winner.effect,) if winner else (), winner,
+                   tested[best_free] if best_free is not None else None, base_rmse,
+                   p_values)
+
+
+def reversal_levels(u, tol: float) -> Tuple[np.ndarray, np.ndarray]:
+    """The input's values at its reversals, ``(peaks, troughs)``, a reversal
+    counted when the input has moved back by more than ``tol`` from its
+    running extreme (small wiggles and noise are not reversals)."""
+    u = np.asarray(u, dtype=float)
+    peaks, troughs = [], []
+    hi = lo = ext = float(u[0])
+    direction = 0
+    for x in map(float, u[1:]):
+        if direction == 0:                  # the first move past tol sets the direction
+            hi, lo = max(hi, x), min(lo, x)
+            if x - lo > tol:
+                direction, ext = 1, x
+            elif hi - x > tol:
+                direction, ext = -1, x
+        elif direction > 0:
+            if x > ext:
+                ext = x
+            elif ext - x > tol:
+                peaks.append(ext)
+                direction, ext = -1, x
+        else:
+            if x < ext:
+                ext = x
+            elif x - ext > tol:
+                troughs.append(ext)
+                direction, ext = 1, x
+    return np.asarray(peaks), np.asarray(troughs)
+
+
+#: share of an input's range: reversals past it count, and peaks (troughs)
+#: that all lie within twice it of each other count as one level
+LEVEL_TOLERANCE = 0.05
+
+
+def separation_note(data: Data) -> Optional[str]:
+    """One line when the record cannot tell memory from dynamics: for some
+    input, its reversal points (:func:`reversal_levels`, a reversal counted
+    past :data:`LEVEL_TOLERANCE` of its range) take essentially one value
+    at the peaks and one at the troughs (each set spans at most twice that
+    tolerance): the loop is traced at one amplitude only, and a lag or a
+    memoryless term can mimic it; None otherwise."""
+    for name in data.inputs:
+        u = data.input(name)
+        span = float(np.ptp(u))
+        if not span > 0:
+            continue
+        tol = LEVEL_TOLERANCE * span
+        peaks, troughs = reversal_levels(u, tol)
+        if peaks.size + troughs.size < 2:
+            continue
+        if all(v.size == 0 or np.ptp(v) <= 2 * tol for v in (peaks, troughs)):
+            lv = [f"{np.median(v):.3g}" for v in (troughs, peaks) if v.size]
+            return (f"this record cannot separate memory from dynamics: the input {name} "
+                    f"reverses only at {' and '.join(lv)} (one amplitude), so a lag can "
+                    f"mimic the loop; a record with several amplitudes, or holds, would")
+    return None

@@ -1,0 +1,209 @@
+"""The verdict of mggp diagnose: the paired held-out test, its calibration
+under the null and its power, Holm's correction, the naming rule, and the
+line that says a record cannot separate memory from dynamics."""
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+from scipy.stats import binom
+
+import narx
+from narx.data import Data
+from narx.systems import piezo_bouc_wen, sine_input, training_input
+
+from mggp.diagnose import Budget, diagnose
+from mggp.diagnose.candidates import MEMORY, Structure
+from mggp.diagnose.paired import block_length, holm, paired_test
+from mggp.diagnose.verdict import decide, separation_note
+from test_diagnose import _play_record
+
+ALPHA = 0.05
+
+
+def _ar1(rng, n, phi=0.9, scale=1.0):
+    return scale * lfilter([1.0], [1.0, -phi], rng.standard_normal(n + 300))[300:]
+
+
+def _interval(trials, alpha=ALPHA):
+    lo, hi = binom.interval(0.95, trials, alpha)
+    return lo / trials, hi / trials
+
+
+# ------------------------------------------------------------ the paired test
+@pytest.mark.parametrize("floor", [None, 0.5], ids=["squared", "log"])
+def test_paired_test_holds_its_level_on_equally_good_autocorrelated_errors(floor):
+    rng = np.random.default_rng(0)
+    trials, n = 400, 1000
+    rejected = sum(paired_test(_ar1(rng, n), _ar1(rng, n), rng, floor=floor).p_value <= ALPHA
+                   for _ in range(trials))
+    lo, hi = _interval(trials)
+    assert lo <= rejected / trials <= hi, rejected / trials
+
+
+@pytest.mark.parametrize("floor", [None, 0.5], ids=["squared", "log"])
+def test_paired_test_has_power_when_one_sequence_is_better(floor):
+    rng = np.random.default_rng(1)
+    trials, n = 100, 1000
+    # control of the test above: the candidate's error is 30 % smaller
+    power = np.mean([paired_test(_ar1(rng, n), _ar1(rng, n, scale=0.7), rng,
+                                 floor=floor).p_value <= ALPHA for _ in range(trials)])
+    assert power > 0.8, power
+    # one-sided: the worse candidate is (almost) never called better
+    worse = np.mean([paired_test(_ar1(rng, n, scale=0.7), _ar1(rng, n), rng,
+                                 floor=floor).p_value <= ALPHA for _ in range(trials)])
+    assert worse < 0.02, worse
+
+
+def test_block_length_grows_with_the_correlation_time():
+    rng = np.random.default_rng(2)
+    white = block_length(rng.standard_normal(2000))
+    slow = block_length(_ar1(rng, 2000, phi=0.95))
+    assert white <= 3 < slow <= 500, (white, slow)
+
+
+def test_diverged_simulations_decide_without_bootstrap():
+    rng = np.random.default_rng(3)
+    e = rng.standard_normal(200)
+    assert paired_test(e, np.full(200, np.inf), rng).p_value == 1.0
+    assert paired_test(np.full(200, np.inf), e, rng).p_value < 0.01
+
+
+def test_holm_adjusts_in_step_down_order():
+    np.testing.assert_allclose(holm([0.01, 0.04, 0.03, 0.5]), [0.04, 0.09, 0.09, 0.5])
+    assert holm([]).size == 0
+
+
+# -------------------------------------------------------------- naming rule
+def _s(effect, name):
+    return Structure(effect, name, f"{effect}: {name}", (), ())
+
+
+M = narx.Model(["y[k-1]"], theta=[0.5])          # stands for a fitted candidate
+
+
+def test_memory_must_beat_the_best_memory_free_candidate_not_only_the_baseline():
+    rng = np.random.default_rng(4)
+    n = 1500
+    base = _ar1(rng, n, scale=2.0)
+    same = _ar1(rng, n)                               # memory and degree equally good
+    cands = [(_s(MEMORY, "plays"), M, same, 1.0),
+             (_s("unmodelled-nonlinearity", "more degree"), M, _ar1(rng, n), 1.0)]
+    v = decide(base, cands, ALPHA, rng)
+    assert v.named == ("unmodelled-nonlinearity",), v.p_values
+    assert v.p_values["hysteresis"] > ALPHA
+    # control: a memory candidate truly better than the memory-free one is named
+    cands[0] = (_s(MEMORY, "plays"), M, 0.5 * same, 1.0)
+    v = decide(base, cands, ALPHA, rng)
+    assert v.named == ("hysteresis",) and v.winner.structure.name == "plays"
+    assert v.p_values["hysteresis"] <= ALPHA
+
+
+def test_nothing_is_named_when_no_candidate_beats_the_baseline():
+    rng = np.random.default_rng(5)
+    n = 1500
+    cands = [(_s(MEMORY, "plays"), M, _ar1(rng, n), 1.0),
+             (_s(MEMORY, "Bouc–Wen"), M, _ar1(rng, n), 2.0),
+             (_s("unmodelled-dynamics", "more lags"), M, _ar1(rng, n), 1.0)]
+    v = decide(_ar1(rng, n), cands, ALPHA, rng)
+    assert v.named == () and v.winner is None
+    d = v.to_dict()
+    assert set(d["p_values"]) == {"hysteresis", "unmodelled-dynamics"}
+    assert {"effect", "changes", "terms", "selection_rmse", "p_value"} <= set(d["candidates"][0])
+    # every candidate is tested, the p-values adjusted over all of them: the
+    # far better Bouc–Wen candidate is named in place of nothing
+    assert [c["p_value"] <= ALPHA for c in d["candidates"]] == [False, False, False]
+
+
+# --------------------------------------------------------- separation line
+def _one_sine(n=3000, amplitude=40.0, seed=0):
+    t = np.arange(n) * 1e-3
+    u = amplitude * np.sin(2 * np.pi * 2.0 * t)
+    rng = np.random.default_rng(seed)
+    return Data(u, piezo_bouc_wen(u) + 0.01 * rng.standard_normal(n))
+
+
+def test_one_sine_cannot_separate_memory_from_dynamics_a_multi_amplitude_record_can():
+    note = separation_note(_one_sine())
+    assert note and "several amplitudes, or holds, would" in note
+    t = np.arange(3000) * 1e-3
+    u = 40 * np.sin(2 * np.pi * 2.0 * t) * (0.4 + 0.6 * np.abs(np.sin(2 * np.pi * 0.3 * t)))
+    assert separation_note(Data(u, piezo_bouc_wen(u))) is None          # control
+    assert separation_note(Data(training_input(3000, bandwidth=4.0, seed=1),
+                                np.zeros(3000))) is None
+
+
+def test_the_summary_says_the_one_sine_record_cannot_separate():
+    d = _one_sine()
+    m = narx.Model(["y[k-1]", "u[k-1]"]).fit(d)
+    dx = diagnose(d, model=m, budget=Budget(population=20, generations=2), seed=0)
+    assert dx.separation and dx.separation in dx.summary()
+    assert dx.to_dict()["separation"] == dx.separation
+
+
+# ------------------------------------------- hidden hysteresis and controls
+SMALL = Budget(population=60, generations=10, max_height=3)
+
+
+def _piezo_random(seed, n=4000):
+    """The project's piezo law y = 1.6 u - 0.9 BoucWen(u[k], 0.008, 0.008)
+    (exactly expressible in the term language) driven by a random input."""
+    u = training_input(n, bandwidth=4.0, seed=seed)
+    rng = np.random.default_rng(seed + 100)
+    return Data(u, piezo_bouc_wen(u) + 0.01 * rng.standard_normal(n))
+
+
+def _control(kind, seed, n=3000):
+    from narx.testsystems import hammerstein
+    if kind == "hammerstein":
+        s = hammerstein(n=n, seed=seed, noise_std=0.02)
+        return Data(s.u, s.y)
+    u = training_input(n, bandwidth=4.0, seed=seed) / 80.0
+    y = lfilter([0.0, 0.5, 0.25], [1.0, -1.5, 0.7], u)
+    return Data(u, y + 0.01 * np.std(y) * np.random.default_rng(seed).standard_normal(n))
+
+
+@pytest.mark.parametrize("record", [lambda: _piezo_random(1), lambda: _play_record(1, n=4000)],
+                         ids=["piezo-bouc-wen-random-input", "play"])
+def test_hidden_hysteresis_is_named_and_the_winner_gains(record):
+    dx = diagnose(record(), budget=SMALL, seed=0)
+    assert dx.effects == ["hysteresis"], dx.verdict.lines()
+    assert dx.gain.recommended == "extended" and dx.gain.ratio > 1
+    w = dx.to_dict()["verdict"]
+    assert w["p_values"]["hysteresis"] <= w["level"]
+    assert any(op in t for t in dx.extended.model.term_texts
+               for op in ("Phi", "Play(", "DengTan(", "BoucWen("))
+
+
+@pytest.mark.parametrize("kind", ["linear", "hammerstein"])
+def test_a_control_is_not_named_hysteresis(kind):
+    dx = diagnose(_control(kind, 1), budget=SMALL, seed=0)
+    assert "hysteresis" not in dx.effects, dx.verdict.lines()
+    assert dx.verdict.p_values["hysteresis"] > dx.verdict.level
+    if dx.effects:                 # a weak baseline fixed by lags or degree
+        assert dx.gain.ratio > 1
+
+
+@pytest.mark.slow
+def test_false_alarm_rate_for_hysteresis_on_controls_is_within_the_binomial_interval():
+    """Control records of :mod:`mggp.diagnose.controls` (no memory): the rate
+    at which hysteresis is named stays within the binomial 95 % interval
+    of the level."""
+    from mggp.diagnose.controls import CONTROL_KINDS, control_record
+    alarms, trials = 0, 0
+    for kind in CONTROL_KINDS:
+        for seed in range(4):
+            dx = diagnose(control_record(kind, seed=seed).data, budget=SMALL, seed=seed)
+            alarms += "hysteresis" in dx.effects
+            trials += 1
+    assert alarms / trials <= _interval(trials)[1], (alarms, trials)
+
+
+def test_probe_inputs_rule_out_a_model_that_leaves_the_range_off_its_own_input():
+    from mggp.diagnose.candidates import stays_bounded
+    d = _control("linear", 2)
+    good = narx.Model(["y[k-1]", "y[k-2]", "u[k-1]", "u[k-2]"]).fit(d)
+    assert stays_bounded(good, d)
+    # a cubic that fits the record but runs away on a staircase over its range
+    bad = narx.Model(["y[k-1]", "u[k-1]", "y[k-1]*y[k-1]*y[k-1]"],
+                     theta=[1.0, 0.05, 40.0 / np.ptp(d.y) ** 2])
+    assert not stays_bounded(bad, d)
+    assert not stays_bounded(None, d)
