@@ -2,7 +2,7 @@
 
 Typical use::
 
-    p = argparse.ArgumentParser(prog="python -m benchmarks.measured")
+    p = argparse.ArgumentParser(description="a study")
     add_budget_args(p, seeds=[1])
     a = p.parse_args(argv)
     MGGPRegressor(random_state=a.seeds[0], n_jobs=a.jobs, **budget(a))
