@@ -87,8 +87,9 @@ def test_runnable_blocks_hold_no_placeholder():
         assert "{{" not in p.values[1], p.id
 
 
-@pytest.mark.parametrize("lang,code", runnable())
-def test_block_runs_alone(lang, code, tmp_path):
+def run_block(lang: str, code: str, folder) -> subprocess.CompletedProcess:
+    """Run one block alone in ``folder`` (empty), ``python`` and ``mggp``
+    being this interpreter's."""
     env = dict(os.environ)
     env["PATH"] = os.path.dirname(sys.executable) + os.pathsep + env.get("PATH", "")
     env["PYTHONPATH"] = ROOT + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH")
@@ -97,15 +98,34 @@ def test_block_runs_alone(lang, code, tmp_path):
     if lang == "python":
         cmd = [sys.executable, "-c", code]
     else:
-        bindir = tmp_path / "bin"                  # `python` is this interpreter
+        bindir = folder / "bin"                    # `python` is this interpreter
         bindir.mkdir()
         shim = bindir / "python"                   # a symlink would lose the venv
         shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" "$@"\n')
         shim.chmod(0o755)
         env["PATH"] = str(bindir) + os.pathsep + env["PATH"]
         cmd = ["bash", "-euo", "pipefail", "-c", code]
-    r = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True,
-                       timeout=300)
+    return subprocess.run(cmd, cwd=folder, env=env, capture_output=True, text=True,
+                          timeout=300)
+
+
+@pytest.fixture(scope="module")
+def block_runs(request, tmp_path_factory):
+    """The selected blocks, run side by side, one per core (each is one
+    process in its own folder): ``{(lang, code): CompletedProcess}``."""
+    from concurrent.futures import ThreadPoolExecutor
+    selected = {(item.callspec.params["lang"], item.callspec.params["code"])
+                for item in request.session.items
+                if item.originalname == "test_block_runs_alone"}
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 2) as pool:
+        futures = {key: pool.submit(run_block, *key, tmp_path_factory.mktemp("block"))
+                   for key in selected}
+        return {key: f.result() for key, f in futures.items()}
+
+
+@pytest.mark.parametrize("lang,code", runnable())
+def test_block_runs_alone(lang, code, block_runs):
+    r = block_runs[(lang, code)]
     assert r.returncode == 0, f"{lang} block failed:\n{code}\n--- stderr:\n{r.stderr[-3000:]}"
 
 
@@ -255,6 +275,7 @@ def test_to_latex_of_row_0_is_the_simplest_structure():
     from narx.systems import piezo_bouc_wen, training_input
     u = training_input(2000, seed=1)
     front = MGGPRegressor(fitness="pem", population=30, generations=4, random_state=1,
+                          use_phi=True, constant=False,         # no pilots: one search
                           n_jobs=1).fit(u, piezo_bouc_wen(u)).pareto_front_
     rows = list(front)
     assert len(rows) >= 2
