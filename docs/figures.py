@@ -1,14 +1,16 @@
 """The figures of the documentation site, written to docs/figures/.
 
-Command (from the project folder, a few minutes on 2 cores)::
+Command (from the project folder; about 3 CPU minutes)::
 
     python docs/figures.py            # every figure
     python docs/figures.py piezo      # one group: piezo, diagnose, quasistatic, compensate
 
 Every figure comes from a small budget on simulated records (seeds fixed),
 so the script reruns in minutes; the published budgets and their figures are
-in benchmarks/RESULTS.md. Each PNG is kept under 200 kB (dpi 80, few
-points drawn); the captions, with units, are in the pages that show them.
+in benchmarks/RESULTS.md. Each PNG is kept under 200 kB (the script's own
+figures at dpi 80; the report figures it copies halved if larger); the
+captions, with units, are in the pages that show them
+(tests/test_docs.py checks both).
 """
 from __future__ import annotations
 
