@@ -18,12 +18,13 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
     sets ``selection_`` and ``search_terms_``.
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
-    held-out free-run error is within 5 % of the least, or within 2/√n
-    on n held-out samples when that is larger (``size``).
+    held-out free-run error is within :data:`mggp.choices.SIZE_TOLERANCE`
+    of the least, or within 2/√n on n held-out samples when that is
+    larger (``size``).
 ``constant``
     'auto': the constant term kept only when the held-out free-run error
-    is over 5 % lower with it, significantly (never with the steady-state
-    constraints).
+    is lower with it by over :data:`mggp.choices.GAIN`, significantly at
+    p < :data:`mggp.choices.LEVEL` (never with the steady-state constraints).
 ``operators``
     With ``operators`` and ``operator_entry='stage'``: memory-operator
     terms added stepwise to the structure (:mod:`mggp.operator_stage`);
@@ -274,7 +275,8 @@ def local_search(terms, data, ctx):
 
 def size(terms, data, ctx):
     """``size='auto'``: the smallest structure of the run's Pareto front
-    whose held-out free-run error is within 5 % of the least (2/√n on n
+    whose held-out free-run error is within :data:`mggp.choices.SIZE_TOLERANCE`
+    of the least (2/√n on n
     held-out samples when larger: :func:`mggp.choices.size_tolerance`), the chosen
     structure included (:func:`mggp.choices.size_choice`). A structure
     chosen for its holding (``select`` 'hold') is kept, and so is the size an
@@ -297,7 +299,8 @@ def size(terms, data, ctx):
 def constant(terms, data, ctx):
     """``constant='auto'``: the constant term offered to every structure of
     the search is kept only when the chosen structure's held-out free-run
-    error is over 5 % lower with it at p < :data:`mggp.choices.LEVEL`
+    error is lower with it by over :data:`mggp.choices.GAIN` at
+    p < :data:`mggp.choices.LEVEL`
     (:func:`mggp.choices.constant_choice`);
     with the steady-state constraints it was not offered, and when the
     pilots chose a search without it (:meth:`MGGPRegressor._searches`) the

@@ -289,22 +289,6 @@ def test_separators_inside_quoted_header_fields_do_not_count(capsys, tmp_path, t
     assert code == 0, err
 
 
-def test_readme_synopsis_lists_every_fit_option():
-    """README's `mggp fit` synopsis names every option of the command."""
-    import pathlib
-    import re
-    from mggp.cli import build_parser
-    readme = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
-    block = readme.split("mggp fit DATA.csv", 1)[1].split("mggp diagnose", 1)[0]
-    sub = next(a for a in build_parser()._subparsers._group_actions[0].choices.items()
-               if a[0] == "fit")[1]
-    options = {o for a in sub._actions for o in a.option_strings
-               if o.startswith("--") and o not in ("--help",)}
-    shared = {"--input", "--output", "--phi-module"}        # described below the synopsis
-    missing = sorted(o for o in options - shared if not re.search(re.escape(o) + r"\b", block))
-    assert not missing, missing
-
-
 def test_list_option_does_not_swallow_the_data_file(capsys, tmp_path):
     """`mggp fit --input E v data.csv --output f`: argparse gives data.csv to
     --input; it goes back to DATA.csv and E, v stay the inputs."""
