@@ -7,7 +7,8 @@ Markdown is converted, every placeholder ``{{ ... }}`` is replaced:
     the value of a module attribute (numbers as ``:g``, tuples joined by
     ", "); filters after ``|``: ``percent`` (0.05 -> "5 %", as the
     command line writes it), ``complement`` (1 − x), ``first`` (the
-    distinct first items of a tuple of tuples).
+    distinct first items of a tuple of tuples), ``span`` (a range's first
+    and last values, "0–999").
 ``{{ call mggp.choices.class_margins }}``, ``{{ call F ARG ... }}``
     the text a function returns; each argument is a dotted constant or a
     number.
@@ -89,6 +90,7 @@ FILTERS = {
     "percent": _percent,
     "complement": lambda v: 1 - v,
     "first": lambda v: tuple(dict.fromkeys(x[0] for x in v)),
+    "span": lambda v: f"{v[0]}–{v[-1]}",
 }
 
 

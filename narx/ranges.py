@@ -21,7 +21,11 @@ How far is measured from the middle of the range in half-widths,
           \\quad h = \\tfrac{1}{2}(u_{max} - u_{min}),
 
 so ``r = 1`` at the range's ends and ``r = 1.6`` for an input reaching
-1.6 times as far from the middle as the training record did.
+1.6 times as far from the middle as the training record did. An input
+that reaches no further than :data:`MARGIN` beyond the ends (``r`` up to
+1.02) is not named: a new realisation of the training record's own kind
+of input passes its extremes by a hair, and the model's terms are then
+evaluated where it was fitted.
 """
 from __future__ import annotations
 
@@ -29,7 +33,7 @@ from typing import Dict, List, NamedTuple, Tuple
 
 import numpy as np
 
-__all__ = ["signal_ranges", "recorded_ranges", "Excursion", "excursions",
+__all__ = ["MARGIN", "signal_ranges", "recorded_ranges", "Excursion", "excursions",
            "range_warning", "range_line", "range_text", "ExtrapolationWarning"]
 
 
@@ -60,6 +64,11 @@ def recorded_ranges(model) -> Dict[str, Tuple[float, float]]:
     return out
 
 
+#: excursions up to this share of the half-width beyond the range's ends
+#: are not named (:func:`excursions`)
+MARGIN = 0.02
+
+
 class Excursion(NamedTuple):
     """An input of a record outside its training range ``[low, high]``:
     on ``count`` of ``n`` samples, reaching ``reach`` half-widths from the
@@ -81,8 +90,10 @@ def range_text(low: float, high: float) -> str:
 def excursions(ranges, data) -> List[Excursion]:
     """The inputs of ``data`` that leave their range of ``ranges``
     (``{name: (low, high)}``, :func:`recorded_ranges`), in input order;
-    inputs without a recorded range are not judged. A constant training
-    input (zero half-width) counts every other value as infinitely far."""
+    inputs without a recorded range are not judged, and an input that
+    reaches no further than :data:`MARGIN` half-widths beyond an end is
+    not named. A constant training input (zero half-width) counts every
+    other value as infinitely far."""
     out = []
     for name in data.inputs:
         if name not in ranges:
@@ -96,6 +107,8 @@ def excursions(ranges, data) -> List[Excursion]:
         mid, half = 0.5 * (hi + lo), 0.5 * (hi - lo)
         far = float(np.max(np.abs(x[outside] - mid)))
         reach = far / half if half > 0 else float("inf")
+        if reach <= 1.0 + MARGIN:
+            continue
         out.append(Excursion(name, lo, hi, count, int(x.size), reach))
     return out
 

@@ -74,6 +74,18 @@ def test_range_line_counts_and_measures_in_half_widths():
     assert "w [0, 2] on 1 of 50 samples (up to 2× its half-width" in line
 
 
+def test_a_hair_beyond_the_ends_is_not_named():
+    """A new realisation of the training input passes its extremes by a
+    hair (within MARGIN half-widths): no line; control: 5 % beyond is named."""
+    from narx.ranges import MARGIN
+    ranges = {"u": (-1.0, 1.0)}
+    u = np.linspace(-1, 1, 50)
+    u[5] = 1.0 + MARGIN / 2
+    assert range_line(ranges, Data(u, np.zeros(50))) == ""
+    u[5] = 1.05
+    assert range_line(ranges, Data(u, np.zeros(50))).startswith("input u leaves")
+
+
 @pytest.mark.parametrize("ranges, rule", [
     ([0, 1], "must be an object"),
     ({"q": [0, 1]}, "is no signal of the model"),
