@@ -62,6 +62,8 @@ from typing import Dict, Iterable, List, Optional
 
 import numpy as np
 
+from mggp.params import DIAGNOSE_PARAMS
+
 #: the study budget of :func:`evaluate` (the rest: Budget defaults)
 STUDY_BUDGET = {"population": 100, "generations": 20}
 #: samples of each training record in the study
@@ -70,8 +72,9 @@ STUDY_N = 4000
 IDENTIFIABLE = 1.5
 #: the tail of the training record that chooses the oracle's method
 ORACLE_HOLDOUT = 0.25
-#: the test level of the diagnosis (mggp.diagnose default) marked on the figure
-ALPHA = 0.01
+#: the level of the diagnosis's paired test (``mggp diagnose --level``'s
+#: default), marked on the figure
+ALPHA = DIAGNOSE_PARAMS["level"].default
 
 __all__ = ["Oracle", "oracle", "oracle_gain", "baseline_rmse", "evaluate", "records",
            "table", "parse_seeds", "calibrate", "STUDY_BUDGET", "IDENTIFIABLE"]
