@@ -131,6 +131,18 @@ def test_one_sine_cannot_separate_memory_from_dynamics_a_multi_amplitude_record_
                                 np.zeros(3000))) is None
 
 
+def test_a_sine_switched_on_mid_phase_is_still_one_amplitude():
+    """A record at rest, then a sine switched on at a phase (the measured
+    piezo's voltage): its first move ends where the switch landed, not at
+    an amplitude, and the record is still one amplitude; control: a second
+    amplitude later in the record is seen."""
+    t = np.arange(4000) * 1e-3
+    u = np.where(t < 0.5, 0.0, 150 * np.sin(2 * np.pi * t + 2.527))   # lands at -86
+    assert separation_note(Data(u, np.zeros(4000))) is not None
+    u2 = np.where(t < 2.0, u, 0.5 * u)
+    assert separation_note(Data(u2, np.zeros(4000))) is None
+
+
 def test_the_summary_says_the_one_sine_record_cannot_separate():
     d = _one_sine()
     m = narx.Model(["y[k-1]", "u[k-1]"]).fit(d)

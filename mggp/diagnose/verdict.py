@@ -202,18 +202,23 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
 def reversal_levels(u, tol: float) -> Tuple[np.ndarray, np.ndarray]:
     """The input's values at its reversals, ``(peaks, troughs)``, a reversal
     counted when the input has moved back by more than ``tol`` from its
-    running extreme (small wiggles and noise are not reversals)."""
+    running extreme (small wiggles and noise are not reversals). The first
+    reversal is left out: the extreme of the record's first move is where
+    the record happened to start its excitation (a sine switched on at some
+    phase, a record cut mid-cycle), not an amplitude the input reached."""
     u = np.asarray(u, dtype=float)
     peaks, troughs = [], []
     hi = lo = ext = float(u[0])
-    direction = 0
+    direction, first_peak = 0, True
     for x in map(float, u[1:]):
         if direction == 0:                  # the first move past tol sets the direction
             hi, lo = max(hi, x), min(lo, x)
             if x - lo > tol:
                 direction, ext = 1, x
+                first_peak = True           # the first reversal will be a peak
             elif hi - x > tol:
                 direction, ext = -1, x
+                first_peak = False
         elif direction > 0:
             if x > ext:
                 ext = x
@@ -226,6 +231,9 @@ def reversal_levels(u, tol: float) -> Tuple[np.ndarray, np.ndarray]:
             elif x - ext > tol:
                 troughs.append(ext)
                 direction, ext = 1, x
+    first = peaks if first_peak else troughs
+    if first:
+        first.pop(0)
     return np.asarray(peaks), np.asarray(troughs)
 
 
