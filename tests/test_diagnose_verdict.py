@@ -97,6 +97,25 @@ def test_memory_must_beat_the_best_memory_free_candidate_not_only_the_baseline()
     assert v.p_values["hysteresis"] <= ALPHA
 
 
+def test_a_barred_winner_is_named_in_the_nothing_line():
+    """A memory-free candidate that wins but leaves the range on the probe
+    inputs cannot win; the line says so, and the memory candidate that only
+    ties it is not named. Control: eligible, it is named."""
+    from mggp.diagnose.report import _nothing_why
+    rng = np.random.default_rng(6)
+    n = 1500
+    base = _ar1(rng, n, scale=2.0)
+    same = _ar1(rng, n)
+    cands = [(_s(MEMORY, "plays"), M, same, 1.0),
+             (_s("unmodelled-nonlinearity", "more degree"), M, _ar1(rng, n), 1.0)]
+    v = decide(base, cands, ALPHA, rng, eligible=[True, False])
+    assert v.named == () and v.barred == ("more degree",)
+    assert "(more degree) leave the output's range on the probe inputs" in _nothing_why(v)
+    assert "cannot win" in "".join(v.lines())
+    v = decide(base, cands, ALPHA, rng)                      # control
+    assert v.named == ("unmodelled-nonlinearity",) and v.barred == ()
+
+
 def test_nothing_is_named_when_no_candidate_beats_the_baseline():
     rng = np.random.default_rng(5)
     n = 1500

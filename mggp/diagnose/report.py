@@ -36,6 +36,18 @@ from .simulation import direction_of_change, simulation_residual
 __all__ = ["terminal_summary", "write_report", "verdict"]
 
 
+def _nothing_why(v) -> str:
+    """Why the verdict named nothing, in words."""
+    barred = v.barred_winners()
+    if not barred:
+        return (f"no candidate extension beat the baseline at level {v.level:g}, "
+                "Holm-corrected")
+    names = ", ".join(t.structure.name for t in barred)
+    return (f"the candidates that beat the baseline at level {v.level:g} ({names}) leave "
+            "the output's range on the probe inputs, and no other candidate qualified (a memory "
+            "candidate must also beat the best candidate without memory)")
+
+
 def _g(v) -> str:
     if v is None or np.isnan(v):
         return "undefined"
@@ -94,8 +106,7 @@ def terminal_summary(dx) -> str:
         for f in dx.findings:
             lines.append(f"  {f.effect:<24s} p {_g(f.statistic)} <= level {_g(f.threshold)}")
     else:
-        lines.append(f"named: nothing (no candidate extension beat the baseline at level "
-                     f"{v.level:g}, Holm-corrected)")
+        lines.append(f"named: nothing ({_nothing_why(v)})")
     lines.append("candidates (free-run RMSE on the selection samples, baseline "
                  f"{_g(v.baseline_rmse)}; one-sided p against the baseline, Holm):")
     lines += ["  " + t for t in v.lines()]
@@ -392,8 +403,7 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
         L += _table([[f"`{f.effect}`", _g(f.statistic), _g(f.threshold), f.evidence]
                      for f in dx.findings], ["effect", "p-value", "level", "why"])
     else:
-        L.append("Nothing: no candidate extension beat the baseline significantly on the "
-                 "selection samples, so nothing was changed.")
+        L.append(f"Nothing: {_nothing_why(dx.verdict)}, so nothing was changed.")
     if dx.separation:
         L += ["", f"Note: {dx.separation}."]
     L += ["", "Evidence from the residual statistics (explanation, not the gate): "

@@ -119,12 +119,21 @@ class Verdict:
     best_free: Optional[Tested]
     baseline_rmse: float
     p_values: Dict[str, float] = field(default_factory=dict)
+    #: names of the candidates that could not win: their free run leaves
+    #: the output's range on the probe inputs
+    barred: Tuple[str, ...] = ()
+
+    def barred_winners(self) -> List[Tested]:
+        """The barred candidates that beat the baseline at the level."""
+        return [t for t in self.tested if t.structure.name in self.barred
+                and t.p_adjusted <= self.level and t.selection_rmse < self.baseline_rmse]
 
     def to_dict(self) -> dict:
         return {"level": self.level, "candidates": [t.to_dict() for t in self.tested],
                 "p_values": {k: json_number(v) for k, v in self.p_values.items()},
                 "baseline_selection_rmse": json_number(self.baseline_rmse),
-                "winner": None if self.winner is None else self.winner.structure.name}
+                "winner": None if self.winner is None else self.winner.structure.name,
+                "barred": list(self.barred)}
 
     def lines(self) -> List[str]:
         """The tests in words, one line per candidate."""
@@ -134,8 +143,10 @@ class Verdict:
             p = f"p {number_text(t.p_adjusted)}" + (
                 f", vs best memory-free p {number_text(t.p_free_adjusted)}"
                 if t.effect == MEMORY else "")
+            bar = ("; leaves the output's range on the probe inputs, cannot win"
+                   if t.structure.name in self.barred else "")
             out.append(f"{mark} {t.effect:<24s} {t.structure.name:<28s} RMSE "
-                       f"{number_text(t.selection_rmse):>9s}  {p}")
+                       f"{number_text(t.selection_rmse):>9s}  {p}{bar}")
         return out
 
 
@@ -194,9 +205,10 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
         ok = [tested[i] for i in free if ok_to_win[i] and tested[i].p_value <= alpha
               and rm[i] < base_rmse]
     winner = min(ok, key=lambda t: t.selection_rmse) if ok else None
+    barred = tuple(t.structure.name for t, ok_ in zip(tested, ok_to_win) if not ok_)
     return Verdict(float(alpha), tuple(tested), (winner.effect,) if winner else (), winner,
                    tested[best_free] if best_free is not None else None, base_rmse,
-                   p_values)
+                   p_values, barred)
 
 
 def reversal_levels(u, tol: float) -> Tuple[np.ndarray, np.ndarray]:
