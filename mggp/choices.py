@@ -68,6 +68,8 @@ from narx.model import ignore_rank_warnings
 from narx.outliers import SPIKE_BAND, SPIKE_WIDTH, spikes_text
 from narx.terms import Term
 
+from .extrapolation import POWER_CAP
+
 __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTANT", "GAIN",
            "HELD_EXCITATION", "HOLDOUT", "HOLDOUT_ENDS", "PILOT", "RESOLUTION", "error_floor",
            "SIZE_TOLERANCE", "size_tolerance", "heldout_samples", "SearchClass",
@@ -186,8 +188,8 @@ def heldout_errors(terms, data: Data, registry=None, holdout: float = HOLDOUT,
                    ends=None) -> Optional[list]:
     """The free-run errors :math:`\\hat y_k - y_k` of the structure ``terms``
     on the held-out ``holdout`` of ``data`` at each of ``ends`` ('tail',
-    'head'; default :data:`HOLDOUT_ENDS`), θ by least squares on the rest of the record for each end:
-    one array per end, over the whole held-out span, NaN on the samples
+    'head'; default :data:`HOLDOUT_ENDS`), θ by least squares on the rest
+    of the record for each end: one array per end, over the whole held-out span, NaN on the samples
     before the free run starts (its measured initial conditions). None when
     the structure cannot be fitted or its free run diverges."""
     if not tuple(terms):
@@ -961,3 +963,29 @@ def search_part_choice(data: Data, samples: int) -> Choice:
                   f"is estimated there, and the free-run figures below are on the whole "
                   f"record)",
                   {"start": a, "stop": b, "n_samples": data.n})
+
+
+def power_choice(err_capped: float, err_free: float, tol: float, pilot: str = "",
+                 unbounded: str = ""):
+    """``max_power='auto'``: :data:`mggp.extrapolation.POWER_CAP` (capped)
+    unless the pilot with the cap lifted has a held-out free-run error ``err_free`` lower
+    than the capped pilot's ``err_capped`` by more than ``tol`` (the size
+    tolerance), :math:`e_{free} < (1 - \\tau)\\, e_{capped}`, or the capped
+    pilot has no finite error; then None (no cap). Never when the uncapped
+    pilot's structure fails the stress inputs and the capped one's passes
+    (``unbounded``: why it fails)."""
+    lift = bool(not unbounded and (err_free < (1.0 - tol) * err_capped
+                                   or (np.isinf(err_capped) and np.isfinite(err_free))))
+    figs = {"cap": POWER_CAP, "pilot_heldout_rmse_capped": err_capped,
+            "pilot_heldout_rmse_uncapped": err_free, "tolerance": tol}
+    tail = f" (lifted only when over {percent(tol)} lower{'; ' + pilot if pilot else ''})"
+    if lift:
+        return Choice("max_power", None, f"powers uncapped: held-out free-run RMSE "
+                      f"{rmse_text(err_free)} with powers above {POWER_CAP} of one signal "
+                      f"against {rmse_text(err_capped)} without{tail}", figs)
+    if unbounded:
+        figs["stress_refused"] = unbounded
+        tail = f"{tail[:-1]}; uncapped, its structure {unbounded})"
+    return Choice("max_power", POWER_CAP, f"max power {POWER_CAP} of one signal: held-out "
+                  f"free-run RMSE {rmse_text(err_capped)} against {rmse_text(err_free)} with "
+                  f"the cap lifted{tail}", figs)

@@ -55,13 +55,13 @@ from narx.ranges import ExtrapolationWarning, range_warning
 
 from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
-from .choices import (CONSTANT, CONSTANT_ENDS, GAIN, HEIGHT, Choice, class_choice,
+from .choices import (CONSTANT, CONSTANT_ENDS, GAIN, HEIGHT, Choice, class_choice, power_choice,
                       constant_pilot_choice, constant_searched, fewest_terms,
                       front_rows_heldout, heldout_gain, heldout_rmse,
                       height_choice, holdout_message, outliers_choice, pilot_generations,
                       heldout_samples, resolve_screen, resolve_select, search_classes,
                       search_part_choice, size_tolerance, without_constant)
-from .extrapolation import POWER_CAP, StressCheck, bounded_first, power_choice, signal_power
+from .extrapolation import POWER_CAP, StressCheck, bounded_first, signal_power
 from .selection import run_candidates, select_hold
 from .evaluate import Evaluator
 from .evolve import check_context, evolve
@@ -631,7 +631,7 @@ class MGGPRegressor:
         """``max_power='auto'``: a pilot of the chosen class ``cls`` (and
         constant choice ``constant``) with the power cap lifted, appended to
         ``runs``; the cap is lifted (``max_power_`` None, the search
-        continued from this pilot) when :func:`mggp.extrapolation.power_choice`
+        continued from this pilot) when :func:`mggp.choices.power_choice`
         says so. Returns ``(seed, index of the run continued)``."""
         suffix = ", no constant" if constant else ""
         free = partial(self._structure, power=None, **constant)

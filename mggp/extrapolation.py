@@ -46,7 +46,7 @@ Power cap (``max_power='auto'``)
     ``v[k-i]`` of one signal ``v`` at any lags, :func:`signal_power`),
     unless a pilot search with the cap lifted has a held-out free-run error
     lower than the capped pilot's by more than the size tolerance
-    (:func:`power_choice`); the pilots are those of the model class and
+    (:func:`mggp.choices.power_choice`); the pilots are those of the model class and
     the constant (:meth:`mggp.MGGPRegressor._searches`), plus one.
 
 References
@@ -66,7 +66,7 @@ from narx.model import ignore_rank_warnings
 from narx.terms import Lag
 
 __all__ = ["STRESS_SCALE", "STRESS_BAND", "HOLD_SAMPLES", "POWER_CAP", "signal_power",
-           "stress_records", "StressCheck", "bounded_first", "power_choice", "power_words",
+           "stress_records", "StressCheck", "bounded_first", "power_words",
            "stress_words"]
 
 #: the scaled stress input: each input scaled by this factor about its mean
@@ -204,30 +204,3 @@ def bounded_first(rows, order, tol: float, check: Optional[StressCheck]):
             return i, refused, []
         refused.append((i, why))
     return order[0], [], refused
-
-
-def power_choice(err_capped: float, err_free: float, tol: float, pilot: str = "",
-                 unbounded: str = ""):
-    """``max_power='auto'``: :data:`POWER_CAP` (capped) unless the pilot
-    with the cap lifted has a held-out free-run error ``err_free`` lower
-    than the capped pilot's ``err_capped`` by more than ``tol`` (the size
-    tolerance), :math:`e_{free} < (1 - \\tau)\\, e_{capped}`, or the capped
-    pilot has no finite error; then None (no cap). Never when the uncapped
-    pilot's structure fails the stress inputs and the capped one's passes
-    (``unbounded``: why it fails)."""
-    from .choices import Choice, percent, rmse_text
-    lift = bool(not unbounded and (err_free < (1.0 - tol) * err_capped
-                                   or (np.isinf(err_capped) and np.isfinite(err_free))))
-    figs = {"cap": POWER_CAP, "pilot_heldout_rmse_capped": err_capped,
-            "pilot_heldout_rmse_uncapped": err_free, "tolerance": tol}
-    tail = f" (lifted only when over {percent(tol)} lower{'; ' + pilot if pilot else ''})"
-    if lift:
-        return Choice("max_power", None, f"powers uncapped: held-out free-run RMSE "
-                      f"{rmse_text(err_free)} with powers above {POWER_CAP} of one signal "
-                      f"against {rmse_text(err_capped)} without{tail}", figs)
-    if unbounded:
-        figs["stress_refused"] = unbounded
-        tail = f"{tail[:-1]}; uncapped, its structure {unbounded})"
-    return Choice("max_power", POWER_CAP, f"max power {POWER_CAP} of one signal: held-out "
-                  f"free-run RMSE {rmse_text(err_capped)} against {rmse_text(err_free)} with "
-                  f"the cap lifted{tail}", figs)

@@ -18,7 +18,8 @@ Layers: :mod:`narx.terms` (term language), :mod:`narx.phi` (Φ-functions),
 from .phi import (PhiFunction, PhiRegistry, register_phi, unregister_phi,
                   get_phi, default_registry)
 from .exceptions import (TermError, DataError, EstimationError, ModelFileError,
-                         RankWarning, NonMinimumPhaseWarning)
+                         RankWarning, NonMinimumPhaseWarning, ExtrapolationWarning,
+                         SeedLeakError)
 from .terms import Lag, PhiCall, Term, Signals, parse_term, parse_terms
 from .data import Data
 from .estimate import Estimate, least_squares, constrained_least_squares

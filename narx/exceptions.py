@@ -18,7 +18,7 @@ warning is a ``UserWarning``. The modules that raise them re-export them
 from __future__ import annotations
 
 __all__ = ["TermError", "DataError", "EstimationError", "ModelFileError",
-           "RankWarning", "NonMinimumPhaseWarning"]
+           "RankWarning", "NonMinimumPhaseWarning", "ExtrapolationWarning", "SeedLeakError"]
 
 
 class TermError(ValueError):
@@ -51,3 +51,13 @@ class RankWarning(UserWarning):
 
 class NonMinimumPhaseWarning(UserWarning):
     """The model's linear input part has zeros outside the unit circle."""
+
+
+class ExtrapolationWarning(UserWarning):
+    """A record's inputs leave the range the model was fitted on
+    (:func:`narx.ranges.range_warning`)."""
+
+
+class SeedLeakError(ValueError):
+    """An evaluation seed of the system zoo was drawn inside
+    :func:`narx.systems.zoo.tuning` (tuning may use development seeds only)."""

@@ -33,13 +33,10 @@ from typing import Dict, List, NamedTuple, Tuple
 
 import numpy as np
 
+from .exceptions import ExtrapolationWarning
+
 __all__ = ["MARGIN", "signal_ranges", "recorded_ranges", "Excursion", "excursions",
            "range_warning", "range_line", "range_text", "ExtrapolationWarning"]
-
-
-class ExtrapolationWarning(UserWarning):
-    """A record's inputs leave the range the model was fitted on
-    (:func:`range_warning`)."""
 
 
 def signal_ranges(data) -> Dict[str, List[float]]:

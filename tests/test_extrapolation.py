@@ -23,7 +23,8 @@ from narx.ranges import (ExtrapolationWarning, excursions, range_line, range_war
 from narx.terms import parse_term
 from mggp.cli import main
 from mggp.extrapolation import (POWER_CAP, STRESS_BAND, STRESS_SCALE, StressCheck,
-                                bounded_first, power_choice, signal_power, stress_records)
+                                bounded_first, signal_power, stress_records)
+from mggp.choices import power_choice
 
 
 def _saturating(n, seed, scale=1.0):

@@ -135,11 +135,13 @@ from numba import njit
 from scipy import signal
 
 from ..data import Data
+from ..exceptions import SeedLeakError
 from ..memory import bouc_wen, bouc_wen_step, play, play_step
 from ..terms import format_param, parse_term
 from . import training_input
 
-__all__ = ["Draw", "Truth", "SeedLeak", "draw", "draws", "tuning", "guard", "split_of",
+__all__ = ["Draw", "Truth", "SeedLeak", "SeedLeakError", "draw", "draws", "tuning", "guard",
+           "split_of",
            "HYSTERETIC_FAMILIES", "CONTROL_FAMILIES", "FAMILIES", "INPUT_KINDS",
            "PLACEMENTS", "STATICS", "DEVELOPMENT_SEEDS", "EVALUATION_SEEDS"]
 
@@ -176,8 +178,9 @@ _TRIES = 50
 _TUNING = contextvars.ContextVar("narx_systems_zoo_tuning", default=False)
 
 
-class SeedLeak(RuntimeError):
-    """An evaluation seed was drawn inside :func:`tuning`."""
+#: the error of an evaluation seed drawn inside :func:`tuning`
+#: (:class:`narx.exceptions.SeedLeakError`)
+SeedLeak = SeedLeakError
 
 
 @contextlib.contextmanager
