@@ -126,7 +126,7 @@ def test_dask_worker_loss_is_retried(piezo, monkeypatch):
 #: one search (no pilots: the class and the constant fixed), whose checkpoint
 #: is written from its first generation on; a fit stopped in its pilots is
 #: in tests/test_resume_guard.py
-FIT = dict(use_phi=True, constant=False, size="search", fitness="ms", window=50,
+FIT = dict(use_phi=True, constant=False, size="search", max_power=3, fitness="ms", window=50,
            population=24, generations=4, max_terms=6, max_height=3, random_state=2)
 
 
@@ -230,7 +230,7 @@ def fit_args(folder, u, y, population, generations, seed, max_terms):
     return ["fit", str(csv), "--fitness", "ms", "--window", "50", "--population",
             str(population), "--generations", str(generations), "--seed", str(seed),
             "--max-terms", str(max_terms), "--max-height", "3", "--quiet", "--phi",
-            "--no-constant"]
+            "--no-constant", "--max-power", "3"]
 
 
 def test_sigkill_during_checkpoint_write_then_resume(piezo, tmp_path, capsys):

@@ -103,7 +103,9 @@ def test_cli_says_the_moves_and_the_flag_turns_them_off(tmp_path, capsys):
     np.savetxt(csv, np.c_[d.u, d.y], delimiter=",", header="u,y", comments="")
     args = ["fit", str(csv), "--fitness", "pem", "--criterion", "bic", "--population", "40",
             "--generations", "3", "--max-height", "3", "--no-phi", "--max-lag", "4",
-            "--max-degree", "3", "--seed", "0", "--quiet"]
+            "--max-degree", "3", "--seed", "0", "--quiet", "--no-stress"]
+    # --no-stress: on this record the stress inputs refuse the moves, and the
+    # line then says so instead (tests/test_extrapolation.py)
     assert main(args + ["--out", str(tmp_path / "a.json")]) == 0
     err = capsys.readouterr().err
     assert "local search: " in err and " -> " in err
@@ -150,9 +152,9 @@ def test_moves_that_give_up_the_inputs_for_the_fitness_are_not_kept():
     est = MGGPRegressor(population=40, generations=4, random_state=1, n_jobs=1).fit(data)
     c = est.choices_["local_search"]
     assert c["value"] is False and est.local_search_ == []
-    assert c["figures"]["heldout_rmse_after"] > 5 * c["figures"]["heldout_rmse_before"]
+    assert c["figures"]["heldout_rmse_after"] > 1.1 * c["figures"]["heldout_rmse_before"]
     assert any("a[" in str(t) for t in est.model_.terms), est.model_.equation()
-    assert est.model_.simulate(data, mode="freerun").rmse < 5
+    assert est.model_.n_terms == est.choices_["size"]["value"]    # the size choice's, kept
     # the rule itself, and its control: within the tolerance the moves stay
     assert local_search_kept(1.0, 1.05, 300, 2).value
     assert not local_search_kept(1.0, 1.2, 300, 2).value

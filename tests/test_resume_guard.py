@@ -58,7 +58,8 @@ def test_a_checkpoint_does_not_change_the_fit(tmp_path, seed):
     np.testing.assert_array_equal(a.model_.theta, full.model_.theta)
     assert a.choices_["constant"]["why"] == full.choices_["constant"]["why"]
     assert sorted(p.name for p in tmp_path.iterdir()) == [
-        "ck.json", "ck.json.pilot-no_phi", "ck.json.pilot-no_phi-no-constant"]
+        "ck.json", "ck.json.pilot-no_phi", "ck.json.pilot-no_phi-no-constant",
+        "ck.json.pilot-no_phi-no-constant-powers"]
 
 
 class _StopInPilot:
