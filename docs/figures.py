@@ -90,8 +90,8 @@ def diagnose():
     from mggp.diagnose.report import write_report
     from narx.data import Data
     from narx.systems import piezo_bouc_wen, training_input
-    u = training_input(10_000, seed=3)
-    dx = run(Data(u, piezo_bouc_wen(u)), budget=Budget(population=100, generations=15),
+    u = training_input(4000, bandwidth=4.0, seed=3)
+    dx = run(Data(u, piezo_bouc_wen(u)), budget=Budget(population=60, generations=10),
              seed=0, jobs=1)
     print(dx.summary())
     with tempfile.TemporaryDirectory() as tmp:
