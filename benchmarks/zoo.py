@@ -6,6 +6,7 @@ Run::
     python -m benchmarks.zoo table zoo.jsonl --figure zoo_power.png
     python -m benchmarks.zoo show 7
     python -m benchmarks.zoo calibrate --seeds 0-99 --json dev.jsonl    # tuning: dev seeds only
+    python -m benchmarks.zoo ablate --seeds 0-149 --json ablate.jsonl   # each check's effect
 
 For each draw (4,000 training samples, the validation record of the draw),
 ``evaluate`` runs :func:`mggp.diagnose.diagnose` at the **study budget**
@@ -445,7 +446,9 @@ def _parser():
         "\n")[0])
     sub = p.add_subparsers(dest="command", required=True)
     for name, helptext in (("evaluate", "diagnose draws and append their records"),
-                           ("calibrate", "evaluate development seeds (inside zoo.tuning())")):
+                           ("calibrate", "evaluate development seeds (inside zoo.tuning())"),
+                           ("ablate", "diagnose development draws with and without each "
+                                      "check (benchmarks.zoo_ablation)")):
         e = sub.add_parser(name, help=helptext)
         e.add_argument("--seeds", nargs="+", required=True, help="seeds or ranges A-B")
         e.add_argument("--json", required=True, help="JSON-lines file (appended, resumed)")
@@ -463,11 +466,14 @@ def _parser():
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     try:
-        if args.command in ("evaluate", "calibrate"):
+        if args.command in ("evaluate", "calibrate", "ablate"):
             for name in ("population", "generations", "jobs"):
                 if getattr(args, name) < 1:
                     raise ValueError(f"--{name} must be >= 1, got {getattr(args, name)}")
-            run = evaluate if args.command == "evaluate" else calibrate
+            if args.command == "ablate":
+                from benchmarks.zoo_ablation import ablate as run
+            else:
+                run = evaluate if args.command == "evaluate" else calibrate
             run(parse_seeds(args.seeds), args.json, population=args.population,
                 generations=args.generations, jobs=args.jobs)
         elif args.command == "table":
