@@ -20,9 +20,9 @@ without it by :data:`GAIN`, or ties it with a simpler structure
 with it.
 
 Significance: the constant's choices also ask that its gain be beyond chance
-(:func:`heldout_gain`): a moving-block bootstrap of the paired squared
-held-out errors of the two options (:mod:`narx.paired`, seeded with the
-fit's seed) gives a one-sided p-value, and the addition is taken only at
+(:func:`heldout_gain`): the circular block bootstrap of the paired squared
+held-out errors of the two options (:func:`narx.paired.paired_test`, the
+test of ``mggp diagnose`` too, seeded with the fit's seed) gives a one-sided p-value, and the addition is taken only at
 p < :data:`LEVEL`; otherwise the simpler option stays, and the choice line
 says the figures ("held-out RMSE 1.03 vs 1.05 (±0.04, p = 0.31) without
 it: not significant, kept the simpler"), and they hold out the tail and
@@ -289,12 +289,12 @@ def heldout_gain(simple, rich, data: Data, registry=None, seed=0, margin: float 
     better than ``simple`` beyond chance (:func:`heldout_errors` at ``ends``).
 
     With :math:`e_s, e_r` the two held-out RMSEs (at least
-    :func:`error_floor`) and :math:`p` the one-sided p-value of a
-    moving-block bootstrap of the paired squared-error differences
+    :func:`error_floor`) and :math:`p` the one-sided p-value of the
+    circular block bootstrap of the paired squared-error differences
     :math:`(y_k - \\hat y^s_k)^2 - (y_k - \\hat y^r_k)^2` on the samples both
-    simulate (:func:`narx.paired.paired_bootstrap`, block length from the
-    data, each end its own segment, generator seeded with ``seed``), the
-    gain is taken when
+    simulate (:func:`narx.paired.paired_test`, block length from the
+    data, each end its own segment, generator
+    ``numpy.random.default_rng(seed)``), the gain is taken when
 
     .. math:: e_r < (1 - m)\\, e_s \\quad\\text{and}\\quad p < \\alpha,
 
@@ -302,9 +302,9 @@ def heldout_gain(simple, rich, data: Data, registry=None, seed=0, margin: float 
     free run of ``simple`` diverges and that of ``rich`` does not. The
     held-out part is a few hundred samples of one record whose errors are
     serially dependent: a gain smaller than their spread is noise, and the
-    simpler option stays (Künsch, *Ann. Statist.* 17, 1989; Politis and
-    White, *Econometric Reviews* 23, 2004)."""
-    from narx.paired import paired_bootstrap
+    simpler option stays (Politis and Romano 1992, 1994; Politis and
+    White, *Econometric Reviews* 23, 2004: :mod:`narx.paired`)."""
+    from narx.paired import paired_test
     ends = tuple(HOLDOUT_ENDS if ends is None else ends)
     es, er = (heldout_errors(t, data, registry, ends=ends) for t in (simple, rich))
     rs, rr = _rmse_of(es, data), _rmse_of(er, data)
@@ -315,13 +315,13 @@ def heldout_gain(simple, rich, data: Data, registry=None, seed=0, margin: float 
     for a, b in zip(es, er):
         ok = ~(np.isnan(a) | np.isnan(b))
         if ok.sum() >= 2:
-            ls.append(a[ok] ** 2)
-            lr.append(b[ok] ** 2)
+            ls.append(a[ok])
+            lr.append(b[ok])
             lengths.append(int(ok.sum()))
     if not lengths:
         return Gain(rs, rr, float("nan"), 1.0, 0, False, tuple(ends))
-    t = paired_bootstrap(np.concatenate(ls), np.concatenate(lr), seed=seed,
-                         segments=lengths)
+    t = paired_test(np.concatenate(ls), np.concatenate(lr), np.random.default_rng(seed),
+                    segments=lengths)
     return Gain(rs, rr, t.spread(np.sqrt), t.p_value, t.block,
                 bool(rr < (1.0 - margin) * rs and t.p_value < LEVEL), tuple(ends))
 

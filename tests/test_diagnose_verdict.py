@@ -1,10 +1,10 @@
-"""The verdict of mggp diagnose: the paired held-out test, its calibration
-under the null and its power, Holm's correction, the naming rule, and the
-line that says a record cannot separate memory from dynamics."""
+"""The verdict of mggp diagnose: the naming rule over the paired held-out
+test (narx.paired, tested in test_paired.py), its false-alarm rate on
+controls, and the line that says a record cannot separate memory from
+dynamics."""
 import numpy as np
 import pytest
 from scipy.signal import lfilter
-from scipy.stats import binom
 
 import narx
 from narx.data import Data
@@ -12,64 +12,9 @@ from narx.systems import piezo_bouc_wen, sine_input, training_input
 
 from mggp.diagnose import Budget, diagnose
 from mggp.diagnose.candidates import MEMORY, Structure
-from mggp.diagnose.paired import block_length, holm, paired_test
 from mggp.diagnose.verdict import decide, separation_note
 from test_diagnose import _play_record
-
-ALPHA = 0.05
-
-
-def _ar1(rng, n, phi=0.9, scale=1.0):
-    return scale * lfilter([1.0], [1.0, -phi], rng.standard_normal(n + 300))[300:]
-
-
-def _interval(trials, alpha=ALPHA):
-    lo, hi = binom.interval(0.95, trials, alpha)
-    return lo / trials, hi / trials
-
-
-# ------------------------------------------------------------ the paired test
-@pytest.mark.parametrize("floor", [None, 0.5], ids=["squared", "log"])
-def test_paired_test_holds_its_level_on_equally_good_autocorrelated_errors(floor):
-    rng = np.random.default_rng(0)
-    trials, n = 400, 1000
-    rejected = sum(paired_test(_ar1(rng, n), _ar1(rng, n), rng, floor=floor).p_value <= ALPHA
-                   for _ in range(trials))
-    lo, hi = _interval(trials)
-    assert lo <= rejected / trials <= hi, rejected / trials
-
-
-@pytest.mark.parametrize("floor", [None, 0.5], ids=["squared", "log"])
-def test_paired_test_has_power_when_one_sequence_is_better(floor):
-    rng = np.random.default_rng(1)
-    trials, n = 100, 1000
-    # control of the test above: the candidate's error is 30 % smaller
-    power = np.mean([paired_test(_ar1(rng, n), _ar1(rng, n, scale=0.7), rng,
-                                 floor=floor).p_value <= ALPHA for _ in range(trials)])
-    assert power > 0.8, power
-    # one-sided: the worse candidate is (almost) never called better
-    worse = np.mean([paired_test(_ar1(rng, n, scale=0.7), _ar1(rng, n), rng,
-                                 floor=floor).p_value <= ALPHA for _ in range(trials)])
-    assert worse < 0.02, worse
-
-
-def test_block_length_grows_with_the_correlation_time():
-    rng = np.random.default_rng(2)
-    white = block_length(rng.standard_normal(2000))
-    slow = block_length(_ar1(rng, 2000, phi=0.95))
-    assert white <= 3 < slow <= 500, (white, slow)
-
-
-def test_diverged_simulations_decide_without_bootstrap():
-    rng = np.random.default_rng(3)
-    e = rng.standard_normal(200)
-    assert paired_test(e, np.full(200, np.inf), rng).p_value == 1.0
-    assert paired_test(np.full(200, np.inf), e, rng).p_value < 0.01
-
-
-def test_holm_adjusts_in_step_down_order():
-    np.testing.assert_allclose(holm([0.01, 0.04, 0.03, 0.5]), [0.04, 0.09, 0.09, 0.5])
-    assert holm([]).size == 0
+from test_paired import ALPHA, _ar1, _interval
 
 
 # -------------------------------------------------------------- naming rule

@@ -53,10 +53,10 @@ import numpy as np
 
 from narx import Model
 from narx.data import Data
+from narx.paired import PairedTest, holm, paired_test
 
 from .candidates import MEMORY, MEMORY_FREE, Structure
 from .findings import json_number, number_text
-from .paired import PairedTest, holm, paired_test
 
 __all__ = ["Tested", "Verdict", "decide", "separation_note", "reversal_levels"]
 
