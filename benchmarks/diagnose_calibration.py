@@ -6,7 +6,9 @@ Run::
     python -m benchmarks.diagnose_calibration --check    # rates only
     python -m benchmarks.diagnose_calibration --test Φ-augmentation   # one test only
 
-Step 1 (skipped by ``--check``): the raw checks of every registered test on
+The tests are the registered ones, else (none runs by default) the
+registrable augmentation tests of :mod:`mggp.diagnose.augmentation`.
+Step 1 (skipped by ``--check``): the raw checks of every such test on
 the calibration realisations (:mod:`mggp.diagnose.controls`: six kinds ×
 40 seeds, 2,000 samples, output SNR 30, 40 and 45 dB, two held-input
 segments) give the factors of each test's check families for a false-alarm
@@ -37,11 +39,13 @@ CHECK_SET = ((30.0, 2000, 7), (40.0, 2100, 6), (45.0, 2200, 7))
 
 
 def _tests(names=None):
-    tests = registered()
+    from mggp.diagnose import augmentation
+    tests = registered() or (augmentation.AUGMENTATION, augmentation.HELD_OUT_AUGMENTATION,
+                             augmentation.OPERATOR_AUGMENTATION)
     if names:
         unknown = sorted(set(names) - {t.name for t in tests})
         if unknown:
-            raise ValueError(f"--test must name registered tests "
+            raise ValueError(f"--test must name tests "
                              f"{[t.name for t in tests]}, got {unknown}")
         tests = [t for t in tests if t.name in names]
     return tests

@@ -19,16 +19,15 @@ training record's head fits and its tail selects, the validation record
 measures; without one, three consecutive parts of the training record);
 the baseline (the user's model, or MGGP with multiple-shooting fitness
 and no Φ-functions, fitted on the fitting samples); evidence from the
-registered residual tests (:mod:`.registry`, the built-in ones listed in
-:mod:`.catalogue`: loop gap, rest levels, prediction-bias bootstrap,
-drift in held-input segments, Billings–Voon correlation tests), which
-explains but does not decide; candidate extensions grouped by the effect
+registered residual tests (:mod:`.registry`; none runs by default,
+:mod:`.catalogue` says why), which explains but does not decide;
+candidate extensions grouped by the effect
 they fix (:mod:`.candidates`: Φ-functions, plays, Deng–Tan, Bouc–Wen
 and output-driven memory for ``hysteresis``; more lags, more degree, CLS
 for the memory-free effects), each fitted on the fitting samples; the
 verdict (:mod:`.verdict`): every candidate against the baseline by a
 paired block-bootstrap test of their free-run losses on the selection
-samples (:mod:`.paired`, Holm over the candidates;
+samples (:mod:`narx.paired`, Holm over the candidates;
 ``hysteresis`` must also beat the best memory-free class), the effect
 named by the class that wins; the gain of the winner measured on the
 measuring samples, which played no part in any choice; report and
@@ -53,8 +52,9 @@ JSON document (``Diagnosis.to_dict``)::
      "separation": null or one line, "settings": {...}}
 
 ``findings`` are the named effects (one: the class of the winner), each
-with its p-value and the level; ``evidence`` the effects the residual
-tests point to (their checks are in ``tests``). ``verdict.p_values``
+with its p-value and the level; ``evidence`` the effects the registered
+residual tests point to (their checks are in ``tests``; both empty when
+none is registered, the default). ``verdict.p_values``
 holds each class's p-value: an effect is named at level α only if its
 p-value is at most α (for ``hysteresis`` the larger of its p-values
 against the baseline and against the best memory-free class).

@@ -3,8 +3,8 @@
 Typical use::
 
     from mggp.diagnose.calibration import false_alarm_rate
-    from mggp.diagnose.loopgap import LOOP_GAP
-    fa = false_alarm_rate(LOOP_GAP, per_kind=9, seed=0)     # 6 kinds x 9 = 54 records
+    from mggp.diagnose.augmentation import AUGMENTATION
+    fa = false_alarm_rate(AUGMENTATION, per_kind=9, seed=0)  # 6 kinds x 9 = 54 records
     fa.rate, fa.interval(), fa.by_kind
     fa.threshold_factor(0.01)     # scale of the thresholds for a 1 % false-alarm rate
 
@@ -227,7 +227,7 @@ def false_alarm_rate(test: DiagnosticTest, *, kinds: Sequence[str] = CONTROL_KIN
     Parameters
     ----------
     test : DiagnosticTest
-        The test (e.g. :data:`mggp.diagnose.loopgap.LOOP_GAP`).
+        The test (e.g. :data:`mggp.diagnose.augmentation.AUGMENTATION`).
     kinds : sequence of str
         Kinds of control (:data:`~mggp.diagnose.controls.CONTROL_KINDS`).
     per_kind : int

@@ -6,69 +6,48 @@ Typical use::
     findings = name_findings(checks)       # checks: the Checks every test returned
     [f.effect for f in findings]           # e.g. ['hysteresis', 'prediction-bias']
 
-Each diagnose test (:mod:`mggp.diagnose.registry`) returns its
-:class:`Check` s; :func:`name_findings` turns them into *evidence* by one
-rule: an effect is pointed to when one of its checks beats its threshold.
-The effect a diagnosis *names* comes from the paired test of the candidate
-extensions (:mod:`mggp.diagnose.verdict`); the evidence explains it.
+The effect a diagnosis *names* is the class of the candidate extension
+that wins the paired held-out test (:mod:`mggp.diagnose.candidates`,
+:mod:`mggp.diagnose.verdict`). Residual tests registered in
+:mod:`mggp.diagnose.registry` (none by default, :mod:`.catalogue`) each
+return :class:`Check` s, and :func:`name_findings` turns them into
+*evidence* by one rule: an effect is pointed to when one of its checks
+beats its threshold. The evidence explains; it does not name.
 
 Vocabulary (the causes a diagnosis can name, and the extension each calls for):
 
 ===========================  =================================================  ========================
-effect                       meaning, and the evidence that names it            extension
+effect                       meaning                                            extension
 ===========================  =================================================  ========================
-``hysteresis``               the output depends on the direction or history     Φ-functions and
-                             of the input beyond what the model's terms         plays, Deng–Tan in the
-                             express: at equal input the residual differs       search; Bouc–Wen
-                             between falling and rising input (loop-gap         direction terms,
-                             test), or direction terms remove simulation        play and Bouc–Wen
-                             error that placebo terms do not, in sample         operator dynamics as
-                             or held out (Φ-augmentation tests), or the         candidates
-                             memory-operator terms (plays, Bouc–Wen
-                             variables) do (operator
-                             augmentation), or the data rest at
-                             different levels in two holds at the same
-                             input and the model does not (rest levels)
+``hysteresis``               the output depends on the direction or history     Φ-functions, plays,
+                             of the input beyond what the model's terms         Deng–Tan, Bouc–Wen
+                             express                                            variables, Φ of output
+                                                                                lags, operator dynamics
 ``steady-state-drift``       the model does not hold its output at a constant   CLS with the derived
-                             input where the system does: movement in a         continuum constraints
-                             held-input segment of the data (hold test),        (``constraints=
-                             explained by cluster sums that break Σ_y = 1,      'steady-state'``)
-                             Σ_other = 0, or, started when the input stops,
-                             the model rests at another level than the data
-                             (rest-error test)
-``prediction-bias``          one-step fit good, free run poor: the free-run     multiple-shooting
-                             error exceeds what the model's own one-step        fitness (longer windows
-                             residuals cause when propagated (bootstrap)        if already used)
-``unmodelled-nonlinearity``  φ_u²'e or φ_u²'e² outside its band: the one-step   one more degree, more
-                             residual depends on the square of past inputs      terms
-``unmodelled-dynamics``      φ_ue (or φ_ee, where the residual is large         longer lags (taller
-                             enough for its colour to matter) outside its       trees), more terms
-                             band
+                             input where the system does                        continuum constraints
+                                                                                (``constraints=
+                                                                                'steady-state'``)
+``prediction-bias``          one-step fit good, free run poor                   multiple-shooting
+                                                                                fitness (no candidate
+                                                                                of the verdict)
+``unmodelled-nonlinearity``  the residual depends on a nonlinear function of    one more degree, more
+                             past inputs                                        terms
+``unmodelled-dynamics``      the residual depends on past inputs or on itself   longer lags (taller
+                                                                                trees), more terms
 ===========================  =================================================  ========================
 
-**Thresholds.** Every statistic is compared with a threshold made of a
-statistical bound at false-alarm probability α per test (Bonferroni band,
-t-bound, placebo or bootstrap quantile, noise bound of a hold) and a
-*resolution floor*, ``resolution`` × the output's range in that record
-(default 0.5 %): effects smaller than the floor are not worth a model
-change, and on noise-free data — where every imperfect model is
-"significant" — the floor is what decides. For the correlation tests the
-floor is expressed in correlation units, floor / (RMS(ε) s), with s the
-model's free-run/one-step error ratio (:mod:`.correlation`): a correlation
-must explain a part of the residual that the free run makes as large as
-the floor. The free-run
-excess of ``prediction-bias`` must also reach the free-run RMSE that the
-noise alone causes (the free run at least √2 times worse than the noise
-explains), so that noisy data do not turn a small misfit into a finding.
-Thresholds are in the statistic's units; a finding is named only when its
-statistic is strictly above its threshold. A correlation test whose
-threshold is 1 or more has *no power* (:attr:`Check.power` is False): no
-correlation can beat it, so it measured nothing, and reports say so. An
-effect with several checks (``hysteresis``: loop gap per input,
-Φ-augmentation in sample and held out, operator augmentation, rest levels;
-the correlation effects: one per function and
-input) is named when any of them beats its threshold, so its false-alarm
-probability is at most α times the number of its checks.
+**Thresholds** (of registered residual tests). A check's statistic is
+compared with a threshold made of a statistical bound at false-alarm
+probability α per test and a *resolution floor*, ``resolution`` × the
+output's range in that record (default 0.5 %): effects smaller than the
+floor are not worth a model change, and on noise-free data — where every
+imperfect model is "significant" — the floor is what decides. A finding
+is pointed to only when its statistic is strictly above its threshold. A
+check whose threshold reaches the largest value its statistic can take
+(:attr:`Check.ceiling`) has *no power* (:attr:`Check.power` is False), and
+reports say so. An effect with several checks is pointed to when any of
+them beats its threshold, so its false-alarm probability is at most α
+times the number of its checks.
 """
 from __future__ import annotations
 
@@ -88,9 +67,9 @@ VOCABULARY: Dict[str, str] = {
     "prediction-bias": "one-step fit good, free run poor (a structure chosen for "
                        "one-step prediction)",
     "unmodelled-nonlinearity": "the one-step residual depends on a nonlinear function of "
-                               "past inputs (Billings-Voon φ_u²'e, φ_u²'e²)",
+                               "past inputs that the model's terms miss",
     "unmodelled-dynamics": "the one-step residual depends on past inputs or on itself "
-                           "(Billings-Voon φ_ue, φ_ee)",
+                           "at lags that the model's terms miss",
 }
 
 EXTENSIONS: Dict[str, str] = {
@@ -138,7 +117,7 @@ class Check:
     Attributes
     ----------
     test : str
-        Name of the check (unique within a diagnosis, e.g. ``'loop gap (u)'``).
+        Name of the check (unique within a diagnosis, e.g. ``'held-out Φ-augmentation (u)'``).
     effect : str
         The effect of :data:`VOCABULARY` it is evidence for.
     statistic, threshold : float

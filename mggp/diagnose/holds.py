@@ -36,11 +36,9 @@ moves the output by
 which is 0 for every (ȳ, ū) exactly when Σ_y = 1 and every other cluster
 sum is 0 (a continuum of steady states, :mod:`narx.steady`).
 
-Two holds at the same input where the data rest at different levels are
-direct evidence of hysteresis (memory at rest); a model restarted at each
-hold that does not rest at levels as far apart cannot express it
-(:mod:`mggp.diagnose.restlevels`); movement and the level at rest
-are the drift test's (:mod:`mggp.diagnose.drift`).
+The hold responses are what the report's holds figure draws
+(:mod:`mggp.diagnose.report`); probe holds (:func:`probe_holds`) rank the
+candidate extensions that do not keep still (:mod:`mggp.diagnose.extend`).
 """
 from __future__ import annotations
 
@@ -53,10 +51,9 @@ import numpy as np
 from narx import Model
 from narx.data import Data
 
-from .thresholds import bonferroni_z
 
 __all__ = ["find_holds", "input_noise", "difference_noise", "HoldResponse", "hold_responses",
-           "steady_rate", "continuum_violations", "probe_holds", "hold_bounds"]
+           "steady_rate", "continuum_violations", "probe_holds"]
 
 
 def difference_noise(x, k: int) -> float:
@@ -385,30 +382,3 @@ def probe_holds(model: Model, data: Data, n_holds: int = 4, length: Optional[int
     if r.diverged or not np.all(np.isfinite(r.y_hat)):
         return float("inf")
     return float(max(np.ptp(r.y_hat[a:b]) for a, b in spans))
-
-
-def hold_bounds(holds, alpha: float, floor_of) -> List[Tuple[HoldResponse, float, float, bool]]:
-    """Every usable hold with its noise bound and whether the data keep still.
-
-    Parameters
-    ----------
-    holds : sequence of HoldResponse
-    alpha : float
-        False-alarm probability over all the holds (Bonferroni).
-    floor_of : callable
-        ``floor_of(record)`` is the resolution floor of that record.
-
-    Returns
-    -------
-    list of (HoldResponse, bound, z, still)
-        For each hold whose data movement is finite: bound =
-        max(z·se, floor) with z the Bonferroni z over those holds, and
-        ``still`` = |data movement| <= bound.
-    """
-    held = [h for h in holds if np.isfinite(h.data_move)]
-    z = bonferroni_z(alpha, max(len(held), 1))
-    out = []
-    for h in held:
-        bound = max(z * h.noise_se, floor_of(h.record))
-        out.append((h, bound, z, abs(h.data_move) <= bound))
-    return out

@@ -55,7 +55,7 @@ class Outcome:
         The measurement itself (for reports and figures), or None.
     missing : str
         When nothing could be measured: the kind of evidence and why, in one
-        phrase (e.g. ``'loop gap (no reversal of the input long enough)'``).
+        phrase (e.g. ``'operator augmentation (no reversal of the input long enough)'``).
     """
 
     checks: Sequence[Check] = ()
@@ -141,7 +141,7 @@ class Evidence:
     """Everything the tests measured on the model: each test's
     :class:`Outcome` by name, in the order they ran, and the context.
 
-    The properties name the built-in tests' measurements for reports
+    The properties name the measurements of the tests reports know for reports
     (empty, or None, when the test is not registered or measured nothing).
     """
 
@@ -163,11 +163,8 @@ class Evidence:
         o = self.outcomes.get(name)
         return default if o is None or o.result is None else o.result
 
-    # the built-in tests' measurements and the settings, as reports read them
-    correlation = _measured("correlation", ())
-    loop_gap = _measured("loop gap", ())
+    # the registrable tests' measurements and the settings, as reports read them
     augmentation = _measured("Φ-augmentation")
-    bias = _measured("prediction bias")
     holds = _of_context("holds")
     alpha = _of_context("alpha")
     resolution = _of_context("resolution")

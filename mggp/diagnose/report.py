@@ -8,10 +8,8 @@ Typical use::
 
 Figures (PNG, headless): the measuring record against both models in free
 run (time and u–y loop); the baseline's simulation residual against the
-input in the u–e plane, rising and falling input apart, with the binned
-means whose gap is the direction statistic (and the extension's residual
-beside it); the Billings–Voon correlation functions with the ±1.96/√N band
-and the Bonferroni band that decides; the responses in every held-input
+input in the u–e plane, rising and falling input apart (and the
+extension's residual beside it); the responses in every held-input
 segment (data, baseline and extension, each model started from the
 measured state when the input stops).
 """
@@ -28,7 +26,6 @@ from narx.outliers import Spike, spikes_text
 from ..plotting import figure, save as _save
 from ..quasistatic_report import diagnosis_figure
 from ..report import figure_lines
-from .correlation import propagation_factor
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
 from .simulation import direction_of_change, simulation_residual
@@ -112,18 +109,20 @@ def terminal_summary(dx) -> str:
     lines += ["  " + t for t in v.lines()]
     if dx.separation:
         lines.append(f"note: {dx.separation}")
-    if dx.evidence_findings:
-        lines.append("evidence (residual statistics, explanation only):")
-        for f in dx.evidence_findings:
-            lines.append(f"  {f.effect:<24s} {_g(f.statistic)} > threshold {_g(f.threshold)}")
-    else:
-        lines.append("evidence (residual statistics): no statistic beat its threshold")
-    missing = untested(dx.evidence, dx.checks)
-    if missing:
-        lines.append("not tested: " + "; ".join(missing))
-    if not dx.evidence_findings:
-        lines += [f"{'closest' if k == 0 else 'also below'}: {t}"
-                  for k, t in enumerate(closest_misses(dx))]
+    if dx.evidence.outcomes:                # registered residual tests (none by default)
+        if dx.evidence_findings:
+            lines.append("evidence (residual statistics, explanation only):")
+            for f in dx.evidence_findings:
+                lines.append(f"  {f.effect:<24s} {_g(f.statistic)} > threshold "
+                             f"{_g(f.threshold)}")
+        else:
+            lines.append("evidence (residual statistics): no statistic beat its threshold")
+        missing = untested(dx.evidence, dx.checks)
+        if missing:
+            lines.append("not tested: " + "; ".join(missing))
+        if not dx.evidence_findings:
+            lines += [f"{'closest' if k == 0 else 'also below'}: {t}"
+                      for k, t in enumerate(closest_misses(dx))]
     if dx.findings:
         lines.append(f"extension ({v.winner.structure.name}, {e.model.n_terms} terms):")
         lines += [f"  {c}" for c in dx.changes]
@@ -232,7 +231,6 @@ def _plot_direction(path, dx, inputs):
     d = dx.fit_data
     n = len(inputs)
     fig, axes = figure(n, 2, figsize=(11, 4 * n), sharey=True, squeeze=False)
-    test = dx.evidence.loop_gap[0] if dx.evidence.loop_gap else None
     residuals = [(name, *simulation_residual(m, d)) for name, m in
                  (("baseline", dx.baseline.model), ("extended", dx.extended.model))]
     for row, signal in zip(axes, inputs):
@@ -248,52 +246,7 @@ def _plot_direction(path, dx, inputs):
             ax.set_xlabel(signal)
             ax.legend(loc="best", fontsize=7, markerscale=6)
         row[0].set_ylabel(f"e = {d.output} - ŷ  (fitting samples)")
-    if test is not None:
-        axes[0][0].text(0.02, 0.02, f"loop gap {_g(test.statistic)} "
-                        f"(bound {_g(test.bound)}, p = {test.p_value:.3g})",
-                        transform=axes[0][0].transAxes, fontsize=8)
     return _save(fig, path)
-
-
-def _plot_correlation(path, dx, inputs):
-    """One row per input: φ_ee (first row only), then that input's three tests."""
-    tests = list(dx.evidence.correlation)
-    ee = [t for t in tests if t.key == "ee"]
-    rows = [[t for t in tests if t.key != "ee" and t.signal == name] for name in inputs]
-    rows = [r for r in rows if r]
-    if not rows and not ee:
-        return None
-    rows = rows or [[]]
-    ncol = 1 + max(len(r) for r in rows)
-    fig, axes = figure(len(rows), ncol, figsize=(3.2 * ncol, 3.2 * len(rows)), sharey=True,
-                       squeeze=False)
-    for i, (line, row) in enumerate(zip(axes, rows)):
-        cells = (ee[:1] if i == 0 else [None]) + row
-        first = True
-        for ax, t in zip(line, cells + [None] * (ncol - len(cells))):
-            if t is None:
-                ax.axis("off")
-                continue
-            _correlation_panel(ax, t, dx)
-            ax.tick_params(labelleft=first)          # each row's first panel has the scale
-            first = False
-    axes[0][0].legend(loc="upper right", fontsize=7)
-    return _save(fig, path)
-
-
-def _correlation_panel(ax, t, dx):
-    ax.bar(t.lags, t.r, width=0.6, color="tab:gray")
-    rms = dx.evidence.osa_rms if t.rms is None else t.rms     # of the residual tested
-    rms *= propagation_factor(dx.evidence.osa_rms, dx.evidence.context.freerun_rms)
-    floor = dx.evidence.floor / rms if rms > 0 else 2.0
-    for v, ls, lab in ((t.band95, "-", "±1.96/√N"), (t.band, "--", "Bonferroni"),
-                       (floor, ":", "resolution floor")):
-        if v <= 1.0:
-            ax.axhline(v, color="tab:blue", ls=ls, lw=0.8, label=lab)
-            ax.axhline(-v, color="tab:blue", ls=ls, lw=0.8)
-    ax.set_title(t.label + (" (no power)" if max(t.band, floor) >= 1.0 else ""))
-    ax.set_xlabel("lag τ (samples)")
-    ax.set_ylim(-1.05, 1.05)
 
 
 def _plot_holds(path, dx) -> Optional[str]:
@@ -353,12 +306,36 @@ def _inputs(dx, inputs) -> list:
     return inputs
 
 
+def _evidence_lines(dx) -> List[str]:
+    """The report's lines on the registered residual tests: what they point
+    to, what they could not measure, and every check."""
+    L = ["", "Evidence from the residual statistics (explanation, not the gate): "
+         + ("; ".join(f"`{f.effect}` ({_g(f.statistic)} > {_g(f.threshold)})"
+                      for f in dx.evidence_findings) or "none") + "."]
+    if untested(dx.evidence, dx.checks):
+        L += ["", "Not tested (a finding of these kinds could not be made): "
+              + "; ".join(untested(dx.evidence, dx.checks)) + "."]
+    L += ["", "## Every test", "", f"False-alarm probability α = {dx.evidence.alpha:g} per "
+          f"test; resolution floor {dx.evidence.resolution:g} × output range. A statistic "
+          f"above its threshold is evidence for its effect; what is named comes from the "
+          f"paired test of the candidates.", ""]
+    L += _table([[c.test, c.effect, _g(c.statistic), _g(c.threshold),
+                  "**yes**" if c.beats else "no" if c.power else
+                  "no power" if np.isfinite(c.ceiling) else "could not run"]
+                 for c in dx.checks],
+                ["test", "effect", "statistic", "threshold", "beats"])
+    if any(np.isfinite(c.ceiling) and not c.power for c in dx.checks):
+        L += ["", "A check whose threshold reaches the largest value its statistic can take "
+              "has no power (\"no power\" above): it measured nothing.", ""]
+    return L
+
+
 def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
                  inputs=None) -> str:
     """Write ``summary.md`` and the figures into ``folder``; returns the path.
 
-    ``inputs`` names the inputs whose loops, residual planes and correlation
-    tests are plotted (default: every input of the data).
+    ``inputs`` names the inputs whose loops and residual planes are plotted
+    (default: every input of the data).
     """
     inputs = _inputs(dx, inputs)
     os.makedirs(folder, exist_ok=True)
@@ -375,12 +352,6 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
              f"mean the residual depends on the direction of input change: hysteresis the "
              f"model misses.", _plot_direction(j(folder, "residual_direction.png"), dx,
                                                inputs)),
-            ("The Billings–Voon correlation functions of the residual against lag τ "
-             "(samples): φ_ee, then for each input the φ_ue, φ_u²'e and φ_u²'e² tests "
-             "(one row per input). Bars beyond the dashed Bonferroni band make a finding; "
-             "the solid line is the usual ±1.96/√N band, the dotted one the resolution "
-             "floor below which a correlation is not measurable.",
-             _plot_correlation(j(folder, "correlation.png"), dx, inputs)),
             (f"Held-input responses: each segment where the input stops (shaded), data, "
              f"baseline and extended model started from the measured state; {out} against "
              f"the sample index. A model with a continuum of steady states stays flat.",
@@ -392,9 +363,9 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
     L = [f"# mggp diagnose: {title}", ""]
     if command:
         L += ["Command:", "", f"    {command}", ""]
-    L += ["## Samples", "", dx.split.describe() + ". The evidence comes from the fitting "
-          "samples; held-input segments are also searched in the measuring record (nothing "
-          "is fitted on it). The data files are read, never modified.", ""]
+    L += ["## Samples", "", dx.split.describe() + ". Held-input segments are searched in "
+          "both records (nothing is fitted on the measuring record). The data files are "
+          "read, never modified.", ""]
     if dx.settings.get("user_model") and dx.split.measure_record == dx.split.fit_record:
         L += ["The baseline's θ come from the model file: whether the data it was fitted "
               "on overlap the measuring samples is not known to this diagnosis.", ""]
@@ -406,25 +377,8 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
         L.append(f"Nothing: {_nothing_why(dx.verdict)}, so nothing was changed.")
     if dx.separation:
         L += ["", f"Note: {dx.separation}."]
-    L += ["", "Evidence from the residual statistics (explanation, not the gate): "
-          + ("; ".join(f"`{f.effect}` ({_g(f.statistic)} > {_g(f.threshold)})"
-                       for f in dx.evidence_findings) or "none") + "."]
-    if untested(dx.evidence, dx.checks):
-        L += ["", "Not tested (a finding of these kinds could not be made): "
-              + "; ".join(untested(dx.evidence, dx.checks)) + "."]
-    L += ["", "## Every test", "", f"False-alarm probability α = {dx.evidence.alpha:g} per "
-          f"test; resolution floor {dx.evidence.resolution:g} × output range. A statistic "
-          f"above its threshold is evidence for its effect; what is named comes from the "
-          f"paired test of the candidates.", ""]
-    L += _table([[c.test, c.effect, _g(c.statistic), _g(c.threshold),
-                  "**yes**" if c.beats else "no" if c.power else
-                  "no power" if np.isfinite(c.ceiling) else "could not run"]
-                 for c in dx.checks],
-                ["test", "effect", "statistic", "threshold", "beats"])
-    L += ["", "A correlation test whose threshold is 1 or more has no power (\"no power\" "
-          "above): no correlation can exceed it (the residual tested is no larger than the "
-          "resolution floor, or the record is too short for the band), so the test measured "
-          "nothing.", ""]
+    if dx.evidence.outcomes:                # registered residual tests (none by default)
+        L += _evidence_lines(dx)
     L += ["", "## Models", ""]
     L += _model_lines(dx.baseline, "Baseline")
     L += _model_lines(dx.extended, "Extended")
@@ -450,10 +404,8 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
           f"Recommended: {verdict(dx)}.", ""]
     L += ["## Figures", ""]
     L += figure_lines([(p, cap) for cap, p in figs if p])
-    if not figs[3][1]:
-        L += ["(No held-input figure: no held-input segment in the data.)", ""]
     if not figs[2][1]:
-        L += ["(No correlation figure: the tests were not computed.)", ""]
+        L += ["(No held-input figure: no held-input segment in the data.)", ""]
     L += ["## Vocabulary", ""]
     L += _table([[f"`{k}`", v, EXTENSIONS[k]] for k, v in VOCABULARY.items()],
                 ["effect", "meaning", "extension"])
