@@ -220,14 +220,16 @@ def table(recs: List[dict]) -> str:
 
 
 def main(argv=None) -> int:
+    import argparse
     from benchmarks.zoo import records
-    args = sys.argv[1:] if argv is None else argv
-    if len(args) != 1:
-        print("usage: python -m benchmarks.zoo_ablation RECORDS.jsonl", file=sys.stderr)
-        return 2
-    recs = records(args[0])
+    p = argparse.ArgumentParser(prog="python -m benchmarks.zoo_ablation",
+                                description="the table of a records file of "
+                                            "python -m benchmarks.zoo ablate")
+    p.add_argument("file", help="JSON-lines file written by python -m benchmarks.zoo ablate")
+    args = p.parse_args(argv)
+    recs = records(args.file)
     if not recs:
-        print(f"error: {args[0]}: no records", file=sys.stderr)
+        print(f"error: {args.file}: no records", file=sys.stderr)
         return 2
     print(table(recs), end="")
     return 0
