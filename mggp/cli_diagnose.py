@@ -181,8 +181,7 @@ def _cmd_diagnose(args) -> int:
     _say_ranges(args, model, train, val)
     budget = Budget(population=args.population, generations=args.generations,
                     max_terms=args.max_terms, max_height=args.max_height,
-                    max_degree=args.max_degree, window=args.window, shifts=args.shifts,
-                    bootstrap=args.bootstrap)
+                    max_degree=args.max_degree, window=args.window, shifts=args.shifts)
     say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     from .cli_fit import _Progress
     search_progress = None if args.quiet else (

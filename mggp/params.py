@@ -614,8 +614,6 @@ DIAGNOSE_PARAMS: Dict[str, Param] = {p.name: p for p in (
     _diagnose_row("outliers", context=False, meta=False),
     Param("shifts", 99, Int(1), "placebo shifts of the Φ-augmentation test", "budget",
           "--shifts", estimator=False),
-    Param("bootstrap", 199, Int(1), "replicas of the prediction-bias bootstrap", "budget",
-          "--bootstrap", estimator=False),
     Param("holdout", 0.3, Real(0, 1, lo_open=True, hi_open=True,
                                words="a fraction between 0 and 1"),
           "tail fraction of TRAIN.csv that measures the gain without --validation", "tests",

@@ -87,7 +87,7 @@ def diagnosis():
     train, held = Data(cs.u, cs.y), Data(cs.held.u, cs.yh)
     model = Model(MODEL32_TERMS, meta={"fitness": "pem", "estimation": "ls"}).fit(train)
     dx = diagnose(train, held, model, budget=Budget(population=24, generations=4,
-                                                    shifts=19, bootstrap=39), seed=1, jobs=1)
+                                                    shifts=19), seed=1, jobs=1)
     d = dx.to_dict()
     keep = {"findings": d["findings"], "baseline": d["baseline"], "extended": d["extended"],
             "gain": d["gain"], "samples": d["samples"]}

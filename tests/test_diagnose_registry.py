@@ -15,7 +15,7 @@ from mggp.diagnose import (Budget, Check, DiagnosticTest, Outcome, diagnose, reg
                            registered, unregister)
 from mggp.diagnose.report import write_report
 
-TINY = Budget(population=20, generations=2, shifts=19, bootstrap=39)
+TINY = Budget(population=20, generations=2, shifts=19)
 BUILTIN = []
 
 

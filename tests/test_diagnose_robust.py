@@ -15,7 +15,7 @@ from mggp.diagnose import Budget, diagnose
 from mggp.diagnose.holds import find_holds, hold_responses
 from mggp.diagnose.report import write_report
 
-TINY = Budget(population=20, generations=2, shifts=19, bootstrap=39)
+TINY = Budget(population=20, generations=2, shifts=19)
 P1, P2 = "Phi1(u[k-1],u[k-2])", "Phi2(u[k-1],u[k-2])"
 
 

@@ -245,7 +245,7 @@ def test_the_diagnosis_repairs_the_glitches_of_both_records_and_says_so():
     yv_glitched = yv.copy()
     yv_glitched[200] += 12.0
     model = Model(sorted(TRUE), inputs=["u"], output="y").fit(Data(u, y))
-    kw = dict(budget=Budget(population=24, generations=3, shifts=19, bootstrap=19), seed=0,
+    kw = dict(budget=Budget(population=24, generations=3, shifts=19), seed=0,
               names=("train.csv", "val.csv"))
     dx = diagnose(Data(u, glitched(y)), Data(uv, yv_glitched), model, **kw)
     got = {k: [(d["start"], d["stop"]) for d in v] for k, v in dx.settings["outliers"].items()}

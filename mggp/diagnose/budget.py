@@ -36,5 +36,3 @@ class Budget:
     max_degree: int = 3
     window: int = 100
     shifts: int = 99
-    bootstrap: int = 199
-    corr_lags: int = 20

@@ -48,8 +48,7 @@ class Context:
     offset : int
         Number of the measuring record's first sample in its file.
     budget : Budget
-        Sample sizes of the statistics (``corr_lags``, ``shifts``,
-        ``bootstrap``).
+        Search effort and sample sizes of the statistics (``shifts``).
     alpha : float
         False-alarm probability of each test.
     resolution : float
