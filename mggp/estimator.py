@@ -182,7 +182,7 @@ class MGGPRegressor:
     with the constant offered to every structure when that pilot's
     held-out error, and that of the other pilot's structure refitted without
     its constant, are over 5 % higher and the gains significant at p < 0.05
-    (a moving-block bootstrap of the paired held-out errors,
+    (a circular block bootstrap of the paired held-out errors,
     :func:`mggp.choices.heldout_gain`; the tail and the head of the record
     held out in turn), or when the
     pilots tie and the simplest structure that ties holds the constant and

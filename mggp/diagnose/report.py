@@ -65,11 +65,11 @@ def untested(ev, checks=()) -> list:
         The evidence of the diagnosis (what each test could not measure,
         :attr:`Evidence.missing`).
     checks : sequence of Check
-        The diagnosis's checks. A correlation test without power (its
-        threshold at least 1, its ceiling) is listed with what made its
+        The diagnosis's checks. A check without power whose statistic has
+        a ceiling (its threshold reaches it) is listed with what made its
         threshold that wide; any other check without power could not run
-        (e.g. a hold in which the data do not hold) and is listed with its
-        own reason (:attr:`Check.why`, else its detail).
+        and is listed with its own reason (:attr:`Check.why`, else its
+        detail).
 
     Returns
     -------
@@ -81,13 +81,13 @@ def untested(ev, checks=()) -> list:
     for c in checks:
         if c.power:
             continue
-        if np.isfinite(c.ceiling):          # a correlation test: its threshold is too wide
+        if np.isfinite(c.ceiling):          # its threshold reaches the ceiling
             weak.setdefault(c.why, []).append(c.test)
         else:                               # a test that could not run: its own reason
             out.append(f"{c.test}: could not run ({c.why or c.detail})")
     for why, tests in weak.items():
         out.append(f"{', '.join(tests)}: no power ({why or 'its bound is that wide'}, so "
-                   f"the threshold is at least 1, the largest correlation there is, and "
+                   f"the threshold reaches the largest value the statistic can take, and "
                    f"{'these tests' if len(tests) > 1 else 'this test'} could not fire)")
     return out
 
