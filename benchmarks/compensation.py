@@ -56,7 +56,7 @@ from narx.compensate import RootCompensator
 from narx.metrics import mape
 from narx.systems import piezo_bouc_wen, sine_input, training_input
 from mggp import MGGPRegressor
-from mggp.choices import AS_SEARCHED
+from mggp.fit.choices import AS_SEARCHED
 from mggp.compensate import PiezoPlant, identify_inverse, pi_loop
 
 from .casestudy import model19

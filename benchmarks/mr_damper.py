@@ -87,7 +87,7 @@ def _registry():
 
 def run_damper(args, log):
     from mggp import MGGPRegressor
-    from mggp.choices import AS_SEARCHED
+    from mggp.fit.choices import AS_SEARCHED
     path = damper_path()
     if path is None:
         log("  MR damper: data file not found (set MGGP_SHARED_DATA)")

@@ -113,7 +113,7 @@ def _shrink(src, dst):
 def quasistatic():
     """The quasi-static figure of model (16), y_k = 0.9 y_{k-1} + 0.5 Φ2."""
     import narx
-    from mggp.quasistatic_report import plot_quasistatic
+    from mggp.report.quasistatic import plot_quasistatic
     m = narx.Model(["y[k-1]", "Phi2(u[k-1],u[k-2])"], [0.9, 0.5])
     k = np.arange(400)
     u = np.sin(2 * np.pi * 0.1 * k * 0.05)     # 1 V, 0.1 Hz, sampled at 20 Hz: 2 periods

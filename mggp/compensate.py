@@ -24,7 +24,7 @@ MGGP searches
 so with :math:`\\ell = 1` the term :math:`\\rho_{k-1} = r_k` is the present
 reference. The structure search, the LS/CLS estimation and the
 continuum-of-steady-states constraints are those of
-:class:`~mggp.estimator.MGGPRegressor` (an inverse that holds its output
+:class:`~mggp.fit.estimator.MGGPRegressor` (an inverse that holds its output
 when the reference holds is refitted by CLS). At run time the inverse model
 runs in free run, one sample at a time (so it can sit inside a loop), with
 its output clipped to the actuator's input range.
@@ -164,7 +164,7 @@ def identify_inverse(u, y, *, lead=1, reference="r", constrained=True, estimator
     Returns
     -------
     InverseCompensator
-        ``.estimator_`` holds the fitted :class:`~mggp.estimator.MGGPRegressor`.
+        ``.estimator_`` holds the fitted :class:`~mggp.fit.estimator.MGGPRegressor`.
 
     Notes
     -----
@@ -183,7 +183,7 @@ def identify_inverse(u, y, *, lead=1, reference="r", constrained=True, estimator
     ``operators`` is given the search has no memory operators: the
     compensator evaluates polynomial and Φ-terms only.
     """
-    from .estimator import MGGPRegressor
+    from .fit.estimator import MGGPRegressor
     lead = check_count("lead", lead)
     u = np.asarray(u, dtype=float).ravel()
     y = np.asarray(y, dtype=float).ravel()

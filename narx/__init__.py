@@ -15,6 +15,13 @@ Layers: :mod:`narx.terms` (term language), :mod:`narx.phi` (Φ-functions),
 :mod:`narx.systems` and :mod:`narx.testsystems` (reference systems).
 ``narx`` never imports ``deap`` or ``mggp``.
 """
+from ._moved import install as _install
+
+#: the module paths before the subpackages, each to its new home; they import
+#: for one release with a DeprecationWarning
+MOVED = {}
+_install(MOVED)
+
 from .phi import (PhiFunction, PhiRegistry, register_phi, unregister_phi,
                   get_phi, default_registry)
 from .exceptions import (TermError, DataError, EstimationError, ModelFileError,

@@ -556,7 +556,7 @@ class MemoryOperator:
         is read when the text is made); default :attr:`doc`.
     auto_class : str, optional
         The model class of the automatic choice (``operators='auto'``,
-        :func:`mggp.choices.search_classes`) whose pilot searches it:
+        :func:`mggp.fit.choices.search_classes`) whose pilot searches it:
         ``'operators'`` (rate-independent memory), ``'Bouc–Wen'``; None:
         searched only when named.
     """

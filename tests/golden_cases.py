@@ -47,7 +47,7 @@ def _estimator(est):
 
 def recovery():
     from mggp import MGGPRegressor
-    from mggp.choices import AS_SEARCHED
+    from mggp.fit.choices import AS_SEARCHED
     from benchmarks.recovery import SETTINGS
     from narx.testsystems import SYSTEMS, system_by_name
     out = {}
@@ -62,7 +62,7 @@ def recovery():
 
 def case_study():
     from mggp import MGGPRegressor
-    from mggp.choices import AS_SEARCHED
+    from mggp.fit.choices import AS_SEARCHED
     from benchmarks.casestudy import case_data
     cs = case_data(n=3000)
     out = {}

@@ -1,6 +1,6 @@
 """Bad and hostile input: one ``error:`` line naming file, place and rule; nothing runs.
 
-Every malformed CSV and model file goes through ``mggp.cli.main`` for
+Every malformed CSV and model file goes through ``mggp.cli.app.main`` for
 ``estimate``, ``simulate`` and ``fit``: exit code 2 and exactly one stderr
 line that names the file, where the problem is (line, column, key) and the
 rule broken. Hostile model files (term text that DEAP's
@@ -24,7 +24,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mggp.cli import main
+from mggp.cli.app import main
 from narx.csvdata import read_csv
 from narx.data import DataError
 from narx import ModelFileError, load_model
@@ -283,8 +283,8 @@ def test_hostile_terms_on_the_command_line(files, tmp_path):
 
 
 def test_hostile_checkpoint_is_rejected(files, tmp_path):
-    from mggp.checkpoint import load_checkpoint
-    from mggp.primitives import make_pset
+    from mggp.gp.checkpoint import load_checkpoint
+    from mggp.gp.primitives import make_pset
     p = tmp_path / "evil.ckpt"
     p.write_text("[" * 200_000 + "]" * 200_000)
     with pytest.raises(ValueError, match="not a readable JSON file"):

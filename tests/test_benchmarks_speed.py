@@ -56,8 +56,8 @@ def _sets(n, seed=0):
 def _sets_phi_outputs(n, seed=0):
     """Random individuals of a ``phi_outputs`` set: terms with Φ of output lags."""
     import random
-    from mggp.operators import random_individual
-    from mggp.primitives import Decoder, make_pset
+    from mggp.gp.operators import random_individual
+    from mggp.gp.primitives import Decoder, make_pset
     ps, rng = make_pset(phi_outputs=True), random.Random(seed)
     dec, sets = Decoder(ps.signals), []
     while len(sets) < n:

@@ -10,7 +10,7 @@ from narx.systems import (bouc_wen_discrete, bouc_wen_discrete_narx, piezo_bouc_
                           sine_input, training_input)
 from mggp.compensate import (InverseCompensator, PiezoPlant, identify_inverse,
                              pi_loop)
-from mggp.cli import main
+from mggp.cli.app import main
 
 from conftest import MODEL19_TERMS, MODEL19_THETA
 
@@ -471,8 +471,8 @@ def test_an_input_lag_entering_only_through_a_sign_is_named():
 
 def test_cli_fallback_verdict_blames_the_reference_only_for_a_minimum_phase_model():
     import warnings
-    from mggp.cli import CLIError
-    from mggp.cli_compensate import _fallback_verdict
+    from mggp.cli.app import CLIError
+    from mggp.cli.compensate import _fallback_verdict
     nmp = "the model is non-minimum-phase: ... z = 2 (|z| = 2) ..."
     for rate, text, expect in ((0.0, "", None), (0.0, nmp, "z = 2"),
                                (0.1, nmp, "z = 2"), (0.1, "", "the reference jumps"),

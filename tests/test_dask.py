@@ -18,8 +18,8 @@ distributed = pytest.importorskip(
 
 import narx                                                  # noqa: E402
 from mggp import MGGPRegressor                               # noqa: E402
-from mggp.cli import main                                    # noqa: E402
-from mggp.evaluate import Evaluator                          # noqa: E402
+from mggp.cli.app import main                                    # noqa: E402
+from mggp.gp.evaluate import Evaluator                          # noqa: E402
 from narx.data import Data                                   # noqa: E402
 from narx.systems import piezo_bouc_wen, training_input     # noqa: E402
 from narx.terms import parse_terms                           # noqa: E402

@@ -1,5 +1,5 @@
 """Dead time beyond the search's reach: found by the ARX scan and named
-before the search (narx.deadtime, mggp.precision.dead_time_message)."""
+before the search (narx.deadtime, mggp.fit.precision.dead_time_message)."""
 import warnings
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 
 from narx import Data
 from narx.deadtime import GAIN as DEAD_TIME_GAIN, SPAN, onset_scan
-from mggp.precision import dead_time_message
+from mggp.fit.precision import dead_time_message
 
 
 def _delayed(d, n=2000, seed=5, second=None):
@@ -154,7 +154,7 @@ def test_the_height_is_not_raised_past_what_max_lag_allows():
     """max_lag below the dead time: raising the height would not let the
     search use the lags, so the height stays and the line says why; with
     max_lag above it (the control) the height is raised."""
-    from mggp.choices import height_choice
+    from mggp.fit.choices import height_choice
     low = height_choice(_delayed(25), max_lag=10)
     assert low.value == 5 and low.why.endswith("beyond what max_lag allows")
     assert height_choice(_delayed(25), max_lag=40).value == 9

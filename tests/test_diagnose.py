@@ -20,7 +20,7 @@ from narx.systems import (held_sine, piezo_bouc_wen, prandtl_ishlinskii, sine_in
                           training_input)
 from narx.testsystems import hammerstein, polynomial_narx
 
-from mggp.cli import main
+from mggp.cli.app import main
 from mggp.diagnose import EXTENSIONS, VOCABULARY, Budget, diagnose
 from mggp.diagnose.correlation import correlation_tests
 from mggp.diagnose.extend import Setting, plan_extension

@@ -160,8 +160,8 @@ def test_narx_has_no_import_cycle():
 
 def test_mggp_has_no_import_cycle():
     graph = _graph("mggp")
-    assert len(graph) > 40 and "mggp.stages" in graph["mggp.estimator"]
-    assert "mggp.estimator" in graph["mggp"]          # the lazy attribute is read
+    assert len(graph) > 40 and "mggp.fit.stages" in graph["mggp.fit.estimator"]
+    assert "mggp.fit.estimator" in graph["mggp"]          # the lazy attribute is read
     assert _cycles(graph) == []
 
 

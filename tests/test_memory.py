@@ -380,7 +380,7 @@ def parse_terms_(texts):
 
 # ------------------------------------------------------------ command line
 def _cli(capsys, *argv):
-    from mggp.cli import main
+    from mggp.cli.app import main
     code = main([str(a) for a in argv])
     out, err = capsys.readouterr()
     return code, out, err
@@ -425,8 +425,8 @@ def test_cli_bad_operator_text_exits_2_with_one_line(capsys, tmp_path, bad):
 # ------------------------------------------------------------------ search
 def test_search_pset_with_operators_decodes_and_keeps_phi_only_set():
     import random
-    from mggp.operators import random_individual
-    from mggp.primitives import (Decoder, make_pset, play_radii, search_operators,
+    from mggp.gp.operators import random_individual
+    from mggp.gp.primitives import (Decoder, make_pset, play_radii, search_operators,
                                  tree_from_tokens)
     assert play_radii(np.linspace(-1, 1, 5)) == (0.1, 0.2, 0.4, 0.7)
     ops = search_operators(("play", "dengtan"), np.linspace(-1, 1, 5)[None, :])
@@ -463,7 +463,7 @@ def test_search_pset_with_operators_decodes_and_keeps_phi_only_set():
 
 def test_operator_stage_adds_plays_to_a_pi_record_not_to_a_linear_one():
     from narx.fitness import StructureScorer
-    from mggp.operator_stage import add_operators, operator_candidates
+    from mggp.fit.operator_stage import add_operators, operator_candidates
     rec = operator_record("pi", n=1500, seed=0, snr_db=40)
     start = [parse_term("y[k-1]"), parse_term("u[k-1]")]
     data = as_data(rec.u, rec.y)
@@ -488,7 +488,7 @@ def test_operator_stage_adds_plays_to_a_pi_record_not_to_a_linear_one():
 
 def test_operator_candidates_name_each_input_with_its_own_radii():
     from narx import Data
-    from mggp.operator_stage import operator_candidates
+    from mggp.fit.operator_stage import operator_candidates
     t = np.linspace(0, 6, 60)
     d = Data(np.c_[np.sin(t), 4 * np.cos(t)], np.sin(t), inputs=("E", "v"), output="f")
     texts = [c.text for c in operator_candidates(d, "play,dengtan")]
@@ -671,8 +671,8 @@ def test_search_with_bouc_wen_operators_finds_them_on_a_piezo_record():
     far better than the same search without operators (control); the
     automatic classes offer them in a class of their own, not with the plays."""
     from mggp import MGGPRegressor
-    from mggp.choices import search_classes
-    from mggp.primitives import bouc_wen_shapes, search_operators
+    from mggp.fit.choices import search_classes
+    from mggp.gp.primitives import bouc_wen_shapes, search_operators
     from narx import Data
     from narx.systems import piezo_bouc_wen, training_input
     u = training_input(2000, seed=4)

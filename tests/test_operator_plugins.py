@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from mggp.cli import main
+from mggp.cli.app import main
 from narx import Data
 from narx.memory import default_operators, get_operator, register_operator
 from narx.systems import training_input
@@ -87,7 +87,7 @@ def test_a_registered_operator_is_found_where_it_acts_and_only_there(stop, entry
 
 
 def test_the_grid_and_names_come_from_the_table(stop):
-    from mggp.primitives import operator_choices, operator_names, search_operators
+    from mggp.gp.primitives import operator_choices, operator_names, search_operators
     assert operator_choices()["stop"] == "Stop"
     assert operator_names("Play, STOP") == ("play", "stop")
     assert search_operators("stop", U[None, :]) == {"Stop": stop_search(np.ptp(U))}

@@ -259,7 +259,7 @@ def test_the_diagnosis_repairs_the_glitches_of_both_records_and_says_so():
 
 @pytest.mark.parametrize("cmd", [["fit"], ["estimate", "--terms", "y[k-1]"]])
 def test_a_bad_outliers_value_is_one_error_line(tmp_path, cmd):
-    """fit and estimate take --outliers from the one row of mggp.params:
+    """fit and estimate take --outliers from the one row of mggp.fit.params:
     a value not in it gets one error line naming the choices, exit code 2."""
     u, y = bilinear_record()
     path = tmp_path / "rec.csv"

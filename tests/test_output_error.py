@@ -123,7 +123,7 @@ def test_oe_search_recovers_s1_from_noisy_output_where_ls_does_not():
 
 
 def test_estimator_enters_checkpoint_context_only_when_set():
-    from mggp.params import context_of, meta_of
+    from mggp.fit.params import context_of, meta_of
     assert "estimator" not in context_of(MGGPRegressor())
     assert context_of(MGGPRegressor(estimator="oe"))["estimator"] == "oe"
     assert meta_of(MGGPRegressor())["estimator"] == "ls"

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import narx
-from mggp.cli import main
+from mggp.cli.app import main
 
 from conftest import MODEL19_TERMS, MODEL19_THETA
 
@@ -293,7 +293,7 @@ def test_numerical_default_range_finds_a_far_repelling_root():
 
 
 def test_diverging_free_run_json_and_figure(tmp_path):
-    from mggp.quasistatic_report import plot_quasistatic, summary_markdown
+    from mggp.report.quasistatic import plot_quasistatic, summary_markdown
     qs = narx.quasistatic(narx.Model(["y[k-1]", "u[k-1]"], [1.5, 1.0]),
                           np.sin(np.linspace(0, 30, 3000)))
     assert qs.diverged
@@ -466,7 +466,7 @@ def test_caption_names_only_the_curves_the_figure_draws():
     bounding curves on every figure); control: model (19), whose
     attracting (unloading) and repelling (loading) bounding curves are
     drawn and named."""
-    from mggp.quasistatic_report import caption
+    from mggp.report.quasistatic import caption
     u = sine(70.0, 1.0, 1e-3, 2.0)
     flat = caption(narx.quasistatic(narx.Model(["y[k-1]", "Phi1(u[k-1],u[k-2])"],
                                                [1.0, 0.5]), u))

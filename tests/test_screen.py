@@ -1,11 +1,11 @@
-"""Free-run stability screen (mggp.screen) and MGGPRegressor(screen='freerun')."""
+"""Free-run stability screen (mggp.fit.screen) and MGGPRegressor(screen='freerun')."""
 import math
 
 import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from mggp.screen import StabilityScreen
+from mggp.fit.screen import StabilityScreen
 from narx.data import as_data
 from narx.systems import piezo_bouc_wen, training_input
 from narx.terms import parse_term
@@ -125,7 +125,7 @@ def test_screened_search_same_for_one_and_two_workers():
 
 def test_fit_cli_screen(tmp_path, capsys):
     import json
-    from mggp.cli import main
+    from mggp.cli.app import main
     u, y = _piezo()
     csv = tmp_path / "d.csv"
     csv.write_text("u,y\n" + "\n".join(f"{float(a)!r},{float(b)!r}" for a, b in zip(u[:2000], y[:2000])))
@@ -138,7 +138,7 @@ def test_fit_cli_screen(tmp_path, capsys):
 
 
 def test_select_hold_picks_a_structure_whose_cls_refit_holds():
-    from mggp.selection import select_hold
+    from mggp.fit.selection import select_hold
     from benchmarks.casestudy import MODEL19
     u, y = _piezo()
     d = as_data(u, y)

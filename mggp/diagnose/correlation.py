@@ -81,7 +81,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from ..choices import RESOLUTION as ROUNDING
+from ..fit.choices import RESOLUTION as ROUNDING
 from .findings import Check, number_text as _g
 from .registry import DiagnosticTest, Outcome
 from .thresholds import bonferroni_z
@@ -364,7 +364,7 @@ def no_power_reason(t: CorrelationTest, scale: float, floor: float,
     Either the free-run counterpart ``scale`` (r s) of the residual tested
     is no larger than the resolution floor (then floor / scale >= 1 and no
     correlation can explain the floor; the resolution below which it could
-    is resolution × scale / floor; below :data:`mggp.choices.RESOLUTION` of
+    is resolution × scale / floor; below :data:`mggp.fit.choices.RESOLUTION` of
     the output's range the residual is rounding, and the reason says so),
     or its Bonferroni band z/√N is 1 or
     more (then more than z² samples are needed).

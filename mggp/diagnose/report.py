@@ -25,9 +25,9 @@ import numpy as np
 from narx.atomic import atomic_write_text
 from narx.outliers import Spike, spikes_text
 
-from ..plotting import figure, save as _save
-from ..quasistatic_report import diagnosis_figure
-from ..report import figure_lines
+from ..report.plotting import figure, save as _save
+from ..report.quasistatic import diagnosis_figure
+from ..report.summary import figure_lines
 from .correlation import propagation_factor
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses

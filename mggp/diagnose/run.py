@@ -326,15 +326,15 @@ def outside_fit_range(fit: Data, measure: Data, start: int = 0) -> Dict[str, flo
 def _reach_dead_time(fit: Data, budget: Budget):
     """``(budget, said)``: the budget with its tree height raised to the
     least that reaches every input acting on the output only beyond the
-    lags its height reaches (:func:`mggp.choices.dead_time_height`, the
+    lags its height reaches (:func:`mggp.fit.choices.dead_time_height`, the
     rule of ``max_height='auto'``), and what was found in words (None: no
     such input). A baseline that cannot reach a dead time misses dynamics
     that no hysteresis term supplies, and the tests would name the wrong
-    cause. A dead time beyond what :data:`mggp.primitives.MAX_HEIGHT`
+    cause. A dead time beyond what :data:`mggp.gp.primitives.MAX_HEIGHT`
     reaches leaves the height."""
     from dataclasses import replace
     from narx.deadtime import late_words
-    from ..choices import dead_time_height
+    from ..fit.choices import dead_time_height
     h, late, reach = dead_time_height(fit, budget.max_height)
     if not late:
         return budget, None

@@ -2,7 +2,7 @@
 
 Typical use (inside :meth:`mggp.MGGPRegressor.fit`)::
 
-    from mggp.noise import select_noise, prune_process
+    from mggp.fit.noise import select_noise, prune_process
     terms = prune_process(data, terms, full_ma(data, 2, registry), start, registry, 3.6)
     terms = terms + select_noise(data, terms, start, registry, q=2, crit=3.6)
 

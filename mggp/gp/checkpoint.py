@@ -2,12 +2,12 @@
 
 Typical use (``evolve`` does this itself with ``checkpoint=path``)::
 
-    from mggp.checkpoint import save_checkpoint, load_checkpoint
+    from mggp.gp.checkpoint import save_checkpoint, load_checkpoint
     save_checkpoint("run.ckpt.json", state)        # state: EvolutionState
     state = load_checkpoint("run.ckpt.json", pset)
 
 The file is plain JSON: genes are lists of node names rebuilt with
-:func:`mggp.primitives.tree_from_tokens` (no ``eval``, no pickle); the
+:func:`mggp.gp.primitives.tree_from_tokens` (no ``eval``, no pickle); the
 random generator state is ``random.Random.getstate()`` as lists; floats are
 written with ``repr`` precision (exact round trip) and non-finite values as
 the strings ``"inf"``, ``"-inf"``, ``"nan"``. Writing goes to a temporary
@@ -32,7 +32,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 from deap import tools
 
-from .exceptions import CheckpointError
+from ..exceptions import CheckpointError
 from .individual import Individual, ParetoArchive, ParetoRow
 from .primitives import Decoder, tree_from_tokens, tree_to_tokens
 

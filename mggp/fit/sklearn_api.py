@@ -26,7 +26,7 @@ import numpy as np
 
 from narx.data import Data, DataError
 
-from .exceptions import NotFittedError
+from ..exceptions import NotFittedError
 
 __all__ = ["sklearn_tags", "fit_inputs", "fit_output", "predict_inputs", "not_fitted",
            "EXPECTED_FAILED_CHECKS", "NO_Y"]

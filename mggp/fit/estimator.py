@@ -7,22 +7,22 @@ Typical use::
                         constraints="steady-state", random_state=0, n_jobs=2).fit(u, y)
     est.model_                      # narx.Model, θ by LS (QR) on all data
     est.model_cls_                  # its CLS refit (continuum of steady states)
-    print(est.pareto_front_)        # complexity, loss, score, equation (mggp.pareto)
+    print(est.pareto_front_)        # complexity, loss, score, equation (mggp.gp.pareto)
     est.simulate(u_val, y_val, mode="freerun").mape
     est.predict(u_val, y0=y_val[:10])   # free run from initial outputs (None: from rest)
     est.score(u_val, y_val)             # R² of the free run (scikit-learn's score)
 
-``fit`` is the search (:mod:`mggp.evolve`: term sets proposed by GP, each
-scored by LS and the chosen simulation, :mod:`mggp.evaluate`) followed by
-the stages of :mod:`mggp.stages`: the choice of a structure, pruning, a
+``fit`` is the search (:mod:`mggp.gp.evolve`: term sets proposed by GP, each
+scored by LS and the chosen simulation, :mod:`mggp.gp.evaluate`) followed by
+the stages of :mod:`mggp.fit.stages`: the choice of a structure, pruning, a
 noise model, the QR refit on the full record, the precision check, with
 ``constraints='steady-state'`` the constrained refit under the
 continuum-of-steady-states equalities derived from the terms [1]_, the
 refinement, the verdict on the CLS refit and the Pareto front. The
 parameters, their rules, defaults and tiers are the table
-:data:`mggp.params.PARAMS`; the scikit-learn conventions (tags, feature
+:data:`mggp.fit.params.PARAMS`; the scikit-learn conventions (tags, feature
 names, the estimator checks a time series cannot pass) are
-:mod:`mggp.sklearn_api`.
+:mod:`mggp.fit.sklearn_api`.
 
 References
 ----------
@@ -53,7 +53,7 @@ from narx.phi import default_registry
 from narx.simulate import mode_name
 from narx.ranges import ExtrapolationWarning, range_warning
 
-from .checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
+from ..gp.checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
 from .choices import (CONSTANT, CONSTANT_ENDS, GAIN, HEIGHT, Choice, class_choice, power_choice,
                       constant_pilot_choice, constant_searched, fewest_terms,
@@ -63,13 +63,13 @@ from .choices import (CONSTANT, CONSTANT_ENDS, GAIN, HEIGHT, Choice, class_choic
                       search_part_choice, size_tolerance, without_constant)
 from .extrapolation import POWER_CAP, StressCheck, bounded_first, signal_power
 from .selection import run_candidates, select_hold
-from .evaluate import Evaluator
-from .evolve import check_context, evolve
-from .exceptions import CheckpointError
+from ..gp.evaluate import Evaluator
+from ..gp.evolve import check_context, evolve
+from ..exceptions import CheckpointError
 from .params import PARAMS, check_params, context_of, params_doc, unknown_keyword
-from .pareto import ParetoFront
+from ..gp.pareto import ParetoFront
 from .precision import data_warnings
-from .primitives import (identically_zero, make_pset, max_lag_for_height, reachable_lag,
+from ..gp.primitives import (identically_zero, make_pset, max_lag_for_height, reachable_lag,
                          search_operators)
 from .screen import StabilityScreen
 from .sklearn_api import (EXPECTED_FAILED_CHECKS, fit_inputs, fit_output, not_fitted,
@@ -114,11 +114,11 @@ class PilotRun(NamedTuple):
     free-run error, terms)`` of the structures weighed: the one the hold
     selection takes (``holds`` True/False), or the pilot's best structure
     and the smaller ones of its Pareto front (``holds`` None;
-    :func:`mggp.choices.front_rows_heldout`); none without a result.
+    :func:`mggp.fit.choices.front_rows_heldout`); none without a result.
     ``error`` and ``terms``: the least error of the rows (``inf`` without
     any) and its structure. Rows whose free run is unbounded on the stress
     inputs are left out when a bounded one is within the size tolerance
-    (:func:`mggp.extrapolation.bounded_first`); ``unbounded`` says why the
+    (:func:`mggp.fit.extrapolation.bounded_first`); ``unbounded`` says why the
     pilot's least-error structure fails them when none is ('' otherwise)."""
 
     result: object
@@ -147,9 +147,9 @@ class MGGPRegressor:
 
     Every parameter is keyword-only; the defaults are the published setup
     except where they are 'auto', which the fit chooses for itself
-    (:mod:`mggp.choices`). *Parameters* below are the ten that most runs
+    (:mod:`mggp.fit.choices`). *Parameters* below are the ten that most runs
     set, *Other Parameters* the expert options; both lists are generated
-    from :data:`mggp.params.PARAMS`, which also holds each rule and tier.
+    from :data:`mggp.fit.params.PARAMS`, which also holds each rule and tier.
     A keyword that is no parameter raises a ``TypeError`` naming the
     closest one.
 
@@ -183,7 +183,7 @@ class MGGPRegressor:
     held-out error, and that of the other pilot's structure refitted without
     its constant, are over 5 % higher and the gains significant at p < 0.05
     (a moving-block bootstrap of the paired held-out errors,
-    :func:`mggp.choices.heldout_gain`; the tail and the head of the record
+    :func:`mggp.fit.choices.heldout_gain`; the tail and the head of the record
     held out in turn), or when the
     pilots tie and the simplest structure that ties holds the constant and
     needs it (never with the steady-state constraints, which it would
@@ -191,11 +191,11 @@ class MGGPRegressor:
     free-run RMSE by over 5 % at p < 0.05; ``size`` takes the fewest terms
     of the run's Pareto front within 5 % of the least held-out free-run
     RMSE (2/√n on n held-out samples when larger:
-    :func:`mggp.choices.size_tolerance`). An
+    :func:`mggp.fit.choices.size_tolerance`). An
     explicit value of a parameter disables its choice; the level is
-    :data:`mggp.choices.LEVEL`.
+    :data:`mggp.fit.choices.LEVEL`.
 
-    Extrapolation (:mod:`mggp.extrapolation`): with ``max_power='auto'``
+    Extrapolation (:mod:`mggp.fit.extrapolation`): with ``max_power='auto'``
     no term holds a power above 3 of one signal (``v[k-1]^7``, or
     ``v[k-1]^2*v[k-2]^2``: 4) unless one more pilot, of the chosen class
     and constant choice with the cap lifted, has a held-out free-run error
@@ -221,7 +221,7 @@ class MGGPRegressor:
     inputs; the best structure if none does (``selection_`` lists the
     verdicts).
 
-    ``screen`` (:mod:`mggp.screen`): in each generation the ``screen_top``
+    ``screen`` (:mod:`mggp.fit.screen`): in each generation the ``screen_top``
     best new structures are simulated in free run over the whole training
     record, and those whose output leaves ``[min y, max y]`` widened by
     ``screen_band * range(y)`` on each side get the fitness ``inf``; so the
@@ -235,7 +235,7 @@ class MGGPRegressor:
     term while its |t| < ``t_threshold``; default Bonferroni,
     Φ⁻¹(1 − 0.05/(2M)) with M the number of candidate monomials allowed by
     ``max_lag``, at most the lag ``max_height`` trees reach, 1 + 3 × height,
-    and ``max_degree``; :mod:`mggp.pruning`).
+    and ``max_degree``; :mod:`mggp.fit.pruning`).
 
     ``noise_lags`` = q > 0: a moving-average noise model is selected after
     the search (NARMAX): candidates ``e[k-j]`` and ``x*e[k-j]`` (x a lag
@@ -245,7 +245,7 @@ class MGGPRegressor:
     the plain one-step error, so strong coloured noise can lead it to extra
     lags that only predict the noise; with ``prune='t'`` those are pruned by
     their ELS t-statistics with the full MA(q) model in the fit first
-    (:mod:`mggp.noise`).
+    (:mod:`mggp.fit.noise`).
 
     ``refine``: θ of the result (and of its CLS refit, keeping the
     constraints) minimises its simulation error instead of the one-step
@@ -260,7 +260,7 @@ class MGGPRegressor:
     ``logbook_``: ``cls_rejected_`` says why the CLS refit is not used by
     ``get_best``/``simulate``/``predict`` (it diverges in free run on the
     training record or its RMSE is over twice the LS fit's; None: it is);
-    ``precision_`` (:class:`mggp.precision.PrecisionCheck`) holds
+    ``precision_`` (:class:`mggp.fit.precision.PrecisionCheck`) holds
     the chosen structure's fitness with the search's normal-equation fit and
     with the QR refit; when the refit simulates more than 1.25× worse (nearly
     collinear terms: the exact LS θ has large cancelling coefficients)
@@ -275,7 +275,7 @@ class MGGPRegressor:
     search, every automatic choice and every θ used: with ``search_samples``
     an integer, a longer record is searched on the part of that length
     whose signals cover most of their range
-    (:func:`mggp.choices.search_span`); the default 'all' searches it whole.
+    (:func:`mggp.fit.choices.search_span`); the default 'all' searches it whole.
     """
 
     @_keywords_checked
@@ -350,12 +350,12 @@ class MGGPRegressor:
     _estimator_type = "regressor"
 
     def get_params(self, deep=True):
-        """The parameters (the rows of :data:`mggp.params.PARAMS`) and their values."""
+        """The parameters (the rows of :data:`mggp.fit.params.PARAMS`) and their values."""
         return {name: getattr(self, name) for name in PARAMS}
 
     def set_params(self, **params):
         """Set parameters by name; an unknown name is refused with the
-        closest parameter named (:func:`mggp.params.unknown_keyword`)."""
+        closest parameter named (:func:`mggp.fit.params.unknown_keyword`)."""
         for k, v in params.items():
             if k not in PARAMS:
                 raise ValueError(unknown_keyword(k, type(self).__name__))
@@ -364,7 +364,7 @@ class MGGPRegressor:
 
     def __sklearn_tags__(self):
         """scikit-learn's tags, imported only when asked for
-        (:func:`mggp.sklearn_api.sklearn_tags`)."""
+        (:func:`mggp.fit.sklearn_api.sklearn_tags`)."""
         return sklearn_tags(self)
 
     def __sklearn_is_fitted__(self) -> bool:
@@ -374,7 +374,7 @@ class MGGPRegressor:
     def expected_failed_checks(estimator=None) -> dict:
         """The estimator checks of scikit-learn that a structure search of a
         time series cannot pass, each with its reason
-        (:data:`mggp.sklearn_api.EXPECTED_FAILED_CHECKS`): the argument
+        (:data:`mggp.fit.sklearn_api.EXPECTED_FAILED_CHECKS`): the argument
         ``expected_failed_checks`` of
         :func:`sklearn.utils.estimator_checks.parametrize_with_checks`."""
         return dict(EXPECTED_FAILED_CHECKS)
@@ -401,7 +401,7 @@ class MGGPRegressor:
 
     def _height(self) -> int:
         """The tree height: ``max_height_`` once ``fit`` resolved it, else
-        ``max_height`` ('auto': :data:`mggp.choices.HEIGHT`, the least it
+        ``max_height`` ('auto': :data:`mggp.fit.choices.HEIGHT`, the least it
         resolves to)."""
         if hasattr(self, "max_height_"):
             return self.max_height_
@@ -439,7 +439,7 @@ class MGGPRegressor:
 
     def fit(self, u, y=None):
         """Search a structure on ``(u, y)``, then run the stages of
-        :data:`mggp.stages.STAGES`; returns self.
+        :data:`mggp.fit.stages.STAGES`; returns self.
 
         Parameters
         ----------
@@ -493,7 +493,7 @@ class MGGPRegressor:
                                  constraints=self.search_constraints, start=start,
                                  registry=registry, estimator=self.estimator)
         # the power cap of the search (max_power='auto': lifted by a pilot,
-        # _searches) and the stress test of the final choices (mggp.extrapolation)
+        # _searches) and the stress test of the final choices (mggp.fit.extrapolation)
         self.max_power_ = {"auto": POWER_CAP, "none": None}.get(self.max_power, self.max_power)
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
                          stress=StressCheck(data, registry) if self.stress else None)
@@ -522,24 +522,24 @@ class MGGPRegressor:
 
     def _searches(self, ctx: FitContext) -> int:
         """The search of the one model class asked for, or with
-        ``use_phi='auto'`` (:func:`mggp.choices.search_classes`) a pilot of
-        each class (full population, :func:`mggp.choices.pilot_generations`
+        ``use_phi='auto'`` (:func:`mggp.fit.choices.search_classes`) a pilot of
+        each class (full population, :func:`mggp.fit.choices.pilot_generations`
         generations, same seed), the class chosen by the least held-out
         free-run error of its pilot's best structure and the smaller ones of
         its Pareto front (with the hold selection: of the structure that
-        selection takes; :func:`mggp.choices.class_choice`),
+        selection takes; :func:`mggp.fit.choices.class_choice`),
         and that pilot continued to ``generations`` (the same run as an
         uninterrupted search of that class). With ``constant='auto'`` (and
-        the constant searched: :func:`mggp.choices.constant_searched`) the
+        the constant searched: :func:`mggp.fit.choices.constant_searched`) the
         chosen class also has a pilot without the constant term, and the
         search continues with the constant when its pilot's held-out
-        error is over :data:`mggp.choices.GAIN` lower than both that pilot's
+        error is over :data:`mggp.fit.choices.GAIN` lower than both that pilot's
         and its own structure's without the constant, significantly at
-        :data:`mggp.choices.LEVEL` (:func:`mggp.choices.heldout_gain`, the
+        :data:`mggp.fit.choices.LEVEL` (:func:`mggp.fit.choices.heldout_gain`, the
         tail and the head held out in turn), or when they tie and
         the constant's structure is the simpler
-        (:func:`mggp.choices.constant_pilot_choice`,
-        :func:`mggp.choices.fewest_terms`). Sets ``ctx.seed``,
+        (:func:`mggp.fit.choices.constant_pilot_choice`,
+        :func:`mggp.fit.choices.fewest_terms`). Sets ``ctx.seed``,
         ``ctx.result``, ``ctx.screen``, ``ctx.search_class``, ``ctx.shape``
         and the choices; returns the structures evaluated."""
         classes = search_classes(self)
@@ -631,7 +631,7 @@ class MGGPRegressor:
         """``max_power='auto'``: a pilot of the chosen class ``cls`` (and
         constant choice ``constant``) with the power cap lifted, appended to
         ``runs``; the cap is lifted (``max_power_`` None, the search
-        continued from this pilot) when :func:`mggp.choices.power_choice`
+        continued from this pilot) when :func:`mggp.fit.choices.power_choice`
         says so. Returns ``(seed, index of the run continued)``."""
         suffix = ", no constant" if constant else ""
         free = partial(self._structure, power=None, **constant)
@@ -680,7 +680,7 @@ class MGGPRegressor:
     @staticmethod
     def _tolerance(ctx: FitContext) -> float:
         """The size tolerance on the record's held-out samples
-        (:func:`mggp.choices.size_tolerance`)."""
+        (:func:`mggp.fit.choices.size_tolerance`)."""
         return size_tolerance(heldout_samples(ctx.data.n))
 
     def _continued(self, pilot_path: str, tag: str) -> str:
@@ -727,7 +727,7 @@ class MGGPRegressor:
     def _search(self, ctx: FitContext, cls, generations: int, screen,
                 seed: Optional[int] = None, checkpoint=None, resume: bool = False,
                 require_finite: bool = True, shape=None, tag: Optional[str] = None):
-        """One evolution of the model class ``cls`` (:class:`mggp.choices.SearchClass`)
+        """One evolution of the model class ``cls`` (:class:`mggp.fit.choices.SearchClass`)
         for ``generations`` (continued from ``checkpoint`` with ``resume``),
         its individuals of at most ``max_terms`` genes less the terms
         ``shape`` adds to every structure (the constant term), so that no
@@ -801,7 +801,7 @@ class MGGPRegressor:
         """The scored structure of decoded terms: the allowed ones (at most
         ``power`` factors of one signal; 'fit': ``max_power_``), after
         the constant term when ``constant`` (default: when the search offers
-        it, :func:`mggp.choices.constant_searched`)."""
+        it, :func:`mggp.fit.choices.constant_searched`)."""
         kept = tuple(t for t in terms if self._allowed(t, power))
         if constant is None:
             constant = constant_searched(self)
@@ -810,7 +810,7 @@ class MGGPRegressor:
     def _allowed(self, term, power="fit") -> bool:
         """Whether the search may use ``term``: not identically zero, within
         ``max_lag``, ``max_degree`` and at most ``power`` factors of one
-        signal (:func:`mggp.extrapolation.signal_power`; None: any; 'fit':
+        signal (:func:`mggp.fit.extrapolation.signal_power`; None: any; 'fit':
         ``max_power_``, the cap the fit resolved)."""
         if identically_zero(term, self.registry or default_registry()):
             return False

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from mggp.individual import Individual, ParetoArchive
+    from mggp.gp.individual import Individual, ParetoArchive
     ind = Individual([tree1, tree2])      # deap.gp.PrimitiveTree genes
     ind.fitness.values = (0.25,)          # MSE, minimised
     child = ind.clone()                   # genes copied, fitness kept
@@ -39,7 +39,7 @@ class Individual(list):
     fitness : FitnessMin
     _terms : tuple of narx.terms.Term or None
         Decoded distinct terms, filled by
-        :meth:`mggp.primitives.Decoder.decode_individual`; cleared by every
+        :meth:`mggp.gp.primitives.Decoder.decode_individual`; cleared by every
         list mutation and by :meth:`invalidate`. Genes are replaced, never
         edited in place (the operators build new trees); code that edits a
         gene in place must call :meth:`invalidate`.

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from mggp.params import PARAMS, check_params
+    from mggp.fit.params import PARAMS, check_params
     PARAMS["window"].help            # 'multiple-shooting window in samples ...'
     check_params(est)                # ValueError naming the parameter, rule, value
 
@@ -32,12 +32,12 @@ from narx.memory import OPERATOR_BUILTINS
 from narx.outliers import ARX_SIGMAS, SPIKE_BAND, SPIKE_WIDTH
 from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
-from .checkpoint import CHECKPOINT_SHARE
+from ..gp.checkpoint import CHECKPOINT_SHARE
 from .choices import (GAIN, HEIGHT, LEVEL, PILOT, SIZE_TOLERANCE, class_margins,
                       heldout_samples, holdout_words, percent, size_tolerance)
 from .extrapolation import POWER_CAP, stress_words
 from .operator_stage import OPERATOR_GAIN
-from .primitives import MAX_HEIGHT, auto_classes, max_lag_for_height
+from ..gp.primitives import MAX_HEIGHT, auto_classes, max_lag_for_height
 
 __all__ = ["MAX_HEIGHT", "Param", "Rule", "Int", "Real", "OneOf", "Bool", "Seed", "Kind", "PARAMS",
            "DIAGNOSE_PARAMS", "GROUPS", "TIERS", "check_params", "unknown_keyword",
@@ -207,13 +207,13 @@ def _path(v) -> bool:
 
 class OperatorNames(Rule):
     """'auto', None, 'none' or names of registered memory operators that
-    the search can offer (:func:`mggp.primitives.operator_names`); the
+    the search can offer (:func:`mggp.gp.primitives.operator_names`); the
     names listed are those registered when the rule is checked."""
 
     argtype = str
 
     def ok(self, v) -> bool:
-        from .primitives import operator_names
+        from ..gp.primitives import operator_names
         if v in ("auto", "none"):
             return True
         try:
@@ -224,7 +224,7 @@ class OperatorNames(Rule):
 
     @staticmethod
     def _names() -> str:
-        from .primitives import operator_choices
+        from ..gp.primitives import operator_choices
         return ", ".join(operator_choices())
 
     @property
@@ -241,7 +241,7 @@ class OperatorNames(Rule):
         grid is refused with the reason."""
         super().check(name, v, cli)
         if v not in ("auto", "none"):
-            from .primitives import operator_names
+            from ..gp.primitives import operator_names
             try:
                 operator_names(v)
             except ValueError as exc:
@@ -336,8 +336,8 @@ _FITNESS = ("ms", "pem", "freerun", "ksa")
 
 
 #: the figures of the automatic choices as the help texts say them, from
-#: the constants of :mod:`mggp.choices`, :mod:`mggp.primitives` and
-#: :mod:`mggp.operator_stage` (the one place each is set)
+#: the constants of :mod:`mggp.fit.choices`, :mod:`mggp.gp.primitives` and
+#: :mod:`mggp.fit.operator_stage` (the one place each is set)
 _HELD_OUT = holdout_words()
 _PILOT = f"{percent(PILOT)} of the generations"
 _CLASS_MARGINS = class_margins()
@@ -587,7 +587,7 @@ def unknown_keyword(name: str, owner: str = "MGGPRegressor") -> str:
     import difflib
     close = difflib.get_close_matches(str(name), list(PARAMS), n=1, cutoff=0.6)
     hint = (f"did you mean {close[0]!r}?" if close else
-            f"the parameters are the rows of mggp.params.PARAMS: {', '.join(PARAMS)}")
+            f"the parameters are the rows of mggp.fit.params.PARAMS: {', '.join(PARAMS)}")
     return f"{owner} got an unexpected keyword argument {name!r}: {hint}"
 
 
@@ -636,7 +636,7 @@ DIAGNOSE_PARAMS: Dict[str, Param] = {p.name: p for p in (
 # ---------------------------------------------------------------- checks
 def check_value(name: str, v, label: Optional[str] = None) -> None:
     """Check ``v`` against the rule of parameter ``name``; the message
-    names it ``label`` (e.g. ``population_size`` in ``mggp.evolve``)."""
+    names it ``label`` (e.g. ``population_size`` in ``mggp.gp.evolve``)."""
     PARAMS[name].rule.check(label or name, v)
 
 

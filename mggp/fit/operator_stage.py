@@ -4,7 +4,7 @@ Typical use (``MGGPRegressor(operators="play,dengtan")`` does this after
 the search)::
 
     from narx.fitness import StructureScorer
-    from mggp.operator_stage import operator_candidates, add_operators
+    from mggp.fit.operator_stage import operator_candidates, add_operators
     scorer = StructureScorer(data, "ms", window=100, start=16)
     cands = operator_candidates(data, ("play", "dengtan"))
     terms, steps = add_operators(scorer, terms, cands, max_terms=15)
@@ -15,9 +15,9 @@ runs on the set it would have without them, and this stage then offers the
 operator columns to the structure it chose.
 
 1. *Forward*: among the candidates (:func:`operator_candidates`: a play of
-   each radius of :func:`mggp.primitives.play_radii`, the Deng-Tan operator
+   each radius of :func:`mggp.gp.primitives.play_radii`, the Deng-Tan operator
    and a Bouc-Wen variable of each shape of
-   :func:`mggp.primitives.bouc_wen_shapes`, as named, of each input at
+   :func:`mggp.gp.primitives.bouc_wen_shapes`, as named, of each input at
    :math:`k-1`), the one that lowers the search fitness :math:`J`
    most is added while it lowers it by at least :data:`OPERATOR_GAIN`
    (:math:`J_{new} \le (1 - 0.05) J`).
@@ -61,12 +61,12 @@ OPERATOR_KEEP = 0.01
 def operator_candidates(data, names) -> List[Term]:
     """Operator terms offered to a structure: for each input ``n`` of
     ``data``, the operators of the search on that input alone
-    (:func:`mggp.primitives.search_operators`) at lag 1, in the order of
+    (:func:`mggp.gp.primitives.search_operators`) at lag 1, in the order of
     ``names``: ``Play(n[k-1],r)`` for each radius of
-    :func:`mggp.primitives.play_radii` (``play``), ``DengTan(n[k-1])``
+    :func:`mggp.gp.primitives.play_radii` (``play``), ``DengTan(n[k-1])``
     (``dengtan``), ``BoucWen(n[k-1],β,γ)`` for each shape of
-    :func:`mggp.primitives.bouc_wen_shapes` (``boucwen``)."""
-    from .primitives import search_operators
+    :func:`mggp.gp.primitives.bouc_wen_shapes` (``boucwen``)."""
+    from ..gp.primitives import search_operators
     out = []
     for n in data.inputs:
         for op, params in search_operators(names, data.input(n)).items():

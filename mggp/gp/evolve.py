@@ -2,8 +2,8 @@
 
 Typical use::
 
-    from mggp.primitives import make_pset
-    from mggp.evolve import evolve
+    from mggp.gp.primitives import make_pset
+    from mggp.gp.evolve import evolve
 
     pset = make_pset()                       # y[k-1], u[k-1], ×, Φ1, Φ2, q⁻¹..q⁻³
     def evaluate_batch(term_sets):           # list of tuples of narx Terms
@@ -52,11 +52,11 @@ from narx.terms import Term
 
 from .checkpoint import (CHECKPOINT_SHARE, CheckpointWriter, EvolutionState,
                          checkpoint_settings, load_checkpoint, settings_fingerprint)
-from .exceptions import CheckpointError
+from ..exceptions import CheckpointError
 from .individual import Individual, ParetoArchive, ParetoRow
 from .operators import (cx_high_level, cx_low_level, mut_high_level,
                         mut_low_level, random_individual, sel_tournament)
-from .params import PARAMS, Int
+from ..fit.params import PARAMS, Int
 from .primitives import Decoder, tree_to_tokens
 
 __all__ = ["check_context", "EvolutionSettings", "EvolutionResult", "make_toolbox", "evolve",
@@ -64,7 +64,7 @@ __all__ = ["check_context", "EvolutionSettings", "EvolutionResult", "make_toolbo
 
 LOG_FIELDS = ["gen", "nevals", "cache_hits", "best", "median", "best_terms"]
 
-#: rules of the settings: the estimator parameters' (:data:`mggp.params.PARAMS`)
+#: rules of the settings: the estimator parameters' (:data:`mggp.fit.params.PARAMS`)
 _RULES = tuple((name, PARAMS[row].rule) for name, row in (
     ("cxpb", "cxpb"), ("mutpb", "mutpb"), ("high_level_cx_rate", "high_level_cx_rate"),
     ("high_level_mut_rate", "high_level_mut_rate"), ("elite_fraction", "elite_fraction"),
@@ -118,7 +118,7 @@ class EvolutionSettings:
     seed: Optional[int] = None
 
     def __post_init__(self):
-        # the estimator's rules (mggp.params); a tree of height 0 is a terminal
+        # the estimator's rules (mggp.fit.params); a tree of height 0 is a terminal
         for name, rule in _RULES:
             rule.check(name, getattr(self, name))
         for name in ("population_size", "generations", "tournament_size", "max_terms",
@@ -330,7 +330,7 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
     Parameters
     ----------
     pset : deap.gp.PrimitiveSetTyped
-        From :func:`mggp.primitives.make_pset`.
+        From :func:`mggp.gp.primitives.make_pset`.
     evaluate_batch : callable
         ``evaluate_batch(list_of_term_tuples) -> list of float`` (MSE to
         minimise; ``inf``/``nan`` mean a diverging model and rank last).
@@ -350,8 +350,8 @@ def evolve(pset, evaluate_batch: Callable[[List[Tuple[Term, ...]]], Sequence[flo
         Written after the initial population, then every
         ``checkpoint_every`` generations, and at the end; with
         ``checkpoint_every=None`` (default) whenever the writes so far leave
-        it within :data:`mggp.checkpoint.CHECKPOINT_SHARE` (5 %) of the
-        wall time (:class:`mggp.checkpoint.CheckpointWriter`), which is every
+        it within :data:`mggp.gp.checkpoint.CHECKPOINT_SHARE` (5 %) of the
+        wall time (:class:`mggp.gp.checkpoint.CheckpointWriter`), which is every
         generation while a write is cheap beside a generation.
     resume : bool
         Continue from ``checkpoint`` if the file exists (its settings, the

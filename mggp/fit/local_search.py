@@ -2,7 +2,7 @@
 
 Typical use (``MGGPRegressor(local_search=True)``, the default, does this)::
 
-    from mggp.local_search import improve, term_moves
+    from mggp.fit.local_search import improve, term_moves
     moves = term_moves(signals, lags=range(1, 5), max_degree=3, allowed=est._allowed)
     terms, steps = improve(terms, score, moves, passes=screen_ok)
 

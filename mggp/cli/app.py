@@ -28,7 +28,7 @@ import numpy as np
 
 from narx.linalg import DIVERGENCE_FACTOR
 
-from .exceptions import CLIError
+from ..exceptions import CLIError
 
 __all__ = ["main", "CLIError", "build_parser", "Files", "check_files"]
 
@@ -118,8 +118,8 @@ def is_term_text(v: str) -> bool:
     return "[" in v or v.strip() == "1"
 
 
-#: files a report folder gets (mggp.report, mggp.diagnose.report,
-#: mggp.quasistatic_report): an input there of such a name would be replaced
+#: files a report folder gets (mggp.report.summary, mggp.diagnose.report,
+#: mggp.report.quasistatic): an input there of such a name would be replaced
 REPORT_FILES = ("summary.md", "*.png")
 
 
@@ -214,12 +214,12 @@ def _cmd_estimate(args) -> int:
     output = args.output or "y"
     data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True,
                     varying_output="nothing can be identified")
-    from .params import PARAMS, check_options
+    from ..fit.params import PARAMS, check_options
     check_options(args, [PARAMS["outliers"]])   # not given: fit's default
     spikes = []
     if args.outliers == "auto":                 # the rule of fit: narx.outliers
         from narx.outliers import find_spikes, repaired
-        from .choices import outliers_choice
+        from ..fit.choices import outliers_choice
         spikes = find_spikes(data)
         data = repaired(data, spikes)
         if spikes:
@@ -334,7 +334,7 @@ def _check_new_column(path, column: str) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .version import __version__
+    from ..version import __version__
     p = _Parser(prog="mggp", description="NARX models of hysteretic systems by "
                 "multi-gene genetic programming.")
     p.add_argument("--version", action="version", version=f"mggp {__version__}")
@@ -359,7 +359,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "states conditions (Σ_y = 1, other cluster sums 0) derived from the "
                         "terms (default: none, plain LS)")
     add_refine_args(e, "100")
-    from .params import PARAMS, add_options
+    from ..fit.params import PARAMS, add_options
     add_options(e, [PARAMS["outliers"]])      # fit's row: its rule, help and default
     e.add_argument("--out", metavar="MODEL.json",
                    help="write the fitted model here (default: not written, only printed)")
@@ -493,7 +493,7 @@ def _main(argv: Optional[List[str]]) -> int:
         check_files(args)                      # before any file is read or written
         for mod in args.phi_module:
             _import_plugin(mod)
-        from .params import PARAMS
+        from ..fit.params import PARAMS
         for name in ("k", "window"):           # shared by every subcommand
             v = getattr(args, name, None)
             if v is not None:

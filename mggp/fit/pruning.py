@@ -2,7 +2,7 @@
 
 Typical use (``MGGPRegressor(prune=...)`` calls these)::
 
-    from mggp.pruning import prune_by_criterion, prune_by_t, t_threshold_of
+    from mggp.fit.pruning import prune_by_criterion, prune_by_t, t_threshold_of
     terms = prune_by_criterion(scorer, terms, n)                  # prune='bic'
     terms = prune_by_t(terms, t_of, t_threshold_of(est, 1))       # prune='t'
 
@@ -27,7 +27,7 @@ import numpy as np
 
 from narx.terms import Term
 
-from .evaluate import criterion_value
+from ..gp.evaluate import criterion_value
 from .local_search import improve
 
 __all__ = ["drops", "prune_by_criterion", "prune_by_t", "bonferroni_t", "t_threshold_of"]
@@ -43,7 +43,7 @@ def drops(terms: Tuple[Term, ...]) -> Iterator[Tuple[Term, ...]]:
 def prune_by_criterion(scorer, terms: Tuple[Term, ...], n: int, criterion: str = "bic"):
     """Backward elimination: drop the term whose removal lowers the
     information criterion (of the scorer's fitness, ``n`` samples) most,
-    while one does; the drop-only case of :func:`mggp.local_search.improve`."""
+    while one does; the drop-only case of :func:`mggp.fit.local_search.improve`."""
     def value(ts):
         return criterion_value(scorer.score(ts), len(ts), n, criterion)
     return improve(tuple(terms), value, drops, max_steps=len(terms))[0]
@@ -80,6 +80,6 @@ def t_threshold_of(est, n_inputs: int) -> float:
     effect; degree up to ``max_degree``, else 3)."""
     if est.t_threshold is not None:
         return float(est.t_threshold)
-    from .primitives import reachable_lag
+    from ..gp.primitives import reachable_lag
     return bonferroni_t(n_inputs, reachable_lag(est.max_height_, est.max_lag),
                         est.max_degree or 3)

@@ -27,7 +27,7 @@ import warnings
 
 import numpy as np
 
-from .cli import BEYOND, CLIError, Files, fmt
+from .app import BEYOND, CLIError, Files, fmt
 
 __all__ = ["register"]
 
@@ -76,7 +76,7 @@ def _cmd_compensate(args) -> int:
     from narx.compensate import NonMinimumPhaseWarning, RootCompensator, operator_refusal
     from narx.csvdata import read_columns
     from narx.atomic import atomic_writer
-    from .compensate import INVERSE_KIND, InverseCompensator
+    from ..compensate import INVERSE_KIND, InverseCompensator
     if args.lead is not None and args.lead < 0:
         raise CLIError(f"--lead must be >= 0, got {args.lead}")
     if args.input_range is not None:

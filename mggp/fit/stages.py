@@ -2,7 +2,7 @@
 
 Typical use (``fit`` does this)::
 
-    from mggp.stages import FitContext, STAGES, run_stages
+    from mggp.fit.stages import FitContext, STAGES, run_stages
     ctx = FitContext(est, data, registry, start, scorer)
     ctx.result = evolve(...)                       # the search
     terms = run_stages(shape(ctx.result.best.terms), data, ctx)
@@ -18,27 +18,27 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
     sets ``selection_`` and ``search_terms_``.
 ``size``
     'auto': the smallest structure of the run's Pareto front whose
-    held-out free-run error is within :data:`mggp.choices.SIZE_TOLERANCE`
+    held-out free-run error is within :data:`mggp.fit.choices.SIZE_TOLERANCE`
     of the least, or within 2/√n on n held-out samples when that is
     larger (``size``).
 ``constant``
     'auto': the constant term kept only when the held-out free-run error
-    is lower with it by over :data:`mggp.choices.GAIN`, significantly at
-    p < :data:`mggp.choices.LEVEL` (never with the steady-state constraints).
+    is lower with it by over :data:`mggp.fit.choices.GAIN`, significantly at
+    p < :data:`mggp.fit.choices.LEVEL` (never with the steady-state constraints).
 ``operators``
     With ``operators`` and ``operator_entry='stage'``: memory-operator
-    terms added stepwise to the structure (:mod:`mggp.operator_stage`);
+    terms added stepwise to the structure (:mod:`mggp.fit.operator_stage`);
     sets ``operator_steps_``.
 ``prune``
     Backward elimination by BIC of the fitness or by t-statistics
-    (``prune``; :mod:`mggp.pruning`).
+    (``prune``; :mod:`mggp.fit.pruning`).
 ``local_search``
     One-term moves from the chosen structure while they lower the search's
-    fitness (``local_search``; :mod:`mggp.local_search`), then the same
+    fitness (``local_search``; :mod:`mggp.fit.local_search`), then the same
     pruning again; sets ``local_search_``.
 ``noise``
     Moving-average noise terms by extended least squares (``noise_lags``;
-    :mod:`mggp.noise`).
+    :mod:`mggp.fit.noise`).
 ``record``
     ``terms_``, ``fitness_`` and the ``meta`` every model of the fit carries.
 ``qr_refit``
@@ -46,7 +46,7 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
     ``estimator='oe'`` the output-error θ of the search's scorer.
 ``precision``
     The fitness with the search's θ and with the QR θ (``precision_``,
-    :mod:`mggp.precision`); ``model_`` keeps the search's θ when the QR
+    :mod:`mggp.fit.precision`); ``model_`` keeps the search's θ when the QR
     refit simulates worse.
 ``cls_refit``
     ``model_cls_``: θ by constrained least squares under the
@@ -80,10 +80,10 @@ from narx.ranges import signal_ranges
 from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
                       heldout_rmse, heldout_samples, local_search_kept, resolve_select,
                       size_choice, steady)
-from .evaluate import criterion_value
-from .exceptions import CLSRejectedWarning
+from ..gp.evaluate import criterion_value
+from ..exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
-from .pareto import ParetoFront, front_rows
+from ..gp.pareto import ParetoFront, front_rows
 from .precision import search_precision
 from .pruning import prune_by_criterion, prune_by_t, t_threshold_of
 from .selection import run_candidates, select_freerun, select_hold
@@ -129,14 +129,14 @@ class FitContext:
     meta : dict
         What every model of the fit records (set by the ``record`` stage).
     search_class : SearchClass
-        The model class searched (:func:`mggp.choices.search_classes`):
+        The model class searched (:func:`mggp.fit.choices.search_classes`):
         Φ or not, the memory operators and where they enter.
     choices : dict
-        The automatic choices made (:class:`mggp.choices.Choice` by
+        The automatic choices made (:class:`mggp.fit.choices.Choice` by
         parameter name), recorded in ``meta['choices']``.
     stress : StressCheck or None
         The stress test of the final choices (``stress``;
-        :class:`mggp.extrapolation.StressCheck`).
+        :class:`mggp.fit.extrapolation.StressCheck`).
     """
 
     est: object
@@ -224,14 +224,14 @@ def local_search(terms, data, ctx):
     structure while the measure that chose it falls: the search's fitness
     (criterion included), or with ``select`` 'freerun' the free-run error
     over the record, each at least the square of
-    :func:`mggp.choices.error_floor` (below it rounding, where dropping a
+    :func:`mggp.fit.choices.error_floor` (below it rounding, where dropping a
     term keeps the measure and is taken); each accepted move passes the search's stability
-    screen (:func:`mggp.local_search.improve`), within
+    screen (:func:`mggp.fit.local_search.improve`), within
     :data:`LOCAL_EVALS_SHARE` of the search's evaluations; a moved structure is pruned
     again (``prune``), and kept only when its held-out free-run error is not
     worse than the chosen structure's beyond the size choice's tolerance and,
     with ``stress``, its free run stays bounded on the stress inputs when the
-    chosen structure's does (:func:`mggp.choices.local_search_kept`;
+    chosen structure's does (:func:`mggp.fit.choices.local_search_kept`;
     otherwise the choice line says so). A structure chosen for its holding
     (``select`` 'hold') is kept as chosen."""
     est = ctx.est
@@ -240,7 +240,7 @@ def local_search(terms, data, ctx):
     if not est.local_search or how == "hold":
         return terms
     from .local_search import improve, term_moves
-    from .primitives import reachable_lag
+    from ..gp.primitives import reachable_lag
     lags = range(1, reachable_lag(est.max_height_, est.max_lag) + 1)
     degree = est.max_degree or max(3, max((t.degree for t in terms), default=1))
     moves = term_moves(data.signals, lags, degree, est._allowed)
@@ -275,10 +275,10 @@ def local_search(terms, data, ctx):
 
 def size(terms, data, ctx):
     """``size='auto'``: the smallest structure of the run's Pareto front
-    whose held-out free-run error is within :data:`mggp.choices.SIZE_TOLERANCE`
+    whose held-out free-run error is within :data:`mggp.fit.choices.SIZE_TOLERANCE`
     of the least (2/√n on n
-    held-out samples when larger: :func:`mggp.choices.size_tolerance`), the chosen
-    structure included (:func:`mggp.choices.size_choice`). A structure
+    held-out samples when larger: :func:`mggp.fit.choices.size_tolerance`), the chosen
+    structure included (:func:`mggp.fit.choices.size_choice`). A structure
     chosen for its holding (``select`` 'hold') is kept, and so is the size an
     information criterion (``criterion`` 'bic'/'aic') or pruning chose."""
     est = ctx.est
@@ -299,9 +299,9 @@ def size(terms, data, ctx):
 def constant(terms, data, ctx):
     """``constant='auto'``: the constant term offered to every structure of
     the search is kept only when the chosen structure's held-out free-run
-    error is lower with it by over :data:`mggp.choices.GAIN` at
-    p < :data:`mggp.choices.LEVEL`
-    (:func:`mggp.choices.constant_choice`);
+    error is lower with it by over :data:`mggp.fit.choices.GAIN` at
+    p < :data:`mggp.fit.choices.LEVEL`
+    (:func:`mggp.fit.choices.constant_choice`);
     with the steady-state constraints it was not offered, and when the
     pilots chose a search without it (:meth:`MGGPRegressor._searches`) the
     structure has none."""
@@ -324,7 +324,7 @@ def constant(terms, data, ctx):
 def operators(terms, data, ctx):
     """Memory-operator terms added stepwise when the searched class has
     operators outside its primitive set (``operators`` named,
-    ``operator_entry='stage'``; :func:`mggp.operator_stage.add_operators`)."""
+    ``operator_entry='stage'``; :func:`mggp.fit.operator_stage.add_operators`)."""
     est = ctx.est
     est.operator_steps_ = None
     cls = ctx.search_class
@@ -371,7 +371,7 @@ def noise(terms, data, ctx):
 
 def record(terms, data, ctx):
     """``terms_``, ``fitness_`` and the meta of the fit's models."""
-    from .version import versions
+    from ..version import versions
     from .params import meta_of
     est = ctx.est
     est.terms_ = terms

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from mggp.evaluate import Evaluator
+    from mggp.gp.evaluate import Evaluator
     ev = Evaluator(data, fitness="ms", window=100, start=16, n_jobs=2)
     fitnesses = ev(list_of_term_tuples)      # one value per term set, in order
     ev.close()
@@ -58,7 +58,7 @@ from narx.fitness import StructureScorer
 from narx.phi import PhiRegistry, default_registry
 from narx.terms import Term
 
-from .exceptions import WorkerLostError
+from ..exceptions import WorkerLostError
 
 __all__ = ["Evaluator", "CRITERIA", "criterion_value", "WorkerLostError",
            "worker_fault_types"]

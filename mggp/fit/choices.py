@@ -2,7 +2,7 @@
 
 Typical use (``fit`` does this)::
 
-    from mggp.choices import heldout_gain, heldout_rmse, resolve_select, HOLDOUT
+    from mggp.fit.choices import heldout_gain, heldout_rmse, resolve_select, HOLDOUT
     err = heldout_rmse(terms, data, registry)       # θ on the head, free run scored on the tail
     g = heldout_gain(simple, rich, data, registry, seed=0)   # g.significant, g.text()
     select, why = resolve_select(est)               # 'hold' with constraints, else 'fitness'
@@ -424,9 +424,9 @@ def size_choice(rows, n_heldout: int = 0, check=None) -> Choice:
     (the chosen structure first, then the run's Pareto front), the fewest
     terms whose error is within :func:`size_tolerance` of ``n_heldout``
     scored samples of the least (ties: the chosen structure, then lower
-    error). With ``check`` (:class:`mggp.extrapolation.StressCheck`), in that
+    error). With ``check`` (:class:`mggp.fit.extrapolation.StressCheck`), in that
     order the first whose free run stays bounded on the stress inputs
-    (:func:`mggp.extrapolation.bounded_first`); the line names the
+    (:func:`mggp.fit.extrapolation.bounded_first`); the line names the
     structures refused, or says that every one within the tolerance fails."""
     from .extrapolation import bounded_first
     tol = size_tolerance(n_heldout) if n_heldout else SIZE_TOLERANCE
@@ -456,7 +456,7 @@ def size_choice(rows, n_heldout: int = 0, check=None) -> Choice:
 
 def stress_said(rows, refused, all_fail, figs) -> str:
     """The end of a choice line on the stress rule's verdicts
-    (:func:`mggp.extrapolation.bounded_first`) over ``rows``
+    (:func:`mggp.fit.extrapolation.bounded_first`) over ``rows``
     ``(n_terms, error, terms)``; records them in ``figs``."""
     if refused:
         figs["stress_refused"] = [[rows[i][0], rows[i][1], why] for i, why in refused]
@@ -486,7 +486,7 @@ def local_search_kept(err_before: float, err_after: float, n_heldout: int,
     the fitness by giving up what the held-out part measures (e.g. input
     terms traded for output lags that extrapolate each multiple-shooting
     window) are not kept. Nor are moves whose structure fails the stress
-    inputs (``unbounded``: why; :mod:`mggp.extrapolation`) when the one it
+    inputs (``unbounded``: why; :mod:`mggp.fit.extrapolation`) when the one it
     started from passes them."""
     tol = size_tolerance(n_heldout)
     kept = bool(np.isfinite(err_after) and (not np.isfinite(err_before)
@@ -724,14 +724,14 @@ class SearchClass:
 
 def _explicit_operators(v) -> tuple:
     """The operator names ``operators`` gives (empty for None, 'none', 'auto')."""
-    from .primitives import operator_names
+    from ..gp.primitives import operator_names
     return () if v in (None, "none", "auto") else tuple(operator_names(v))
 
 
 def search_classes(est) -> list:
     """The model classes searched, simplest first. ``use_phi='auto'``: no Φ,
     Φ and, with ``operators='auto'``, the memory operators
-    :data:`mggp.primitives.AUTO_OPERATORS` (play, Deng–Tan) without Φ in the
+    :data:`mggp.gp.primitives.AUTO_OPERATORS` (play, Deng–Tan) without Φ in the
     primitive set, then the Bouc–Wen variables without Φ (each class with
     the operators ``operators`` names, which enter as ``operator_entry``
     says);
@@ -750,9 +750,9 @@ def search_classes(est) -> list:
 
 def _operator_classes() -> list:
     """The operator classes of ``operators='auto'``, one per ``auto_class``
-    of the operator table (:func:`mggp.primitives.auto_classes`), each with
+    of the operator table (:func:`mggp.gp.primitives.auto_classes`), each with
     its margin (:data:`BOUC_WEN_CLASS_GAIN` for the Bouc–Wen variables)."""
-    from .primitives import auto_classes
+    from ..gp.primitives import auto_classes
     return [SearchClass(label, False, names, True,
                         BOUC_WEN_CLASS_GAIN if label == "Bouc–Wen" else CLASS_GAIN)
             for label, names in auto_classes().items()]
@@ -805,9 +805,9 @@ HEIGHT = 5
 def height_for(scan, least: int):
     """The least tree height from ``least`` whose trees reach every lag of
     the scan's best model (:class:`narx.deadtime.OnsetScan`; 1 + 3 ×
-    height), or None beyond :data:`mggp.primitives.MAX_HEIGHT`."""
+    height), or None beyond :data:`mggp.gp.primitives.MAX_HEIGHT`."""
     from narx.deadtime import SPAN
-    from .primitives import MAX_HEIGHT, max_lag_for_height
+    from ..gp.primitives import MAX_HEIGHT, max_lag_for_height
     last = scan.best + SPAN - 1
     return next((h for h in range(least, MAX_HEIGHT + 1) if max_lag_for_height(h) >= last),
                 None)
@@ -820,10 +820,10 @@ def dead_time_height(data: Data, least: int, max_lag=None, scans=None):
     :func:`narx.deadtime.late_inputs`, a dead time found by a linear ARX
     scan, ``scans`` its :func:`narx.deadtime.onset_scans` when already
     computed); ``least`` itself when there is none, when one lies beyond
-    what :data:`mggp.primitives.MAX_HEIGHT` reaches, or when ``max_lag``
+    what :data:`mggp.gp.primitives.MAX_HEIGHT` reaches, or when ``max_lag``
     forbids the lags (the search could not use them)."""
     from narx.deadtime import late_inputs
-    from .primitives import reachable_lag
+    from ..gp.primitives import reachable_lag
     reach = reachable_lag(least, max_lag)
     late = late_inputs(data, reach, scans)
     heights = [height_for(scan, least) for _, scan in late]
@@ -835,10 +835,10 @@ def dead_time_height(data: Data, least: int, max_lag=None, scans=None):
 def height_choice(data: Data, max_lag=None, scans=None) -> Choice:
     """``max_height='auto'``: :data:`HEIGHT`, raised to the least height
     whose trees reach every input that acts on the output only beyond its
-    lags, up to :data:`mggp.primitives.MAX_HEIGHT`
+    lags, up to :data:`mggp.gp.primitives.MAX_HEIGHT`
     (:func:`dead_time_height`)."""
     from narx.deadtime import late_words
-    from .primitives import reachable_lag
+    from ..gp.primitives import reachable_lag
     h, late, reach = dead_time_height(data, HEIGHT, max_lag, scans)
     if not late:
         return Choice("max_height", HEIGHT, f"max height {HEIGHT}: no input acts on the "
@@ -879,7 +879,7 @@ def class_choice(classes, errors, holds=None, pilot: str = "", unbounded=None,
     whether the class's search has a structure whose CLS refit holds;
     classes that have one win over those that have none, whatever the
     error. ``unbounded[i]``: why the class's structure fails the stress
-    inputs ('' when it passes; :mod:`mggp.extrapolation`); such classes
+    inputs ('' when it passes; :mod:`mggp.fit.extrapolation`); such classes
     are refused when a class that passes has an error within ``tol`` (the
     size tolerance) of the least. ``pilot`` completes the line (how the
     pilots ran)."""
@@ -967,7 +967,7 @@ def search_part_choice(data: Data, samples: int) -> Choice:
 
 def power_choice(err_capped: float, err_free: float, tol: float, pilot: str = "",
                  unbounded: str = ""):
-    """``max_power='auto'``: :data:`mggp.extrapolation.POWER_CAP` (capped)
+    """``max_power='auto'``: :data:`mggp.fit.extrapolation.POWER_CAP` (capped)
     unless the pilot with the cap lifted has a held-out free-run error ``err_free`` lower
     than the capped pilot's ``err_capped`` by more than ``tol`` (the size
     tolerance), :math:`e_{free} < (1 - \\tau)\\, e_{capped}`, or the capped

@@ -3,7 +3,7 @@
 Typical use::
 
     import narx
-    from mggp.quasistatic_report import plot_quasistatic, summary_markdown
+    from mggp.report.quasistatic import plot_quasistatic, summary_markdown
     qs = narx.quasistatic(model, u)
     plot_quasistatic("qs.png", qs, xlabel="u (V)", ylabel="y (µm)")
     print(summary_markdown(qs))

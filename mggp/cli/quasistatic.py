@@ -29,7 +29,7 @@ import sys
 
 import numpy as np
 
-from .cli import CLIError, Files, add_signal_args
+from .app import CLIError, Files, add_signal_args
 
 __all__ = ["register"]
 
@@ -117,7 +117,7 @@ def _cmd_quasistatic(args) -> int:
     from narx import load_model
     from narx.atomic import atomic_write_text, check_writable
     from narx.quasistatic import quasistatic
-    from .quasistatic_report import conclusion, plot_quasistatic, summary_markdown
+    from ..report.quasistatic import conclusion, plot_quasistatic, summary_markdown
     if (args.data is None) == (args.sine is None):
         raise CLIError("give DATA.csv or --sine AMPLITUDE FREQUENCY --rate HZ (one of them)")
     if args.sine is None:

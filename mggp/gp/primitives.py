@@ -3,7 +3,7 @@
 Typical use::
 
     from narx.terms import Signals
-    from mggp.primitives import make_pset, tree_from_tokens, Decoder
+    from mggp.gp.primitives import make_pset, tree_from_tokens, Decoder
 
     pset = make_pset(Signals("y", ("u",)))
     tree = tree_from_tokens(["q1", "mul", "y[k-1]", "Phi1", "u[k-1]", "q1",
@@ -39,7 +39,7 @@ DEAP selects candidates by type; the types are:
     (they exchange or regrow subtrees of one type): ``Phi1(u2[k-8],u1[k-7])``
     would compare signals of different units and is never built. The
     generator draws a Φ-function as one choice and then its input
-    (:func:`mggp.operators.gen_tree`), so Φ-calls are not drawn more often
+    (:func:`mggp.gp.operators.gen_tree`), so Φ-calls are not drawn more often
     with more inputs. With one input the set is the historical one (type
     ``InputLag``, same nodes in the same order): single-input searches are
     unchanged draw for draw.
@@ -59,7 +59,7 @@ where the input stops). One column per operator and parameter, delayed
 as a whole, avoids offering them. The
 node name is the operator's name, then ``@`` and its parameters (a play
 once per radius of :func:`play_radii`); the plays of all radii are one
-choice for the tree generator (:mod:`mggp.operators`), so adding radii does
+choice for the tree generator (:mod:`mggp.gp.operators`), so adding radii does
 not make plays more frequent. Operators take lagged inputs only: their
 columns depend on the input alone and are computed once per record.
 
@@ -109,7 +109,7 @@ def _class_names(label: str) -> Tuple[str, ...]:
 #: operators of the model class "operators" that ``operators='auto'`` pilots:
 #: the rate-independent ones (``auto_class`` 'operators' in
 #: :data:`narx.memory.OPERATOR_BUILTINS`). The Bouc–Wen variables are a
-#: class of their own (:func:`mggp.choices.search_classes`): in this one they
+#: class of their own (:func:`mggp.fit.choices.search_classes`): in this one they
 #: won the pilots on Prandtl–Ishlinskii, MR damper and Bouc–Wen oscillator
 #: records whose validation they then simulated worse
 #: (``benchmarks/results/defaults.md``)
@@ -242,7 +242,7 @@ def input_lag_type(name: str) -> type:
     """The GP type of the lags of input ``name`` in a several-input set.
 
     One class per name and process, ``InputLag_<name>``, a subclass of
-    :class:`InputLag`. It is reachable as ``mggp.primitives.InputLag_<name>``
+    :class:`InputLag`. It is reachable as ``mggp.gp.primitives.InputLag_<name>``
     (created on first access), so trees and individuals holding it pickle
     and load in another process.
 
@@ -283,7 +283,7 @@ def operator_arg_type(name: str) -> type:
     :class:`InputLag` whose only node is the terminal ``name[k-1]``: no
     back-shift applies inside an operator, so a gene holds the operator
     column of ``name[k-1]`` (a back-shift of the whole monomial still
-    delays it). Reachable as ``mggp.primitives.OperatorArg_<name>`` for
+    delays it). Reachable as ``mggp.gp.primitives.OperatorArg_<name>`` for
     pickling.
 
     Parameters
@@ -350,7 +350,7 @@ class LagSymbol:
 def _symbolic(name):
     def f(*args):
         raise TypeError(f"NARX primitive {name!r} is symbolic; decode the tree "
-                        "with mggp.primitives.decode instead of compiling it")
+                        "with mggp.gp.primitives.decode instead of compiling it")
     f.__name__ = name
     return f
 
@@ -693,7 +693,7 @@ class Decoder:
         """Distinct terms of an individual's genes, first occurrence first.
 
         The result is cached on the individual (``ind._terms``) until it
-        changes (see :class:`mggp.individual.Individual`).
+        changes (see :class:`mggp.gp.individual.Individual`).
         """
         cached = getattr(ind, "_terms", None)
         if cached is not None:

@@ -4,8 +4,8 @@ by an explicit ``random.Random`` (never the global ``random`` state).
 Typical use::
 
     import random
-    from mggp.primitives import make_pset
-    from mggp.operators import (random_individual, cx_high_level,
+    from mggp.gp.primitives import make_pset
+    from mggp.gp.operators import (random_individual, cx_high_level,
                                 cx_low_level, mut_high_level, mut_low_level)
     pset, rng = make_pset(), random.Random(1)
     a = random_individual(pset, rng, max_terms=15, max_height=5)
@@ -21,7 +21,7 @@ is 0); every operator keeps genes at or below ``max_height`` (a child over
 the limit is replaced by its parent gene: static limit) and individuals
 between 1 and ``max_terms`` genes. Types are respected everywhere, so Φ
 arguments remain lagged inputs, all of one input (with several inputs each
-has its own lagged-input type, see :mod:`mggp.primitives`): a crossover
+has its own lagged-input type, see :mod:`mggp.gp.primitives`): a crossover
 only exchanges, and a mutation only regrows, a subtree of the same type.
 """
 from __future__ import annotations
@@ -94,7 +94,7 @@ def gen_tree(pset, rng: random.Random, min_height: int, max_height: int,
     ``max_height``.
 
     Primitives of one name count as one candidate: a Φ-function registered
-    once per input (several inputs, see :mod:`mggp.primitives`) is drawn
+    once per input (several inputs, see :mod:`mggp.gp.primitives`) is drawn
     like any other primitive, then its input uniformly. So the share of
     Φ-calls does not grow with the number of inputs, and with one input
     (one primitive per name) the draws are those of a plain uniform choice.

@@ -2,7 +2,7 @@
 
 Typical use (``MGGPRegressor.fit`` does it for its result)::
 
-    from mggp.precision import search_precision
+    from mggp.fit.precision import search_precision
     check = search_precision(scorer, terms, model.theta)
     check.search_mse, check.refit_mse, check.refit_worse
 
@@ -33,7 +33,7 @@ from typing import Optional
 import numpy as np
 
 from .choices import HEIGHT, error_floor
-from .exceptions import SearchPrecisionWarning
+from ..exceptions import SearchPrecisionWarning
 
 __all__ = ["SearchPrecisionWarning", "PrecisionCheck", "search_precision", "offsets",
            "offset_message", "horizon_message", "dead_time_message", "saturation",
@@ -58,7 +58,7 @@ class PrecisionCheck:
     search_mse: float
     refit_mse: float
     #: MSEs below this are rounding (exact data), never compared: the square
-    #: of :func:`mggp.choices.error_floor`
+    #: of :func:`mggp.fit.choices.error_floor`
     floor: float = 0.0
     #: the search's θ of the structure (None if its fit failed)
     search_theta: Optional[np.ndarray] = None
@@ -208,7 +208,7 @@ def dead_time_message(data, reach: int, max_height: int, max_lag=None, scans=Non
     already computed)."""
     from narx.deadtime import SPAN, late_inputs, late_words
     from .choices import height_for
-    from .primitives import MAX_HEIGHT, max_lag_for_height
+    from ..gp.primitives import MAX_HEIGHT, max_lag_for_height
     out = []
     for name, scan in late_inputs(data, reach, scans):
         last = scan.best + SPAN - 1             # the dead time lies in best..last

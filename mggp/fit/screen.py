@@ -2,7 +2,7 @@
 
 Typical use (``MGGPRegressor(screen="freerun")`` wires it in)::
 
-    from mggp.screen import StabilityScreen
+    from mggp.fit.screen import StabilityScreen
     screen = StabilityScreen(data, start=16, top=50)
     values = screen(term_sets, values)      # unstable leaders -> inf
 

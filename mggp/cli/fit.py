@@ -19,9 +19,9 @@ import sys
 import time
 import warnings
 
-from .cli import CLIError, Files, check_refine_args, fmt, mode_option, refinement_line
-from .exceptions import CLSRejectedWarning
-from .params import PATH, PARAMS, Bool, Param, add_options, check_params, options_given
+from .app import CLIError, Files, check_refine_args, fmt, mode_option, refinement_line
+from ..exceptions import CLSRejectedWarning
+from ..fit.params import PATH, PARAMS, Bool, Param, add_options, check_params, options_given
 
 __all__ = ["register", "FIT_OPTIONS"]
 
@@ -37,7 +37,7 @@ _CLI_ROWS = {
 
 #: options of ``mggp fit``: every parameter with a flag (--phi and
 #: --no-constant beside the flag of the same parameter), and the outputs;
-#: ``--help`` shows the common tier first (:data:`mggp.params.TIERS`)
+#: ``--help`` shows the common tier first (:data:`mggp.fit.params.TIERS`)
 FIT_OPTIONS = tuple(r for p in PARAMS.values() for r in (p, _CLI_ROWS.get(p.name)) if r) + (
     Param("out", None, PATH, "write the model: with --constraints the CLS fit, unless its "
           "free run diverges on the training record or (unless --screen hold, or --select "
@@ -133,10 +133,10 @@ class _Progress:
 
 def _cmd_fit(args) -> int:
     from narx.csvdata import read_csv
-    from .estimator import MGGPRegressor
+    from ..fit.estimator import MGGPRegressor
     from narx.atomic import check_writable
     # the rules of the options, alone and combined, come from the table
-    # (mggp.params); what follows combines options with modes and files
+    # (mggp.fit.params); what follows combines options with modes and files
     est = MGGPRegressor(**options_given(args, [p for p in FIT_OPTIONS if p.estimator]))
     if args.phi:
         if est.use_phi is False:
@@ -152,7 +152,7 @@ def _cmd_fit(args) -> int:
     if args.resume and not args.checkpoint:
         raise CLIError("--resume needs --checkpoint FILE")
     if args.resume and not os.path.exists(args.checkpoint):
-        from .checkpoint import pilot_checkpoints
+        from ..gp.checkpoint import pilot_checkpoints
         pilots = pilot_checkpoints(args.checkpoint)
         print(f"note: no checkpoint at {args.checkpoint} yet: " + (
             f"the run continues from its {len(pilots)} pilot checkpoint(s) beside it"
@@ -173,7 +173,7 @@ def _cmd_fit(args) -> int:
         _Progress(est.generations, sys.stderr, args.quiet)])
     data = read_csv(args.data, inputs=est.inputs, output=est.output, varying_inputs=True)
     from narx.data import DataError
-    from .evaluate import WorkerLostError
+    from ..gp.evaluate import WorkerLostError
     try:
         with warnings.catch_warnings():       # said below, for the model written
             warnings.simplefilter("ignore", CLSRejectedWarning)
@@ -188,7 +188,7 @@ def _cmd_fit(args) -> int:
     for c in est.choices_.values():
         print(f"auto: {c['why']}", file=sys.stderr)
     if est.local_search_:
-        from .local_search import moves_text
+        from ..fit.local_search import moves_text
         print(f"{moves_text(est.local_search_)} "
               f"({est.fitness} fitness {fmt(est.local_search_[-1]['fitness'])} after)",
               file=sys.stderr)
@@ -238,7 +238,7 @@ def _cmd_fit(args) -> int:
                      "diagnose and compensate)")
     print("\n".join(lines))
     if args.report:
-        from .report import write_fit_report
+        from ..report.summary import write_fit_report
         cmd = "mggp " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv else None
         path = write_fit_report(args.report, est, data, os.path.basename(args.data), cmd)
         print(f"report written to {path}")

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from mggp.plotting import figure, save
+    from mggp.report.plotting import figure, save
     fig, ax = figure(figsize=(6, 4))
     ax.plot(t, y)
     save(fig, "report/y.png")

@@ -30,14 +30,14 @@ import os
 import shlex
 import sys
 
-from .cli import BEYOND, UNSCORED, CLIError, Files, add_signal_args
-from .params import (DIAGNOSE_PARAMS, NAMES, PATH, Bool, Kind, Param, add_options,
+from .app import BEYOND, UNSCORED, CLIError, Files, add_signal_args
+from ..fit.params import (DIAGNOSE_PARAMS, NAMES, PATH, Bool, Kind, Param, add_options,
                      check_options)
 
 __all__ = ["register", "DIAGNOSE_OPTIONS"]
 
 #: options of ``mggp diagnose``: the records and outputs, the search budget
-#: and the tests' settings (rules and defaults from :mod:`mggp.params`)
+#: and the tests' settings (rules and defaults from :mod:`mggp.fit.params`)
 DIAGNOSE_OPTIONS = (
     Param("validation", None, PATH, "record that measures the gain", "data",
           "--validation", metavar="VAL.csv", default_text="a tail of TRAIN.csv",
@@ -155,8 +155,8 @@ def _say_ranges(args, model, train, val) -> None:
 def _cmd_diagnose(args) -> int:
     from narx import load_model
     from narx.csvdata import read_csv
-    from .diagnose import Budget, diagnose
-    from .diagnose.report import write_report
+    from ..diagnose import Budget, diagnose
+    from ..diagnose.report import write_report
     _check_args(args)
     model = load_model(args.model) if args.model else None
     inputs = args.input or (list(model.inputs) if model else ["u"])
@@ -184,7 +184,7 @@ def _cmd_diagnose(args) -> int:
                     max_degree=args.max_degree, window=args.window, shifts=args.shifts,
                     bootstrap=args.bootstrap)
     say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
-    from .cli_fit import _Progress
+    from .fit import _Progress
     search_progress = None if args.quiet else (
         lambda generations: [_Progress(generations, sys.stderr, False)])
     names = (os.path.basename(args.train),

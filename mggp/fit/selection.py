@@ -2,7 +2,7 @@
 
 Typical use (``MGGPRegressor(select=...)`` calls these)::
 
-    from mggp.selection import run_candidates, select_freerun, select_hold
+    from mggp.fit.selection import run_candidates, select_freerun, select_hold
     cands = run_candidates(result, data.signals, shape, 20)
     terms, table = select_freerun(cands, data, start, registry)
     terms, table = select_hold(cands, data, start, registry, band=1.0)
@@ -15,7 +15,7 @@ Typical use (``MGGPRegressor(select=...)`` calls these)::
   longer than its window.
 * ``select_hold``: the first candidate whose LS free run stays in the
   output band and whose CLS refit holds its output on held inputs
-  (:class:`mggp.screen.StabilityScreen` with ``hold=True``).
+  (:class:`mggp.fit.screen.StabilityScreen` with ``hold=True``).
 
 Both return ``(terms or None, table)``, the table listing what was measured
 (free-run MSE, or the hold verdict) with each candidate's terms.
@@ -30,7 +30,7 @@ from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.terms import Term
 
-from .exceptions import CLSRejectedWarning
+from ..exceptions import CLSRejectedWarning
 from .screen import StabilityScreen
 
 __all__ = ["select_freerun", "select_hold", "run_candidates", "CLSRejectedWarning"]
@@ -41,10 +41,10 @@ def select_freerun(cands: Sequence[Tuple[Term, ...]], data: Data, start: int,
                    ) -> Tuple[Optional[Tuple[Term, ...]], List]:
     """Candidate with the lowest whole-record free-run MSE (``scorer``: a
     free-run scorer of ``data`` from ``start`` to use instead of a new one);
-    with ``check`` (:class:`mggp.extrapolation.StressCheck`) the lowest
+    with ``check`` (:class:`mggp.fit.extrapolation.StressCheck`) the lowest
     whose free run stays bounded on the stress inputs when one has an RMSE
     within the size tolerance of the least
-    (:func:`mggp.extrapolation.bounded_first`)."""
+    (:func:`mggp.fit.extrapolation.bounded_first`)."""
     from .choices import SIZE_TOLERANCE
     from .extrapolation import bounded_first
     fr = scorer or StructureScorer(data, "freerun", start=start, registry=registry)
@@ -79,8 +79,8 @@ def run_candidates(res, signals, shape, count: int) -> List[Tuple[Term, ...]]:
     archive and final population), best search fitness first (ties: fewer
     terms); ``shape`` maps decoded terms to the scored structure (the
     estimator's: allowed terms, and the constant term if asked for)."""
-    from .individual import fitness_of
-    from .primitives import Decoder
+    from ..gp.individual import fitness_of
+    from ..gp.primitives import Decoder
     rows = [(r.fitness, tuple(r.terms)) for r in res.pareto]
     dec = Decoder(signals)
     rows += [(fitness_of(ind), dec.decode_individual(ind)) for ind in res.population

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from mggp.report import write_fit_report
+    from mggp.report.summary import write_fit_report
     write_fit_report("report/", est, data)          # PNGs + summary.md
 
 Figures: free-run simulation against data, the input-output loop (u
@@ -190,7 +190,7 @@ def _choice_lines(est) -> list:
     out = [f"- {c['why']}" for c in getattr(est, "choices_", {}).values()]
     steps = getattr(est, "local_search_", None) or []
     if steps:
-        from .local_search import moves_text
+        from ..fit.local_search import moves_text
         out.append("- " + moves_text(steps, lambda t: f"`{t}`"))
     return ["## Automatic choices", ""] + out + [""] if out else []
 
@@ -229,7 +229,7 @@ def write_fit_report(folder, est, data, data_name: str = "data",
                                       else est.criterion.upper())}),
                  f"The best fitness of each generation of the search (lower is better): "
                  f"{words}. A flat tail means more generations would not have helped."))
-    from .quasistatic_report import model_figure          # the model written, on a probe sine
+    from .quasistatic import model_figure          # the model written, on a probe sine
     qs = model_figure(j(folder, "quasistatic.png"), est.get_best(), data.U.T)
     if qs:
         figs.append((qs, "Quasi-static analysis of the model written (on a probe sine over "

@@ -2,7 +2,7 @@
 
 Typical use (``fit`` does this)::
 
-    from mggp.extrapolation import StressCheck, bounded_first, signal_power
+    from mggp.fit.extrapolation import StressCheck, bounded_first, signal_power
     check = StressCheck(data, registry)
     check(terms)            # '' if its free run stays bounded, else why not
     signal_power(term)      # 7 for v[k-1]^7, 2 for v[k-1]*v[k-2]*x[k-1]
@@ -33,7 +33,7 @@ Stress inputs
     (:data:`STRESS_BAND`, :math:`\\bar y` the training output's mean). A
     structure that fails is refused when a structure that passes has a
     held-out free-run error within the size tolerance of the least
-    (:func:`mggp.choices.size_tolerance`), and the choice line says so; when
+    (:func:`mggp.fit.choices.size_tolerance`), and the choice line says so; when
     every structure within the tolerance fails, the choice is made as
     without the check and its line says that they all fail
     (:func:`bounded_first`). A linear model passes whatever its error; a
@@ -46,7 +46,7 @@ Power cap (``max_power='auto'``)
     ``v[k-i]`` of one signal ``v`` at any lags, :func:`signal_power`),
     unless a pilot search with the cap lifted has a held-out free-run error
     lower than the capped pilot's by more than the size tolerance
-    (:func:`mggp.choices.power_choice`); the pilots are those of the model class and
+    (:func:`mggp.fit.choices.power_choice`); the pilots are those of the model class and
     the constant (:meth:`mggp.MGGPRegressor._searches`), plus one.
 
 References
