@@ -178,13 +178,15 @@ def test_fit_select_reaches_the_estimator(capsys, tmp_path):
 def test_fit_writes_the_ls_model_when_the_cls_refit_fails(capsys, tmp_path, monkeypatch,
                                                           theta, text):
     import mggp.fit.estimator as E
-    from mggp.fit.stages import FitContext, cls_verdict
+    from mggp.fit.stages import FitContext, Refined, Selected, cls_verdict
     real = E.MGGPRegressor.fit
 
     def fit(self, data, *a, **k):
         real(self, data, *a, **k)
         self.model_cls_ = Model(["y[k-1]", "u[k-1]"], theta)
-        cls_verdict(self.terms_, data, FitContext(self, data, None, 0, None))
+        ctx = FitContext(self, data, None, 0, None)
+        ctx.decided["refine"] = Refined(self.terms_, None, self.model_, self.model_cls_)
+        self.cls_rejected_ = cls_verdict(self.terms_, data, ctx).rejected
         return self
     monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
     out = tmp_path / "m.json"
@@ -313,14 +315,16 @@ def test_fit_writes_the_ls_model_when_hold_found_no_holding_candidate(capsys, tm
     so the guard against a CLS fit far worse than the LS fit applies (it was
     bypassed, and a CLS model 5.8x worse in free run was written)."""
     import mggp.fit.estimator as E
-    from mggp.fit.stages import FitContext, cls_verdict
+    from mggp.fit.stages import FitContext, Refined, Selected, cls_verdict
     real = E.MGGPRegressor.fit
 
     def fit(self, data, *a, **k):
         real(self, data, *a, **k)
         self.model_cls_ = Model(["y[k-1]", "u[k-1]"], [0.5, 0.5])   # stable, worse
-        self.selection_ = [(False, ["y[k-1]", "u[k-1]"])]           # none held
-        cls_verdict(self.terms_, data, FitContext(self, data, None, 0, None))
+        ctx = FitContext(self, data, None, 0, None)
+        ctx.decided["select"] = Selected(self.terms_, [(False, ["y[k-1]", "u[k-1]"])])  # none held
+        ctx.decided["refine"] = Refined(self.terms_, None, self.model_, self.model_cls_)
+        self.cls_rejected_ = cls_verdict(self.terms_, data, ctx).rejected
         return self
     monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
     out = tmp_path / "m.json"

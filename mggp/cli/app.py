@@ -389,11 +389,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=_cmd_simulate, files=Files({"model": "MODEL.json", "data": "DATA.csv"},
                                                    {"out": "--out"}))
 
-    for name in ("cli_fit", "cli_diagnose", "cli_compensate", "cli_quasistatic"):
+    for name in ("fit", "diagnose", "compensate", "quasistatic"):
         try:
-            mod = __import__(f"mggp.{name}", fromlist=["register"])
+            mod = __import__(f"mggp.cli.{name}", fromlist=["register"])
         except ModuleNotFoundError as exc:
-            if exc.name != f"mggp.{name}":
+            if exc.name != f"mggp.cli.{name}":
                 raise
             continue
         mod.register(sub)

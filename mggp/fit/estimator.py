@@ -496,7 +496,8 @@ class MGGPRegressor:
         # _searches) and the stress test of the final choices (mggp.fit.extrapolation)
         self.max_power_ = {"auto": POWER_CAP, "none": None}.get(self.max_power, self.max_power)
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
-                         stress=StressCheck(data, registry) if self.stress else None)
+                         stress=StressCheck(data, registry) if self.stress else None,
+                         allowed=self._allowed)
         if self.outliers == "auto":
             ctx.choices["outliers"] = outliers_choice(spikes, data.output, data.inputs)
         if height is not None:
@@ -507,7 +508,8 @@ class MGGPRegressor:
             ctx.choices["screen"] = resolve_screen(self)
         ctx.screen = self._make_screen(data, start, registry, ctx)
         evaluations = self._searches(ctx)
-        run_stages(ctx.shape(ctx.result.best.terms), data, ctx)
+        decided = run_stages(ctx.shape(ctx.result.best.terms), data, ctx)
+        self._assign(decided)
         res = ctx.result
         self.choices_ = {name: c.to_dict() for name, c in ctx.choices.items()}
         self.outliers_ = tuple(spikes)
@@ -519,6 +521,30 @@ class MGGPRegressor:
         self.result_ = res
         self.fit_time_ = time.perf_counter() - t0
         return self
+
+    def _assign(self, decided) -> None:
+        """The fitted attributes from the decisions of the stages
+        (:func:`mggp.fit.stages.run_stages`); an attribute a stage did not
+        decide (``selection_``, ``t_threshold_``, ``cls_error_``) is not set."""
+        selected, pruned = decided["select"], decided["prune"]
+        self.search_terms_ = selected.terms
+        if selected.selection is not None:
+            self.selection_ = selected.selection
+        self.operator_steps_ = decided["operators"].steps
+        if pruned.t_threshold is not None:
+            self.t_threshold_ = pruned.t_threshold
+        self.local_search_ = decided["local_search"].steps
+        self.terms_ = decided["record"].terms
+        self.fitness_ = decided["record"].fitness
+        self.rank_ = decided["qr_refit"].rank
+        self.precision_ = decided["precision"].check
+        if decided["cls_refit"].error is not None:
+            self.cls_error_ = decided["cls_refit"].error
+        refined = decided["refine"]
+        self.refinement_ = refined.refinement
+        self.model_, self.model_cls_ = refined.model, refined.model_cls
+        self.cls_rejected_ = decided["cls_verdict"].rejected
+        self.pareto_front_ = decided["pareto"].front
 
     def _searches(self, ctx: FitContext) -> int:
         """The search of the one model class asked for, or with

@@ -7,12 +7,16 @@ Typical use (``fit`` does this)::
     ctx.result = evolve(...)                       # the search
     terms = run_stages(shape(ctx.result.best.terms), data, ctx)
 
-Each stage is a function ``stage(terms, data, ctx) -> terms`` of the
-structure so far, the training record and the :class:`FitContext`; it sets
-the fitted attributes it is responsible for on ``ctx.est``. In order
-(:data:`STAGES`):
+Each stage is a function ``stage(terms, data, ctx) -> Decision`` of the
+structure so far, the training record and the :class:`FitContext`: it
+reads the settings and the decisions of the stages before it
+(:meth:`FitContext.latest`) and returns its own decision, a small frozen
+dataclass holding the structure it hands on (``terms``) and what it chose.
+It never writes to the estimator: :meth:`mggp.MGGPRegressor.fit` assigns the
+fitted attributes from the decisions that :func:`run_stages` returns. In
+order (:data:`STAGES`, decision in brackets):
 
-``select``
+``select`` (:class:`Selected`)
     The structure among the best of the run (``select``; 'auto': the one
     whose CLS refit holds with ``constraints``, else the best fitness);
     sets ``selection_`` and ``search_terms_``.
@@ -25,38 +29,38 @@ the fitted attributes it is responsible for on ``ctx.est``. In order
     'auto': the constant term kept only when the held-out free-run error
     is lower with it by over :data:`mggp.fit.choices.GAIN`, significantly at
     p < :data:`mggp.fit.choices.LEVEL` (never with the steady-state constraints).
-``operators``
+``operators`` (:class:`OperatorsAdded`)
     With ``operators`` and ``operator_entry='stage'``: memory-operator
     terms added stepwise to the structure (:mod:`mggp.fit.operator_stage`);
     sets ``operator_steps_``.
-``prune``
+``prune`` (:class:`Pruned`)
     Backward elimination by BIC of the fitness or by t-statistics
     (``prune``; :mod:`mggp.fit.pruning`).
-``local_search``
+``local_search`` (:class:`LocalSearched`)
     One-term moves from the chosen structure while they lower the search's
     fitness (``local_search``; :mod:`mggp.fit.local_search`), then the same
     pruning again; sets ``local_search_``.
 ``noise``
     Moving-average noise terms by extended least squares (``noise_lags``;
     :mod:`mggp.fit.noise`).
-``record``
+``record`` (:class:`Recorded`)
     ``terms_``, ``fitness_`` and the ``meta`` every model of the fit carries.
-``qr_refit``
+``qr_refit`` (:class:`Refitted`)
     ``model_``: θ by least squares (QR) on the whole record; with
     ``estimator='oe'`` the output-error θ of the search's scorer.
-``precision``
+``precision`` (:class:`PrecisionChecked`)
     The fitness with the search's θ and with the QR θ (``precision_``,
     :mod:`mggp.fit.precision`); ``model_`` keeps the search's θ when the QR
     refit simulates worse.
-``cls_refit``
+``cls_refit`` (:class:`ClsRefitted`)
     ``model_cls_``: θ by constrained least squares under the
     continuum-of-steady-states equalities of the terms (``constraints``).
-``refine``
+``refine`` (:class:`Refined`)
     θ of both models by minimising the simulation error (``refine``).
-``cls_verdict``
+``cls_verdict`` (:class:`ClsVerdict`)
     ``cls_rejected_``: why the CLS refit is not the default model
     (:func:`cls_rejection`), with a :class:`CLSRejectedWarning`.
-``pareto``
+``pareto`` (:class:`Front`)
     ``pareto_front_`` of the run, with the θ the search scored.
 
 All stages score with the one :class:`narx.fitness.StructureScorer` of the
@@ -68,14 +72,16 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field, replace
-from typing import Callable, Dict, Optional, Tuple
+from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Protocol, Tuple
 
 from narx import Model
 from narx.data import Data
 from narx.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
 from narx.output_error import OE_ESTIMATORS
+from narx.phi import PhiRegistry
 from narx.ranges import signal_ranges
+from narx.terms import Term
 
 from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
                       heldout_rmse, heldout_samples, local_search_kept, resolve_select,
@@ -88,7 +94,16 @@ from .precision import search_precision
 from .pruning import prune_by_criterion, prune_by_t, t_threshold_of
 from .selection import run_candidates, select_freerun, select_hold
 
-__all__ = ["FitContext", "STAGES", "run_stages", "cls_rejection", "CLS_WORSE"]
+if TYPE_CHECKING:
+    from ..gp.evolve import EvolutionResult
+    from .choices import SearchClass
+    from .extrapolation import StressCheck
+    from .precision import PrecisionCheck
+    from .screen import StabilityScreen
+
+__all__ = ["FitContext", "Settings", "STAGES", "run_stages", "cls_rejection", "CLS_WORSE",
+           "Decision", "Selected", "OperatorsAdded", "Pruned", "LocalSearched", "Recorded",
+           "Refitted", "PrecisionChecked", "ClsRefitted", "Refined", "ClsVerdict", "Front"]
 
 #: a CLS refit whose free-run RMSE on the training record is more than this
 #: many times the LS fit's is not preferred to it
@@ -103,14 +118,138 @@ LOCAL_EVALS_SHARE = 0.1
 LOCAL_EVALS_MIN = 1000
 
 
+class Settings(Protocol):
+    """What the stages read of :class:`mggp.MGGPRegressor`: its parameters
+    (:data:`mggp.fit.params.PARAMS`; the stages read these and
+    ``max_height_``, and write nothing)."""
+
+    select: str
+    select_candidates: int
+    screen: str
+    screen_band: Any
+    size: Any
+    constant: Any
+    criterion: str
+    prune: Any
+    t_threshold: Optional[float]
+    local_search: bool
+    max_height_: int
+    max_lag: Optional[int]
+    max_degree: Optional[int]
+    max_terms: int
+    noise_lags: int
+    estimator: str
+    constraints: Optional[str]
+    search_constraints: Optional[str]
+    refine: Any
+    refine_window: Optional[int]
+    window: Optional[int]
+
+
+# ---------------------------------------------------------------- decisions
+@dataclass(frozen=True)
+class Decision:
+    """What a stage decided: the structure it hands on (``size``,
+    ``constant`` and ``noise`` decide nothing else; their automatic choices
+    record themselves in :attr:`FitContext.choices`)."""
+
+    terms: Tuple[Term, ...]
+
+
+@dataclass(frozen=True)
+class Selected(Decision):
+    """``select``: ``terms`` is ``search_terms_``; ``selection`` is
+    ``selection_`` (None: no candidates were compared)."""
+
+    selection: Optional[list] = None
+
+
+@dataclass(frozen=True)
+class OperatorsAdded(Decision):
+    """``operators``: ``steps`` is ``operator_steps_`` (None: no stage ran)."""
+
+    steps: Optional[list] = None
+
+
+@dataclass(frozen=True)
+class Pruned(Decision):
+    """``prune``: ``t_threshold`` is ``t_threshold_`` (``prune='t'`` only)."""
+
+    t_threshold: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class LocalSearched(Decision):
+    """``local_search``: ``steps`` is ``local_search_`` (the moves kept)."""
+
+    steps: list = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Recorded(Decision):
+    """``record``: ``terms`` is ``terms_``, ``fitness`` is ``fitness_``."""
+
+    fitness: float = float("nan")
+
+
+@dataclass(frozen=True)
+class Refitted(Decision):
+    """``qr_refit``: ``model`` is ``model_``, ``rank`` is ``rank_``."""
+
+    model: Optional[Model] = None
+    rank: int = 0
+
+
+@dataclass(frozen=True)
+class PrecisionChecked(Decision):
+    """``precision``: ``check`` is ``precision_``; ``model`` is ``model_``
+    (the search's θ where the QR refit simulates worse)."""
+
+    check: Optional["PrecisionCheck"] = None
+    model: Optional[Model] = None
+
+
+@dataclass(frozen=True)
+class ClsRefitted(Decision):
+    """``cls_refit``: ``model_cls`` is ``model_cls_``; ``error`` is
+    ``cls_error_`` (None: no error)."""
+
+    model_cls: Optional[Model] = None
+    error: Optional[str] = None
+
+
+@dataclass(frozen=True)
+class Refined(Decision):
+    """``refine``: ``refinement`` is ``refinement_``; ``model`` and
+    ``model_cls`` are ``model_`` and ``model_cls_``, refined or as they came."""
+
+    refinement: Any = None
+    model: Optional[Model] = None
+    model_cls: Optional[Model] = None
+
+
+@dataclass(frozen=True)
+class ClsVerdict(Decision):
+    """``cls_verdict``: ``rejected`` is ``cls_rejected_``."""
+
+    rejected: Optional[str] = None
+
+
+@dataclass(frozen=True)
+class Front(Decision):
+    """``pareto``: ``front`` is ``pareto_front_``."""
+
+    front: Optional[ParetoFront] = None
+
+
 @dataclass
 class FitContext:
     """What the stages share.
 
     Attributes
     ----------
-    est : MGGPRegressor
-        The settings; the stages set its fitted attributes.
+    est : Settings
+        The estimator, read for its settings (the stages write nothing to it).
     data : Data
         The training record.
     registry : PhiRegistry
@@ -137,22 +276,37 @@ class FitContext:
     stress : StressCheck or None
         The stress test of the final choices (``stress``;
         :class:`mggp.fit.extrapolation.StressCheck`).
+    allowed : callable
+        ``allowed(term) -> bool``: whether the search may use a term (the
+        local search's moves keep to it).
+    decided : dict
+        The decisions of the stages run so far, by stage name.
     """
 
-    est: object
+    est: Settings
     data: Data
-    registry: object
+    registry: Optional[PhiRegistry]
     start: int
-    scorer: StructureScorer
-    result: object = None
-    shape: Callable = tuple
-    screen: object = None
+    scorer: Optional[StructureScorer]
+    result: Optional["EvolutionResult"] = None
+    shape: Callable[[Tuple[Term, ...]], Tuple[Term, ...]] = tuple
+    screen: Optional["StabilityScreen"] = None
     seed: Optional[int] = None
-    search_class: object = None
+    search_class: Optional["SearchClass"] = None
     meta: dict = field(default_factory=dict)
     choices: dict = field(default_factory=dict)
-    stress: object = None
+    stress: Optional["StressCheck"] = None
+    allowed: Callable[[Term], bool] = lambda term: True
+    decided: Dict[str, Decision] = field(default_factory=dict)
     _scorers: Dict[Tuple, StructureScorer] = field(default_factory=dict)
+
+    def latest(self, name: str, default=None):
+        """Field ``name`` of the last decision so far that has one (e.g.
+        ``'model'``: refined, else precision-checked, else refitted)."""
+        for d in reversed(list(self.decided.values())):
+            if hasattr(d, name):
+                return getattr(d, name)
+        return default
 
     def scorer_for(self, fitness: str, constraints: Optional[str] = None) -> StructureScorer:
         """The scorer of ``fitness`` (and ``constraints``) on the record from
@@ -191,9 +345,10 @@ def select(terms, data, ctx):
     if est.select == "auto":
         ctx.choices["select"] = resolve_select(est)
     how = selected(ctx)
+    selection = None
     if how == "freerun":
         cands = run_candidates(ctx.result, data.signals, ctx.shape, est.select_candidates)
-        chosen, est.selection_ = select_freerun(cands, data, ctx.start, ctx.registry,
+        chosen, selection = select_freerun(cands, data, ctx.start, ctx.registry,
                                                 scorer=ctx.scorer_for("freerun"),
                                                 check=ctx.stress)
         terms = chosen or terms
@@ -202,21 +357,20 @@ def select(terms, data, ctx):
         scr = ctx.screen
         shared = scr if (scr is not None and scr.hold is not None
                          and est.search_constraints is None) else None
-        chosen, est.selection_ = select_hold(cands, data, ctx.start, ctx.registry,
+        chosen, selection = select_hold(cands, data, ctx.start, ctx.registry,
                                              est.screen_band, screen=shared)
         if "select" in ctx.choices:
-            c, at = ctx.choices["select"], len(est.selection_)
+            c, at = ctx.choices["select"], len(selection)
             ctx.choices["select"] = replace(c, why=c.why + (
                 f"; candidate {at} of {len(cands)} (best fitness first) holds" if chosen
                 else f"; none of the {len(cands)} candidates holds"),
                 figures={"candidates": len(cands), "holding": at if chosen else None})
         if not chosen:
-            warnings.warn(f"select='hold': none of the {len(est.selection_)} candidates "
+            warnings.warn(f"select='hold': none of the {len(selection)} candidates "
                           f"holds its output on a held input; model_ is the best-fitness "
                           f"structure (see selection_)", UserWarning, stacklevel=_CALLER)
         terms = chosen or terms
-    est.search_terms_ = terms
-    return terms
+    return Selected(terms, selection)
 
 
 def local_search(terms, data, ctx):
@@ -235,15 +389,14 @@ def local_search(terms, data, ctx):
     otherwise the choice line says so). A structure chosen for its holding
     (``select`` 'hold') is kept as chosen."""
     est = ctx.est
-    est.local_search_ = []
     how = selected(ctx)
     if not est.local_search or how == "hold":
-        return terms
+        return LocalSearched(terms)
     from .local_search import improve, term_moves
     from ..gp.primitives import reachable_lag
     lags = range(1, reachable_lag(est.max_height_, est.max_lag) + 1)
     degree = est.max_degree or max(3, max((t.degree for t in terms), default=1))
-    moves = term_moves(data.signals, lags, degree, est._allowed)
+    moves = term_moves(data.signals, lags, degree, ctx.allowed)
     n = data.n - ctx.start
 
     sc = ctx.scorer_for("freerun") if how == "freerun" else ctx.scorer
@@ -260,17 +413,16 @@ def local_search(terms, data, ctx):
     budget = max(LOCAL_EVALS_MIN, int(LOCAL_EVALS_SHARE * ctx.result.evaluations))
     moved, steps = improve(terms, score, moves, passes, max_evals=budget)
     if not steps:
-        return terms
-    moved = prune(moved, data, ctx)
+        return LocalSearched(terms)
+    moved = prune(moved, data, ctx).terms
     unbounded = "" if ctx.stress is None or ctx.stress(terms) else ctx.stress(moved)
     c = local_search_kept(heldout_rmse(terms, data, ctx.registry),
                           heldout_rmse(moved, data, ctx.registry),
                           heldout_samples(data.n), len(steps), unbounded)
     if not c.value:
         ctx.choices["local_search"] = c
-        return terms
-    est.local_search_ = [s.to_dict() for s in steps]
-    return moved
+        return LocalSearched(terms)
+    return LocalSearched(moved, [s.to_dict() for s in steps])
 
 
 def size(terms, data, ctx):
@@ -283,17 +435,17 @@ def size(terms, data, ctx):
     information criterion (``criterion`` 'bic'/'aic') or pruning chose."""
     est = ctx.est
     if est.size != "auto" or selected(ctx) == "hold":
-        return terms
+        return Decision(terms)
     if est.criterion != "mse" or est.prune:
         by = (f"the {est.criterion.upper()} criterion" if est.criterion != "mse"
               else f"pruning ({est.prune})")
         ctx.choices["size"] = Choice("size", len(terms), f"size {len(terms)} terms: "
                                      f"chosen by {by}, not by held-out error", {})
-        return terms
+        return Decision(terms)
     c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry),
                     heldout_samples(data.n), ctx.stress)
     ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
-    return c.value
+    return Decision(c.value)
 
 
 def constant(terms, data, ctx):
@@ -306,19 +458,19 @@ def constant(terms, data, ctx):
     pilots chose a search without it (:meth:`MGGPRegressor._searches`) the
     structure has none."""
     if ctx.est.constant != "auto":
-        return terms
+        return Decision(terms)
     if steady(ctx.est):
         ctx.choices["constant"] = constant_off()
-        return terms
+        return Decision(terms)
     pilot = ctx.choices.get("constant")
     if pilot is not None and not pilot.value:   # searched without it (the pilots' choice)
-        return terms
+        return Decision(terms)
     c, terms = constant_choice(terms, data, ctx.registry, ctx.seed or 0)
     if pilot is not None:
         c = replace(c, why=f"{pilot.why}; then {c.why}", figures={**pilot.figures,
                                                                    **c.figures})
     ctx.choices["constant"] = c
-    return terms
+    return Decision(terms)
 
 
 def operators(terms, data, ctx):
@@ -326,30 +478,29 @@ def operators(terms, data, ctx):
     operators outside its primitive set (``operators`` named,
     ``operator_entry='stage'``; :func:`mggp.fit.operator_stage.add_operators`)."""
     est = ctx.est
-    est.operator_steps_ = None
     cls = ctx.search_class
     if cls is None or not cls.operators or cls.in_search:
-        return terms
+        return OperatorsAdded(terms)
     names = cls.operators
     from .operator_stage import add_operators, operator_candidates
-    terms, est.operator_steps_ = add_operators(
+    terms, steps = add_operators(
         ctx.scorer, terms, operator_candidates(data, names), est.max_terms,
         keep=ctx.shape(()))
-    return terms
+    return OperatorsAdded(terms, steps)
 
 
 def prune(terms, data, ctx):
     """Backward elimination of terms (``prune``: 'bic' or 't')."""
     est = ctx.est
     if est.prune == "bic":
-        return prune_by_criterion(ctx.scorer, terms, data.n - ctx.start)
+        return Pruned(prune_by_criterion(ctx.scorer, terms, data.n - ctx.start))
     if est.prune == "t":
         from narx.estimate import t_statistics
         from narx.regressors import regressor_matrix
-        crit = est.t_threshold_ = t_threshold_of(est, len(data.inputs))
-        return prune_by_t(terms, lambda ts: t_statistics(
-            *regressor_matrix(ts, data, start=ctx.start)[:2]), crit)
-    return terms
+        crit = t_threshold_of(est, len(data.inputs))
+        return Pruned(prune_by_t(terms, lambda ts: t_statistics(
+            *regressor_matrix(ts, data, start=ctx.start)[:2]), crit), crit)
+    return Pruned(terms)
 
 
 def noise(terms, data, ctx):
@@ -359,14 +510,14 @@ def noise(terms, data, ctx):
     dropped first."""
     est = ctx.est
     if not est.noise_lags:
-        return terms
+        return Decision(terms)
     crit = t_threshold_of(est, len(data.inputs))
     q = int(est.noise_lags)
     if est.prune == "t":
         terms = prune_process(data, terms, full_ma(data, q, ctx.registry), ctx.start,
                               ctx.registry, crit)
-    return terms + select_noise(data, terms, ctx.start, ctx.registry, q, crit,
-                                limit=max(est.max_terms - len(terms), 0))
+    return Decision(terms + select_noise(data, terms, ctx.start, ctx.registry, q, crit,
+                                         limit=max(est.max_terms - len(terms), 0)))
 
 
 def record(terms, data, ctx):
@@ -374,21 +525,20 @@ def record(terms, data, ctx):
     from ..version import versions
     from .params import meta_of
     est = ctx.est
-    est.terms_ = terms
-    est.fitness_ = ctx.result.best.fitness if terms == est.search_terms_ else \
+    fitness = ctx.result.best.fitness if terms == ctx.decided["select"].terms else \
         criterion_value(ctx.scorer.score(terms), len(terms), data.n - ctx.start,
                         est.criterion)
     resolved = {name: c.value for name, c in ctx.choices.items()}
     ctx.meta = dict(meta_of(est), **resolved, seed=ctx.seed,
                     cls_refit=est.constraints == "steady-state",
-                    search_fitness_value=est.fitness_, versions=versions(),
+                    search_fitness_value=fitness, versions=versions(),
                     ranges=signal_ranges(data))
     if ctx.choices:
         ctx.meta["choices"] = {name: c.to_dict() for name, c in ctx.choices.items()}
     if ctx.search_class is not None and ctx.search_class.operators:
         ctx.meta["operators"] = list(ctx.search_class.operators)
         ctx.meta["operator_entry"] = "search" if ctx.search_class.in_search else "stage"
-    return terms
+    return Recorded(terms, fitness)
 
 
 def _model(terms, data, ctx, estimation, theta=None, **extra) -> Model:
@@ -405,13 +555,13 @@ def qr_refit(terms, data, ctx):
     ``'oe'``."""
     est = ctx.est
     with ignore_rank_warnings():
-        est.model_ = _model(terms, data, ctx, "ls").fit(data)
-    est.rank_ = int(est.model_.fit_info_["rank"])
+        model = _model(terms, data, ctx, "ls").fit(data)
+    rank = int(model.fit_info_["rank"])
     if est.estimator in OE_ESTIMATORS and not any(t.has_noise for t in terms):
         theta, _ = ctx.scorer.fitted(terms)
         if theta is not None:
-            est.model_ = _model(terms, data, ctx, "oe", theta)
-    return terms
+            model = _model(terms, data, ctx, "oe", theta)
+    return Refitted(terms, model, rank)
 
 
 def precision(terms, data, ctx):
@@ -419,15 +569,15 @@ def precision(terms, data, ctx):
     search's θ is kept when the QR refit simulates worse. Not compared for
     ELS fits of noise terms, CLS fits of a constrained search and
     output-error fits, which are not what the QR refit (LS) is."""
-    est = ctx.est
-    est.precision_ = check = None if (any(t.has_noise for t in terms)
-                                      or est.search_constraints
-                                      or est.model_.meta["estimation"] == "oe") else \
-        search_precision(ctx.scorer, terms, est.model_.theta, est.model_.fit_info_["start"])
+    est, model = ctx.est, ctx.latest("model")
+    check = None if (any(t.has_noise for t in terms)
+                     or est.search_constraints
+                     or model.meta["estimation"] == "oe") else \
+        search_precision(ctx.scorer, terms, model.theta, model.fit_info_["start"])
     if check is not None and check.refit_worse:
-        est.model_ = _model(terms, data, ctx, "ls-search", check.search_theta,
-                            qr_refit_fitness_value=check.refit_mse)
-    return terms
+        model = _model(terms, data, ctx, "ls-search", check.search_theta,
+                       qr_refit_fitness_value=check.refit_mse)
+    return PrecisionChecked(terms, check, model)
 
 
 def cls_refit(terms, data, ctx):
@@ -439,31 +589,30 @@ def cls_refit(terms, data, ctx):
 
     with :math:`S \\theta = c` the continuum-of-steady-states equalities of
     the terms (Abreu et al., Nonlinear Dynamics, 2020)."""
-    est = ctx.est
-    est.model_cls_ = None
-    if est.constraints == "steady-state":
+    model_cls = error = None
+    if ctx.est.constraints == "steady-state":
         try:
             with ignore_rank_warnings():
-                est.model_cls_ = _model(terms, data, ctx, "cls").fit(
+                model_cls = _model(terms, data, ctx, "cls").fit(
                     data, constraints="steady-state")
         except ValueError as exc:
-            est.cls_error_ = str(exc)
-    return terms
+            error = str(exc)
+    return ClsRefitted(terms, model_cls, error)
 
 
 def refine(terms, data, ctx):
     """θ of ``model_`` and ``model_cls_`` by least simulation error
     (``refine``; ``refinement_`` holds the errors before and after)."""
     est = ctx.est
-    est.refinement_ = None
+    refinement, model, model_cls = None, ctx.latest("model"), ctx.latest("model_cls")
     if est.refine:
         from narx.refine import refine_both
-        est.refinement_, est.model_, est.model_cls_, why = refine_both(
-            est.model_, est.model_cls_, data, est.refine, est.refine_window or est.window)
+        refinement, model, model_cls, why = refine_both(
+            model, model_cls, data, est.refine, est.refine_window or est.window)
         if why:
             warnings.warn(f"refine={est.refine!r} is not applied: {why}", UserWarning,
                           stacklevel=_CALLER)
-    return terms
+    return Refined(terms, refinement, model, model_cls)
 
 
 def cls_rejection(model, model_cls, data, held: bool = False) -> Optional[str]:
@@ -487,25 +636,22 @@ def cls_verdict(terms, data, ctx):
     CLS refit is used. A structure chosen for its CLS refit's holding
     (``screen='hold'``, or ``select='hold'`` with a candidate that holds)
     is not rejected for its error alone."""
-    est = ctx.est
+    model, model_cls = ctx.latest("model"), ctx.latest("model_cls")
     held = screened(ctx) == "hold" or (selected(ctx) == "hold" and any(
-        ok for ok, _ in getattr(est, "selection_", ())))
-    est.cls_rejected_ = None if est.model_cls_ is None else cls_rejection(
-        est.model_, est.model_cls_, data, held)
-    if est.cls_rejected_:
-        warnings.warn(f"the CLS refit {est.cls_rejected_}: get_best(), simulate() and "
+        ok for ok, _ in ctx.latest("selection") or ()))
+    rejected = None if model_cls is None else cls_rejection(model, model_cls, data, held)
+    if rejected:
+        warnings.warn(f"the CLS refit {rejected}: get_best(), simulate() and "
                       f"predict() use the LS model (constrained=True for the CLS one)",
                       CLSRejectedWarning, stacklevel=_CALLER)
-    return terms
+    return ClsVerdict(terms, rejected)
 
 
 def pareto(terms, data, ctx):
     """``pareto_front_``: the run's front with the θ the search scored."""
-    est = ctx.est
-    est.pareto_front_ = ParetoFront(front_rows(ctx.result.pareto, ctx.scorer, ctx.shape),
+    return Front(terms, ParetoFront(front_rows(ctx.result.pareto, ctx.scorer, ctx.shape),
                                     inputs=data.inputs, output=data.output,
-                                    registry=ctx.registry)
-    return terms
+                                    registry=ctx.registry))
 
 
 #: the stages of ``fit`` after the search, in order
@@ -516,8 +662,11 @@ STAGES = (("select", select), ("size", size), ("constant", constant),
           ("cls_verdict", cls_verdict), ("pareto", pareto))
 
 
-def run_stages(terms, data: Data, ctx: FitContext, stages=STAGES):
-    """Pass ``terms`` through ``stages``; returns the final structure."""
-    for _, stage in stages:
-        terms = stage(terms, data, ctx)
-    return terms
+def run_stages(terms, data: Data, ctx: FitContext, stages=STAGES) -> Dict[str, Decision]:
+    """Pass ``terms`` through ``stages``, each taking the structure the one
+    before handed on; returns the decisions by stage name (also
+    :attr:`FitContext.decided`)."""
+    for name, stage in stages:
+        ctx.decided[name] = decision = stage(terms, data, ctx)
+        terms = decision.terms
+    return ctx.decided
