@@ -1,5 +1,5 @@
 """A dead time beyond the search's reach: found before the search, the tree
-height raised to reach it, and what that gives (:mod:`narx.deadtime`,
+height raised to reach it, and what that gives (:mod:`narx.records.deadtime`,
 :func:`mggp.fit.choices.height_choice`, ``mggp.fit.precision``).
 
 Typical use::
@@ -33,7 +33,7 @@ import warnings
 import numpy as np
 
 from narx import Data
-from narx.deadtime import onset_scan
+from narx.records.deadtime import onset_scan
 from mggp.fit.precision import dead_time_message
 
 DELAYS = (3, 10, 16, 20, 25, 40, 60)

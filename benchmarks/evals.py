@@ -16,12 +16,12 @@ height 5), then the MSE of multiple shooting with windows of Δm samples.
 
 Measured in the same run:
 
-* ours, sequential (``narx.fitness.StructureScorer``): *cold* = a fresh
+* ours, sequential (``narx.estimation.fitness.StructureScorer``): *cold* = a fresh
   scorer's first pass (every term's columns and Gram entries built on
   first sight; best of repeats; the scorer's construction, once per worker
   and run, timed apart), *warm* = later passes (all cached, as in a GP
   run once the population's terms have been seen); with the window-major MS kernel
-  (:mod:`narx.ms_kernel`, the default) and with the general kernel;
+  (:mod:`narx.simulation.ms_kernel`, the default) and with the general kernel;
 * ours, ``mggp.gp.evaluate.Evaluator`` with ``n_jobs=2`` (loky processes; pool
   start-up timed apart), cold and warm; its values must equal the
   sequential ones bit for bit;
@@ -56,7 +56,7 @@ def random_term_sets(count: int, seed: int = 0, max_terms: int = 15, max_height:
     from mggp.gp.primitives import identically_zero
     from mggp.gp.operators import random_individual
     from mggp.gp.primitives import Decoder, make_pset
-    from narx.phi import default_registry
+    from narx.language.phi import default_registry
     pset, rng = make_pset(), random.Random(seed)
     dec, reg = Decoder(pset.signals), default_registry()
     sets = []
@@ -81,9 +81,9 @@ def sequential(u, y, sets, window: int, repeats: int, fast: bool) -> dict:
     the scorer's construction (allocating and writing its column stores,
     once per worker and run) timed apart. Warm: best of ``repeats`` further
     passes."""
-    import narx.ms_kernel as msk
-    from narx.data import as_data
-    from narx.fitness import StructureScorer
+    import narx.simulation.ms_kernel as msk
+    from narx.records.data import as_data
+    from narx.estimation.fitness import StructureScorer
     old = msk.ENABLED
     msk.ENABLED = fast
     try:
@@ -107,7 +107,7 @@ def sequential(u, y, sets, window: int, repeats: int, fast: bool) -> dict:
 def parallel(u, y, sets, window: int, repeats: int, n_jobs: int) -> dict:
     """Cold and warm throughput of the Evaluator (fresh scorers in the workers)."""
     from mggp.gp.evaluate import Evaluator
-    from narx.data import as_data
+    from narx.records.data import as_data
     data = as_data(u, y)
     t0 = time.perf_counter()
     spin = Evaluator(data, "ms", window=window, start=START + 1, n_jobs=n_jobs)
@@ -126,8 +126,8 @@ def parallel(u, y, sets, window: int, repeats: int, n_jobs: int) -> dict:
 def versus_toolbox(u, y, sets, ks, repeats: int) -> dict:
     """Per-individual times, toolbox against ours, on the same individuals."""
     from benchmarks import peers as pe
-    from narx.data import as_data
-    from narx.fitness import StructureScorer
+    from narx.records.data import as_data
+    from narx.estimation.fitness import StructureScorer
     out = {}
     for k in ks:
         rows, rejected, reason = [], 0, None

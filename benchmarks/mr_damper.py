@@ -29,7 +29,7 @@ import time
 import numpy as np
 
 from narx import Data, PhiRegistry, rrse
-from narx.csvdata import read_columns
+from narx.records.csvdata import read_columns
 
 __all__ = ["load_damper", "run_damper", "damper_path", "data_path", "data_dirs"]
 

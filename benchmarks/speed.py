@@ -148,8 +148,8 @@ def first_call(npz: Path, terms, cache_dir=None) -> dict:
 
 def run_freerun(n: int, repeats: int, peers: bool, rtol: float) -> dict:
     import narx
-    from narx.data import as_data
-    from narx.kernels import Plan, run_windows
+    from narx.records.data import as_data
+    from narx.simulation.kernels import Plan, run_windows
     from numba import njit
 
     u, y = piezo_record(n)
@@ -280,7 +280,7 @@ def run_cli(n: int) -> dict:
 
 
 def _cache_lines(log: str, what: str) -> int:
-    """Lines of numba's cache log about the free-run kernel (narx.kernels._kernel)."""
+    """Lines of numba's cache log about the free-run kernel (narx.simulation.kernels._kernel)."""
     return sum(1 for ln in log.splitlines() if what in ln and "kernels._kernel" in ln)
 
 

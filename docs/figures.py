@@ -88,7 +88,7 @@ def diagnose():
     residual-direction and model figures."""
     from mggp.diagnose import Budget, diagnose as run
     from mggp.diagnose.report import write_report
-    from narx.data import Data
+    from narx.records.data import Data
     from narx.systems import piezo_bouc_wen, training_input
     u = training_input(4000, bandwidth=4.0, seed=3)
     dx = run(Data(u, piezo_bouc_wen(u)), budget=Budget(population=60, generations=10),
@@ -128,7 +128,7 @@ def quasistatic():
 def compensate():
     """The published model (19) inverted step by step on a smooth reference."""
     from benchmarks.casestudy import model19
-    from narx.compensate import compensate as invert
+    from narx.analysis.compensate import compensate as invert
     from narx.systems import piezo_bouc_wen, sine_input
     plt = _plt()
     m = model19()

@@ -3,7 +3,7 @@
 Typical use::
 
     from mggp.compensate import identify_inverse, pi_loop, PiezoPlant
-    from narx.compensate import RootCompensator
+    from narx.analysis.compensate import RootCompensator
     inv = identify_inverse(u, y, lead=1, fitness="ms", window=500, max_lag=2,
                            random_state=0, n_jobs=2)      # actuator data (u -> y)
     res = inv.run(r, input_range=(-80, 80))               # res.m: actuator input
@@ -54,9 +54,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from narx import Model
-from narx.compensate import (CompensationResult, TermPlan, check_count, check_range,
+from narx.analysis.compensate import (CompensationResult, TermPlan, check_count, check_range,
                              check_reference, past_values)
-from narx.data import Data
+from narx.records.data import Data
 from narx.systems import piezo_bouc_wen
 
 from .exceptions import CLSRejectedWarning
@@ -268,7 +268,7 @@ def pi_loop(plant, r, *, compensator=None, kp=0.1, ki=0.2, gain=1.0, lead=None,
     r : array_like (N,)
         Reference.
     compensator : object with ``step(target) -> m``, optional
-        A :class:`narx.compensate.RootCompensator` or
+        A :class:`narx.analysis.compensate.RootCompensator` or
         :class:`InverseCompensator` (reset it before the call); ``None``
         runs the PI loop alone.
     kp, ki : float

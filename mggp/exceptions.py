@@ -7,7 +7,7 @@ Typical use::
     warnings.simplefilter("error", CLSRejectedWarning)   # a rejected CLS refit stops
 
 Errors of the numerics (bad data, bad terms, model files) are
-:mod:`narx`'s (``narx.data.DataError``, ``narx.terms.TermError``, ...).
+:mod:`narx`'s (``narx.records.data.DataError``, ``narx.language.terms.TermError``, ...).
 Errors of a parameter out of its rule are ``ValueError`` naming the
 parameter, the rule and the value given (:mod:`mggp.fit.params`).
 """

@@ -20,9 +20,10 @@ import importlib.abc
 import importlib.util
 import pkgutil
 import sys
+import types
 import warnings
 
-__all__ = ["install", "moved_spec", "moved_attribute", "warn_moved"]
+__all__ = ["install", "moved_spec", "moved_attribute", "warn_moved", "keep_functions"]
 
 
 def warn_moved(old: str, new: str, stacklevel: int = 3) -> None:
@@ -77,3 +78,21 @@ def moved_attribute(old: str, new: str, name: str):
     value = getattr(module, name)
     setattr(package, name, value)                      # warned once: now a plain name
     return value
+
+
+class _Face(types.ModuleType):
+    """A package whose functions no module binds over (see :func:`keep_functions`)."""
+
+    def __setattr__(self, name, value):
+        old = self.__dict__.get(name)
+        if isinstance(value, types.ModuleType) and callable(old) \
+                and not isinstance(old, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+def keep_functions(package: str) -> None:
+    """Keep the functions of ``package`` that share a name with a moved module
+    (``narx.simulate``): importing the old path binds the module on its
+    parent, which would hide the function."""
+    sys.modules[package].__class__ = _Face

@@ -25,8 +25,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mggp.cli.app import main
-from narx.csvdata import read_csv
-from narx.data import DataError
+from narx.records.csvdata import read_csv
+from narx.records.data import DataError
 from narx import ModelFileError, load_model
 from narx.systems import piezo_bouc_wen, training_input
 
@@ -421,7 +421,7 @@ def test_property_cli_returns_two_with_one_line(model_text, csv_text, cmd):
 def test_non_ascii_column_name_gets_an_ascii_suggestion(files):
     """Signal names are ASCII identifiers; the suggested name must be one
     (it repeated 'Displacement_µm', a Unicode identifier) and the file is named."""
-    from narx.terms import ascii_name
+    from narx.language.terms import ascii_name
     p = files / "uni.csv"
     p.write_text("Voltage_V,Displacement_µm\n" + "".join(
         f"{float(a)!r},{float(b)!r}\n" for a, b in zip(_U, _Y)))

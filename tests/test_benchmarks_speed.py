@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import narx
-import narx.ms_kernel as msk
+import narx.simulation.ms_kernel as msk
 from benchmarks import evals, full_setup, speed
-from narx.data import as_data
-from narx.fitness import StructureScorer
+from narx.records.data import as_data
+from narx.estimation.fitness import StructureScorer
 from conftest import piezo_record
 
 
@@ -152,5 +152,5 @@ def test_eval_phases_account_for_the_whole_evaluation():
     assert {"Gram entries", "MS kernel", "columns", "Python"} <= set(ph)
     assert sum(ph.values()) == pytest.approx(r["seconds_per_eval"])
     assert all(v >= 0 for k, v in ph.items() if k != "Python")
-    import narx.fitness as fit
+    import narx.estimation.fitness as fit
     assert fit.fixed_dot.__name__ == "fixed_dot"          # wrappers removed again

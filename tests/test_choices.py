@@ -8,8 +8,8 @@ import pytest
 
 from mggp import MGGPRegressor
 from mggp.fit.choices import CLASS_GAIN, SearchClass, class_choice, heldout_rmse
-from narx.data import Data
-from narx.testsystems import system_by_name
+from narx.records.data import Data
+from narx.systems.testsystems import system_by_name
 
 from conftest import first_order_record
 from test_constant import affine_record
@@ -520,7 +520,7 @@ def test_a_long_record_is_searched_on_the_part_that_covers_its_range():
     differs from the whole-record search's. Controls: 'all' (the default)
     and a part no shorter than the record search it whole."""
     from mggp.fit.choices import search_span
-    from narx.data import Data
+    from narx.records.data import Data
     from narx.systems import piezo_bouc_wen, training_input
     u = training_input(3000, seed=1)
     u[:1000] = u[1000]

@@ -226,8 +226,8 @@ def test_evaluator_scores_without_a_start():
     """The Evaluator's documented call without ``start=``: finite scores (it
     used to default to row 0, below every set's lag, and score all inf)."""
     from mggp.gp.evaluate import Evaluator
-    from narx.data import as_data
-    from narx.terms import parse_terms
+    from narx.records.data import as_data
+    from narx.language.terms import parse_terms
     u, y = first_order_record(500)
     data = as_data(u, y)
     sets = [tuple(parse_terms(["y[k-1]", "u[k-1]"], data.signals)),
@@ -342,7 +342,7 @@ def test_cls_rejection_and_get_best_follow_the_cli_rule():
     refit is used, and constrained=True still returns the CLS one."""
     from mggp import MGGPRegressor
     from mggp.fit.stages import cls_rejection
-    from narx.data import as_data
+    from narx.records.data import as_data
     rng = np.random.default_rng(0)
     u = rng.uniform(-1, 1, 400)
     y = np.zeros(400)

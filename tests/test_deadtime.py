@@ -1,12 +1,12 @@
 """Dead time beyond the search's reach: found by the ARX scan and named
-before the search (narx.deadtime, mggp.fit.precision.dead_time_message)."""
+before the search (narx.records.deadtime, mggp.fit.precision.dead_time_message)."""
 import warnings
 
 import numpy as np
 import pytest
 
 from narx import Data
-from narx.deadtime import GAIN as DEAD_TIME_GAIN, SPAN, onset_scan
+from narx.records.deadtime import GAIN as DEAD_TIME_GAIN, SPAN, onset_scan
 from mggp.fit.precision import dead_time_message
 
 
@@ -135,7 +135,7 @@ def test_the_diagnosis_reaches_a_dead_time_and_does_not_call_it_hysteresis():
     says so, and names no hysteresis; with the dead time hidden from it
     (the control: late_inputs patched to find none) the baseline at height
     5 cannot reach lag 25 and simulates far worse."""
-    import narx.deadtime
+    import narx.records.deadtime
     from mggp.diagnose import diagnose
     from mggp.diagnose.extend import Budget
     kw = dict(budget=Budget(population=100, generations=15), seed=1)
@@ -144,7 +144,7 @@ def test_the_diagnosis_reaches_a_dead_time_and_does_not_call_it_hysteresis():
     assert "the searches' trees have height 9" in dx.summary()
     assert "hysteresis" not in dx.effects
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(narx.deadtime, "late_inputs", lambda data, reach, scans=None: [])
+        mp.setattr(narx.records.deadtime, "late_inputs", lambda data, reach, scans=None: [])
         blind = diagnose(_delayed(25), **kw)
     assert blind.settings["dead_time"] is None
     assert blind.baseline.rmse > 2 * dx.baseline.rmse

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 import narx
-from narx.data import Data
+from narx.records.data import Data
 from narx.systems import (held_sine, piezo_bouc_wen, prandtl_ishlinskii, sine_input,
                           training_input)
-from narx.testsystems import hammerstein, polynomial_narx
+from narx.systems.testsystems import hammerstein, polynomial_narx
 
 from mggp.cli.app import main
 from mggp.diagnose import EXTENSIONS, VOCABULARY, Budget, diagnose
@@ -548,7 +548,7 @@ def test_operator_augmentation_on_white_input_tells_a_play_from_a_missing_lag():
     input-lag controls). With them the drop stays below the threshold;
     control: the same dynamics driven by a play of the input is named."""
     from mggp.diagnose.augmentation import operator_augmentation_test
-    from narx.memory import play
+    from narx.language.memory import play
     r = np.random.default_rng(1)
     n = 2000
     u = r.uniform(-1, 1, n)
@@ -595,7 +595,7 @@ def test_operator_augmentation_does_not_take_a_static_saturation_for_memory():
     theirs too, and only memory counts. Control: a play with the same white
     input and dynamics stays far above its threshold."""
     from mggp.diagnose.augmentation import operator_augmentation_test
-    from narx.memory import play
+    from narx.language.memory import play
     r = np.random.default_rng(0)
     n = 3000
     u = r.uniform(-1, 1, n)
@@ -617,7 +617,7 @@ def test_shuffled_operators_keep_the_static_part_and_lose_the_path():
     after a random path: within the play's half-width of u[t] (its static
     part), but not the play's own value (its memory)."""
     from mggp.diagnose.augmentation import shuffled_operators
-    from narx.memory import play
+    from narx.language.memory import play
     r = np.random.default_rng(3)
     u = r.uniform(-1, 1, 500)
     d = Data(u, np.zeros(500))

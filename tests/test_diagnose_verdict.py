@@ -7,7 +7,7 @@ from scipy.signal import lfilter
 from scipy.stats import binom
 
 import narx
-from narx.data import Data
+from narx.records.data import Data
 from narx.systems import piezo_bouc_wen, sine_input, training_input
 
 from mggp.diagnose import Budget, diagnose
@@ -183,7 +183,7 @@ def _piezo_random(seed, n=4000):
 
 
 def _control(kind, seed, n=3000):
-    from narx.testsystems import hammerstein
+    from narx.systems.testsystems import hammerstein
     if kind == "hammerstein":
         s = hammerstein(n=n, seed=seed, noise_std=0.02)
         return Data(s.u, s.y)

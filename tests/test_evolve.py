@@ -6,7 +6,7 @@ import os
 import pytest
 from joblib import Parallel, delayed
 
-from narx.terms import Signals, parse_terms
+from narx.language.terms import Signals, parse_terms
 from mggp.gp.checkpoint import load_checkpoint
 from mggp.gp.evolve import EvolutionSettings, evolve, structure_key
 from mggp.gp.primitives import decode_individual, make_pset

@@ -5,7 +5,7 @@ measured MR damper's default model held v[k-1]^9 and v[k-1]^7 and ran to an
 RMSE 90 times the force's standard deviation on a test record whose
 velocity left the training range on 0.3 % of its samples. Every model
 file records the training ranges and the simulations name the inputs that
-leave them (narx.ranges); the search refuses structures whose free run is
+leave them (narx.records.ranges); the search refuses structures whose free run is
 unbounded on stress inputs, and caps the power of one signal at 3 unless a
 pilot asks for more (mggp.fit.extrapolation).
 """
@@ -17,10 +17,10 @@ import pytest
 
 import narx
 from narx import Model, ModelFileError, load_model
-from narx.data import Data
-from narx.ranges import (ExtrapolationWarning, excursions, range_line, range_warning,
+from narx.records.data import Data
+from narx.records.ranges import (ExtrapolationWarning, excursions, range_line, range_warning,
                          recorded_ranges, signal_ranges)
-from narx.terms import parse_term
+from narx.language.terms import parse_term
 from mggp.cli.app import main
 from mggp.fit.extrapolation import (POWER_CAP, STRESS_BAND, STRESS_SCALE, StressCheck,
                                 bounded_first, signal_power, stress_records)
@@ -78,7 +78,7 @@ def test_range_line_counts_and_measures_in_half_widths():
 def test_a_hair_beyond_the_ends_is_not_named():
     """A new realisation of the training input passes its extremes by a
     hair (within MARGIN half-widths): no line; control: 5 % beyond is named."""
-    from narx.ranges import MARGIN
+    from narx.records.ranges import MARGIN
     ranges = {"u": (-1.0, 1.0)}
     u = np.linspace(-1, 1, 50)
     u[5] = 1.0 + MARGIN / 2

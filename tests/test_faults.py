@@ -26,9 +26,9 @@ from mggp.gp.checkpoint import load_checkpoint
 from mggp.cli.app import main
 from mggp.gp.evaluate import Evaluator, WorkerLostError
 from mggp.gp.primitives import make_pset
-from narx.data import Data
+from narx.records.data import Data
 from narx.systems import piezo_bouc_wen, training_input
-from narx.terms import parse_terms
+from narx.language.terms import parse_terms
 
 
 @pytest.fixture(scope="module")

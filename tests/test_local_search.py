@@ -6,9 +6,9 @@ from mggp import MGGPRegressor
 from mggp.gp.evaluate import criterion_value
 from mggp.fit.local_search import improve, term_moves
 from narx import Data
-from narx.fitness import StructureScorer
-from narx.terms import Signals, parse_terms
-from narx.testsystems import system_by_name
+from narx.estimation.fitness import StructureScorer
+from narx.language.terms import Signals, parse_terms
+from narx.systems.testsystems import system_by_name
 
 S3_TRUE = ["u[k-2]*u[k-2]", "y[k-1]*u[k-1]", "y[k-1]*y[k-1]*y[k-1]", "y[k-2]",
            "y[k-2]*u[k-2]*u[k-2]"]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from narx.testsystems import SYSTEMS, system_by_name
+from narx.systems.testsystems import SYSTEMS, system_by_name
 
 
 def recover(name, seed, data_seed=0, **kw):
@@ -177,7 +177,7 @@ def _two_input_fit(scale=1.0):
 
 
 def _phi_input_sets(terms):
-    from narx.terms import PhiCall
+    from narx.language.terms import PhiCall
     return [{a.signal for a in f.args} for t in terms for f in t.factors
             if isinstance(f, PhiCall)]
 

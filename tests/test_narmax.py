@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from narx.testsystems import system_by_name
+from narx.systems.testsystems import system_by_name
 
 SETTINGS = dict(fitness="pem", criterion="bic", population=200, generations=40,
                 max_terms=8, max_height=3, use_phi=False, prune="t", max_lag=4,

@@ -1,7 +1,7 @@
 """A memory operator registered by the user enters the structure search.
 
-The operator table (:data:`narx.memory.OPERATOR_BUILTINS` and the plug-ins
-of :func:`narx.memory.register_operator`) names every operator the search
+The operator table (:data:`narx.language.memory.OPERATOR_BUILTINS` and the plug-ins
+of :func:`narx.language.memory.register_operator`) names every operator the search
 offers and gives its parameter grid: a toy *stop* operator (the
 elastic-plastic complement of a play), registered here with a grid of
 radii, is searched by name, with ``MGGPRegressor(operators=[...])`` in both
@@ -18,7 +18,7 @@ import pytest
 from mggp import MGGPRegressor
 from mggp.cli.app import main
 from narx import Data
-from narx.memory import default_operators, get_operator, register_operator
+from narx.language.memory import default_operators, get_operator, register_operator
 from narx.systems import training_input
 
 #: the stop radii the search offers, as fractions of the input's range

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from deap import gp
 
-from narx.phi import PhiRegistry
-from narx.terms import Lag, PhiCall, Signals, parse_term
+from narx.language.phi import PhiRegistry
+from narx.language.terms import Lag, PhiCall, Signals, parse_term
 from mggp.gp.individual import Individual
 from mggp.gp.operators import (cx_high_level, cx_low_level, gen_tree,
                             mut_high_level, mut_low_level, random_individual,

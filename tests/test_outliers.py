@@ -1,5 +1,5 @@
 """Isolated glitches of the output and inputs: found, repaired, and the fit
-that follows (narx.outliers, MGGPRegressor(outliers=...), mggp fit --outliers)."""
+that follows (narx.records.outliers, MGGPRegressor(outliers=...), mggp fit --outliers)."""
 import json
 import subprocess
 import sys
@@ -8,11 +8,11 @@ import warnings
 import numpy as np
 import pytest
 
-import narx.outliers as outliers
+import narx.records.outliers as outliers
 from benchmarks.outliers import (RECEIVERS, TRUE, bilinear_record, glitched, glitched_input,
                                  received)
 from narx import Data, Model
-from narx.outliers import find_spikes, repaired
+from narx.records.outliers import find_spikes, repaired
 
 
 def test_the_planted_spikes_are_found_and_nothing_else():

@@ -1,9 +1,9 @@
-"""narx.paired: the moving-block bootstrap of a paired loss difference."""
+"""narx.analysis.paired: the moving-block bootstrap of a paired loss difference."""
 import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from narx.paired import block_length, paired_bootstrap
+from narx.analysis.paired import block_length, paired_bootstrap
 
 
 def _ar1(rng, n, rho):

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from narx.data import DataError
+from narx.records.data import DataError
 
 from conftest import first_order_record
 
@@ -162,12 +162,12 @@ def test_fit_builds_one_scorer_per_setting(record, monkeypatch):
     """The search (in this process) and every stage after it share one
     scorer of the search's settings; select='freerun' adds one free-run
     scorer (several were built: one only to check the settings)."""
-    import narx.fitness
+    import narx.estimation.fitness
     import mggp.gp.evaluate
     import mggp.fit.estimator
     import mggp.fit.stages
     built = []
-    real = narx.fitness.StructureScorer
+    real = narx.estimation.fitness.StructureScorer
 
     class Counting(real):
         def __init__(self, *a, **k):
@@ -186,7 +186,7 @@ def test_fit_builds_one_scorer_per_setting(record, monkeypatch):
 
 def test_help_texts_state_the_figures_of_the_constants_they_describe():
     """The help of the automatic choices is written from the constants of
-    mggp.fit.choices, narx.memory (the operator table's search grids) and
+    mggp.fit.choices, narx.language.memory (the operator table's search grids) and
     mggp.fit.operator_stage: changed there,
     the help follows (a fresh interpreter, the constants set before the
     table is built again); control: the shipped values in the shipped help."""
@@ -197,7 +197,7 @@ def test_help_texts_state_the_figures_of_the_constants_they_describe():
     assert "by over 5 %" in PARAMS["constant"].help
     assert "over 15 % lower, Bouc–Wen variables over 50 %" in PARAMS["use_phi"].help
     assert "p < 0.05" in PARAMS["constant"].help and "p < 0.05" not in PARAMS["use_phi"].help
-    code = ("import importlib, mggp.fit.choices as c, narx.memory as m, "
+    code = ("import importlib, mggp.fit.choices as c, narx.language.memory as m, "
             "mggp.fit.operator_stage as o, mggp.fit.params as p\n"
             "c.GAIN, c.CLASS_GAIN, c.SIZE_TOLERANCE, c.PILOT = 0.07, 0.25, 0.08, 0.3\n"
             "c.LEVEL = 0.01\n"

@@ -68,7 +68,7 @@ def test_exports_and_errors():
 
 def test_search_front_carries_the_search_parameters():
     from mggp import MGGPRegressor
-    from narx.testsystems import system_by_name
+    from narx.systems.testsystems import system_by_name
     d = system_by_name("S6", n=500, seed=0)
     est = MGGPRegressor(fitness="pem", population=60, generations=8, max_terms=5,
                         max_height=3, use_phi=False, random_state=0).fit(d.u, d.y)

@@ -9,10 +9,10 @@ import pytest
 from mggp import MGGPRegressor
 from mggp.fit.precision import SearchPrecisionWarning, offsets, search_precision
 from narx import Model
-from narx.data import as_data
-from narx.fitness import StructureScorer
+from narx.records.data import as_data
+from narx.estimation.fitness import StructureScorer
 from conftest import piezo_record
-from narx.terms import parse_terms
+from narx.language.terms import parse_terms
 
 #: a structure a search found on the record below: nearly collinear Φ1 and
 #: output lags, whose exact LS θ (QR) has large cancelling coefficients

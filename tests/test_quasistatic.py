@@ -85,7 +85,7 @@ def test_model19_roots_to_full_precision_and_the_polish_does_it():
     few digits. The polished roots agree with eq. (20) computed exactly to
     1e-12; control: the roots from the eigenvalues (closed form) alone are
     off by more than ten times that."""
-    from narx.quasistatic import _Frozen, _solve_polynomial
+    from narx.analysis.quasistatic import _Frozen, _solve_polynomial
     u = sine(70.0, 1.0, 1e-3, 2)
     k, exact = eq20_exact(u, MODEL19_THETA)
     assert np.all(np.isfinite(exact))
@@ -306,7 +306,7 @@ def test_diverging_free_run_json_and_figure(tmp_path):
 def _F(model, data, k, ylags):
     """ŷ_k of the model evaluated by the regressor code (not the frozen
     polynomial), with output lag j at ``ylags[j]``; inputs from the record."""
-    from narx.regressors import regressor_matrix
+    from narx.records.regressors import regressor_matrix
     y = np.zeros(data.n)
     for j, v in ylags.items():
         y[k - j] = v

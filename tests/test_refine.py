@@ -88,7 +88,7 @@ def test_estimator_and_cli_refine(tmp_path, capsys):
 
 
 def test_a_cls_model_loaded_from_a_file_keeps_its_constraints(tmp_path, piezo_validation):
-    from narx.steady import steady_state_constraints
+    from narx.analysis.steady import steady_state_constraints
     u, y = piezo_validation
     ym = y + np.random.default_rng(2).normal(0, 0.01 * np.ptp(y), y.size)
     terms = ["y[k-1]", "u[k-1]", "Phi1(u[k-1],u[k-2])",
@@ -108,7 +108,7 @@ def test_a_refit_names_its_own_method(tmp_path, piezo_validation):
     file says so, and refine keeps its constraints after loading); refitted
     by LS again, it is an LS model that refine may change freely. Before,
     the first fit's method stayed in meta['estimation']."""
-    from narx.steady import steady_state_constraints
+    from narx.analysis.steady import steady_state_constraints
     u, y = piezo_validation
     ym = y + np.random.default_rng(2).normal(0, 0.01 * np.ptp(y), y.size)
     terms = ["y[k-1]", "u[k-1]", "Phi1(u[k-1],u[k-2])",

@@ -130,7 +130,7 @@ def test_checkpoint_written_before_phi_outputs_resumes(tmp_path):
     (no such context key), so its checkpoints still resume."""
     from mggp.gp.checkpoint import settings_fingerprint
     from mggp.gp.primitives import make_pset
-    from narx.data import as_data
+    from narx.records.data import as_data
     ck = tmp_path / "ck.json"
     MGGPRegressor(random_state=1, checkpoint=ck, **KW).fit(*record(0))
     doc = json.loads(ck.read_text())

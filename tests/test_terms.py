@@ -1,4 +1,4 @@
-"""The term language (narx.terms) and the Φ-function registry (narx.phi).
+"""The term language (narx.language.terms) and the Φ-function registry (narx.language.phi).
 
 Independent checks: canonical text is a function of the term only (order
 of factors, spelling of powers), print -> parse -> print is the identity on

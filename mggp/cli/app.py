@@ -209,7 +209,7 @@ def fmt(v: float) -> str:
 # ------------------------------------------------------------------ estimate
 def _cmd_estimate(args) -> int:
     from narx import Model
-    from narx.csvdata import read_csv
+    from narx.records.csvdata import read_csv
     inputs = args.input or ["u"]
     output = args.output or "y"
     data = read_csv(args.data, inputs=inputs, output=output, varying_inputs=True,
@@ -217,8 +217,8 @@ def _cmd_estimate(args) -> int:
     from ..fit.params import PARAMS, check_options
     check_options(args, [PARAMS["outliers"]])   # not given: fit's default
     spikes = []
-    if args.outliers == "auto":                 # the rule of fit: narx.outliers
-        from narx.outliers import find_spikes, repaired
+    if args.outliers == "auto":                 # the rule of fit: narx.records.outliers
+        from narx.records.outliers import find_spikes, repaired
         from ..fit.choices import outliers_choice
         spikes = find_spikes(data)
         data = repaired(data, spikes)
@@ -276,7 +276,7 @@ def _cmd_estimate(args) -> int:
 # ------------------------------------------------------------------ simulate
 def _cmd_simulate(args) -> int:
     from narx import load_model
-    from narx.csvdata import read_csv, write_with_column
+    from narx.records.csvdata import read_csv, write_with_column
     model = load_model(args.model)
     inputs = args.input or list(model.inputs)
     output = args.output or model.output
@@ -292,7 +292,7 @@ def _cmd_simulate(args) -> int:
     if data.n <= model.max_lag + 1:
         raise CLIError(f"{args.data}: {data.n} samples are too few for the model's "
                        f"largest lag {model.max_lag}")
-    from narx.data import Data
+    from narx.records.data import Data
     d = Data(data.U.T, data.y, inputs=model.inputs, output=model.output)
     mode_option(args.mode, {"ksa": "k", "ms": "window"}, args)
     kw = {}
@@ -300,7 +300,7 @@ def _cmd_simulate(args) -> int:
         kw["k"] = 10 if args.k is None else args.k
     elif args.mode == "ms":
         kw["window"] = 100 if args.window is None else args.window
-    from narx.ranges import range_warning
+    from narx.records.ranges import range_warning
     outside = range_warning(model, d)
     if outside:
         print(f"warning: {outside}", file=sys.stderr)
@@ -323,7 +323,7 @@ def _cmd_simulate(args) -> int:
 
 def _check_new_column(path, column: str) -> None:
     """Refuse to add ``column`` to a CSV file whose header already has it."""
-    from narx.csvdata import delimiter, iter_rows
+    from narx.records.csvdata import delimiter, iter_rows
     try:
         _, header = next(iter_rows(path, delimiter(path)))
     except StopIteration:

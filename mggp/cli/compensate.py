@@ -5,7 +5,7 @@ Typical use::
     mggp compensate model.json reference.csv --out input.csv --input-range -80 80
 
 MODEL.json is an identified actuator model (``mggp fit``/``estimate``),
-inverted step by step by polynomial roots (:mod:`narx.compensate`), or a
+inverted step by step by polynomial roots (:mod:`narx.analysis.compensate`), or a
 data-driven compensator saved by
 :meth:`mggp.compensate.InverseCompensator.save` (its ``meta`` says so), run
 in free run. REFERENCE.csv has a header row and the desired output in column
@@ -16,7 +16,7 @@ where no root was admissible). Errors: one ``error:`` line, exit code 2; the
 output is written atomically, after every check. A model-based input of
 which more than half of the steps fell back is refused unless
 ``--allow-fallbacks``; a non-minimum-phase model (a zero of its linear input
-part outside the unit circle, :func:`narx.inverse_check.inverse_stability`)
+part outside the unit circle, :func:`narx.analysis.inverse_check.inverse_stability`)
 is named in one ``warning:`` line (or in the error).
 """
 from __future__ import annotations
@@ -73,8 +73,8 @@ def register(sub):
 
 def _cmd_compensate(args) -> int:
     from narx import load_model
-    from narx.compensate import NonMinimumPhaseWarning, RootCompensator, operator_refusal
-    from narx.csvdata import read_columns
+    from narx.analysis.compensate import NonMinimumPhaseWarning, RootCompensator, operator_refusal
+    from narx.records.csvdata import read_columns
     from narx.atomic import atomic_writer
     from ..compensate import INVERSE_KIND, InverseCompensator
     if args.lead is not None and args.lead < 0:
@@ -202,7 +202,7 @@ def _rest_input(model, level: float, inverse: bool) -> float:
     ``level``, within the training range of the actuator input; the middle
     of that range when every value rests there (a continuum of steady
     states) or none does; 0 without recorded ranges."""
-    from narx.compensate_args import rest_actuator, training_ranges
+    from narx.analysis.compensate_args import rest_actuator, training_ranges
     actuator = model.output if inverse else model.inputs[0]
     rng = training_ranges(model).get(actuator)
     if not rng:

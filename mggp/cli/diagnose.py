@@ -121,8 +121,8 @@ def _read_validation(args, inputs, output):
     """The validation record with the training record's signal names: its
     columns are ``--validation-input``/``--validation-output`` (default: the
     training record's names); a different number of inputs is an error."""
-    from narx.csvdata import read_csv
-    from narx.data import Data
+    from narx.records.csvdata import read_csv
+    from narx.records.data import Data
     if not args.validation:
         return None
     v_inputs = args.validation_input or inputs
@@ -137,10 +137,10 @@ def _read_validation(args, inputs, output):
 
 def _say_ranges(args, model, train, val) -> None:
     """A warning line for each record whose inputs leave the training range
-    (:func:`narx.ranges.range_line`): with ``--model`` both records against
+    (:func:`narx.records.ranges.range_line`): with ``--model`` both records against
     the ranges the model records, else the validation record against the
     training record's."""
-    from narx.ranges import range_line, recorded_ranges, signal_ranges
+    from narx.records.ranges import range_line, recorded_ranges, signal_ranges
     if model is not None:
         ranges, records = recorded_ranges(model), [(args.train, train),
                                                    (args.validation, val)]
@@ -154,7 +154,7 @@ def _say_ranges(args, model, train, val) -> None:
 
 def _cmd_diagnose(args) -> int:
     from narx import load_model
-    from narx.csvdata import read_csv
+    from narx.records.csvdata import read_csv
     from ..diagnose import Budget, diagnose
     from ..diagnose.report import write_report
     _check_args(args)
@@ -168,7 +168,7 @@ def _cmd_diagnose(args) -> int:
                      varying_output="nothing can be identified")
     val = _read_validation(args, inputs, output)
     if model is not None and (list(model.inputs) != inputs or model.output != output):
-        from narx.data import Data
+        from narx.records.data import Data
         train = Data(train.U.T, train.y, inputs=model.inputs, output=model.output)
         if val is not None:
             val = Data(val.U.T, val.y, inputs=model.inputs, output=model.output)

@@ -132,7 +132,7 @@ class _Progress:
 
 
 def _cmd_fit(args) -> int:
-    from narx.csvdata import read_csv
+    from narx.records.csvdata import read_csv
     from ..fit.estimator import MGGPRegressor
     from narx.atomic import check_writable
     # the rules of the options, alone and combined, come from the table
@@ -172,7 +172,7 @@ def _cmd_fit(args) -> int:
     est.set_params(inputs=est.inputs or ["u"], callbacks=[
         _Progress(est.generations, sys.stderr, args.quiet)])
     data = read_csv(args.data, inputs=est.inputs, output=est.output, varying_inputs=True)
-    from narx.data import DataError
+    from narx.records.data import DataError
     from ..gp.evaluate import WorkerLostError
     try:
         with warnings.catch_warnings():       # said below, for the model written
@@ -193,7 +193,7 @@ def _cmd_fit(args) -> int:
               f"({est.fitness} fitness {fmt(est.local_search_[-1]['fitness'])} after)",
               file=sys.stderr)
     if est.outliers_:                         # the record the models were fitted on
-        from narx.outliers import repaired
+        from narx.records.outliers import repaired
         data = repaired(data, est.outliers_)
     fr_ls = m.simulate(data, mode="freerun")
     lines = [f"seed {est.seed_}; {est.n_evaluations_} structures evaluated in "

@@ -97,7 +97,7 @@ def _sine(args, model):
 
 
 def _record(args, model):
-    from narx.csvdata import read_columns, read_csv
+    from narx.records.csvdata import read_columns, read_csv
     inputs = args.input or list(model.inputs)
     if len(inputs) != len(model.inputs):
         raise CLIError(f"--input: the model has {len(model.inputs)} input(s) "
@@ -116,7 +116,7 @@ def _record(args, model):
 def _cmd_quasistatic(args) -> int:
     from narx import load_model
     from narx.atomic import atomic_write_text, check_writable
-    from narx.quasistatic import quasistatic
+    from narx.analysis.quasistatic import quasistatic
     from ..report.quasistatic import conclusion, plot_quasistatic, summary_markdown
     if (args.data is None) == (args.sine is None):
         raise CLIError("give DATA.csv or --sine AMPLITUDE FREQUENCY --rate HZ (one of them)")

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.csvdata import read_csv
+    from narx.records.csvdata import read_csv
     from mggp.diagnose import diagnose, Budget
     dx = diagnose(read_csv("train.csv"), validation=read_csv("val.csv"),
                   budget=Budget(population=100, generations=20), seed=0, jobs=2)

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 
 from .findings import Check, number_text as _g
 from .registry import DiagnosticTest, Outcome

@@ -62,11 +62,11 @@ from typing import List, Optional, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data
-from narx.estimate import EstimationError
+from narx.records.data import Data
+from narx.estimation.estimate import EstimationError
 from narx.model import ignore_rank_warnings
-from narx.regressors import regressor_matrix
-from narx.terms import Signals, parse_term
+from narx.records.regressors import regressor_matrix
+from narx.language.terms import Signals, parse_term
 
 from .augmentation import direction_terms
 from .simulation import freerun_rmse
@@ -199,7 +199,7 @@ def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
 
 
 def _canonical(terms, data: Data, registry) -> list:
-    """``terms`` parsed (:class:`narx.terms.Term`, parsed once: a model built
+    """``terms`` parsed (:class:`narx.language.terms.Term`, parsed once: a model built
     from them does not parse again), each once, in order."""
     sig = Signals(data.output, data.inputs)
     return list(dict.fromkeys(parse_term(t, sig, registry=registry) for t in terms))

@@ -66,7 +66,7 @@ residual of the model refitted with the *linear* lags y[k-1..4], u[k-1..4]
 added, and the linear tests the residual of the model refitted with the
 *static* terms y[k-1]², y[k-1]³, u[k-1]², u[k-1]³, y[k-1]u[k-1] added: each
 test then answers for what the other kind of term cannot repair.
-Both refits are column-scaled LS (:func:`narx.estimate.least_squares`), so
+Both refits are column-scaled LS (:func:`narx.estimation.estimate.least_squares`), so
 the tests do not depend on the units of the input or the output.
 
 References
@@ -231,7 +231,7 @@ def correlation_tests(eps, inputs: Dict[str, np.ndarray], max_lag: int = 20,
 def completed_residual(model, data, extra: List[str]):
     """One-step residual of ``model``'s terms plus ``extra`` refitted by LS.
 
-    The fit is :func:`narx.estimate.least_squares` (pivoted QR on columns
+    The fit is :func:`narx.estimation.estimate.least_squares` (pivoted QR on columns
     scaled to unit norm), so the residual scales with the output and does
     not depend on the units of the input: regressors such as y[k-1]³ may be
     many orders of magnitude larger than y[k-1], and an unscaled solver
@@ -253,8 +253,8 @@ def completed_residual(model, data, extra: List[str]):
         completed model cannot be fitted or its residual is not finite.
     """
     from narx import Model
-    from narx.estimate import least_squares
-    from narx.regressors import regressor_matrix
+    from narx.estimation.estimate import least_squares
+    from narx.records.regressors import regressor_matrix
     sig = dict(inputs=data.inputs, output=data.output, registry=model.registry)
     have = set(model.term_texts)
     terms = model.term_texts + [t for t in Model(extra, **sig).term_texts if t not in have]

@@ -21,7 +21,7 @@ The extension changes the search the way each cause calls for
 (:data:`mggp.diagnose.findings.EXTENSIONS`):
 
 * ``hysteresis`` — Φ-functions and the memory operators Play, DengTan
-  (:mod:`narx.memory`) in the primitive set (if the baseline already had
+  (:mod:`narx.language.memory`) in the primitive set (if the baseline already had
   Φ-functions: five more terms), the three Bouc–Wen direction terms
   (:func:`~mggp.diagnose.augmentation.direction_terms`) added to the
   baseline's terms, to the search's, and as a discrete Bouc–Wen
@@ -34,7 +34,7 @@ The extension changes the search the way each cause calls for
 * ``prediction-bias`` — multiple-shooting fitness (if the baseline already
   used it: windows four times longer, closer to a free run);
 * ``steady-state-drift`` — CLS under the continuum-of-steady-states
-  constraints derived from the terms (:mod:`narx.steady`), in the search
+  constraints derived from the terms (:mod:`narx.analysis.steady`), in the search
   and in the final fit; with no other cause the baseline's own terms are
   refitted by CLS, and a CLS search is run only if that refit is impossible
   or diverges on the fitting record;
@@ -73,10 +73,10 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data
-from narx.estimate import EstimationError
+from narx.records.data import Data
+from narx.estimation.estimate import EstimationError
 from narx.model import ignore_rank_warnings
-from narx.terms import Signals, parse_term
+from narx.language.terms import Signals, parse_term
 
 from ..gp.primitives import AUTO_OPERATORS
 from ..fit.selection import CLSRejectedWarning
@@ -91,7 +91,7 @@ __all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search",
            "OPERATORS"]
 
 _SPECIFIC = ("hysteresis", "prediction-bias", "steady-state-drift")
-#: memory operators of the hysteresis search (:mod:`narx.memory`)
+#: memory operators of the hysteresis search (:mod:`narx.language.memory`)
 OPERATORS = AUTO_OPERATORS
 
 

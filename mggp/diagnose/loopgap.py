@@ -37,7 +37,7 @@ import numpy as np
 from scipy.stats import t as student_t
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 
 from .findings import Check, number_text as _g
 from .registry import DiagnosticTest, Outcome

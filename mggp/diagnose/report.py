@@ -23,7 +23,7 @@ from typing import List, Optional
 import numpy as np
 
 from narx.atomic import atomic_write_text
-from narx.outliers import Spike, spikes_text
+from narx.records.outliers import Spike, spikes_text
 
 from ..report.plotting import figure, save as _save
 from ..report.quasistatic import diagnosis_figure

@@ -52,7 +52,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 
 from .candidates import MEMORY, MEMORY_FREE, Structure
 from .findings import json_number, number_text

@@ -21,7 +21,7 @@ with it.
 
 Significance: the constant's choices also ask that its gain be beyond chance
 (:func:`heldout_gain`): a moving-block bootstrap of the paired squared
-held-out errors of the two options (:mod:`narx.paired`, seeded with the
+held-out errors of the two options (:mod:`narx.analysis.paired`, seeded with the
 fit's seed) gives a one-sided p-value, and the addition is taken only at
 p < :data:`LEVEL`; otherwise the simpler option stays, and the choice line
 says the figures ("held-out RMSE 1.03 vs 1.05 (±0.04, p = 0.31) without
@@ -63,10 +63,10 @@ from typing import Any, Optional
 import numpy as np
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 from narx.model import ignore_rank_warnings
-from narx.outliers import SPIKE_BAND, SPIKE_WIDTH, spikes_text
-from narx.terms import Term
+from narx.records.outliers import SPIKE_BAND, SPIKE_WIDTH, spikes_text
+from narx.language.terms import Term
 
 from .extrapolation import POWER_CAP
 
@@ -292,7 +292,7 @@ def heldout_gain(simple, rich, data: Data, registry=None, seed=0, margin: float 
     :func:`error_floor`) and :math:`p` the one-sided p-value of a
     moving-block bootstrap of the paired squared-error differences
     :math:`(y_k - \\hat y^s_k)^2 - (y_k - \\hat y^r_k)^2` on the samples both
-    simulate (:func:`narx.paired.paired_bootstrap`, block length from the
+    simulate (:func:`narx.analysis.paired.paired_bootstrap`, block length from the
     data, each end its own segment, generator seeded with ``seed``), the
     gain is taken when
 
@@ -304,7 +304,7 @@ def heldout_gain(simple, rich, data: Data, registry=None, seed=0, margin: float 
     serially dependent: a gain smaller than their spread is noise, and the
     simpler option stays (Künsch, *Ann. Statist.* 17, 1989; Politis and
     White, *Econometric Reviews* 23, 2004)."""
-    from narx.paired import paired_bootstrap
+    from narx.analysis.paired import paired_bootstrap
     ends = tuple(HOLDOUT_ENDS if ends is None else ends)
     es, er = (heldout_errors(t, data, registry, ends=ends) for t in (simple, rich))
     rs, rr = _rmse_of(es, data), _rmse_of(er, data)
@@ -779,8 +779,8 @@ def _key(label: str) -> str:
 
 
 def outliers_choice(spikes, output: str = "y", inputs=()) -> Choice:
-    """``outliers='auto'``: the spikes :func:`narx.outliers.find_spikes` found
-    in the output and the ``inputs`` (:class:`narx.outliers.Spike`), repaired
+    """``outliers='auto'``: the spikes :func:`narx.records.outliers.find_spikes` found
+    in the output and the ``inputs`` (:class:`narx.records.outliers.Spike`), repaired
     before the search; the value is their ``[signal, start, stop]`` spans."""
     figs = {"spikes": [s.to_dict() for s in spikes]}
     if not spikes:
@@ -804,9 +804,9 @@ HEIGHT = 5
 
 def height_for(scan, least: int):
     """The least tree height from ``least`` whose trees reach every lag of
-    the scan's best model (:class:`narx.deadtime.OnsetScan`; 1 + 3 ×
+    the scan's best model (:class:`narx.records.deadtime.OnsetScan`; 1 + 3 ×
     height), or None beyond :data:`mggp.gp.primitives.MAX_HEIGHT`."""
-    from narx.deadtime import SPAN
+    from narx.records.deadtime import SPAN
     from ..gp.primitives import MAX_HEIGHT, max_lag_for_height
     last = scan.best + SPAN - 1
     return next((h for h in range(least, MAX_HEIGHT + 1) if max_lag_for_height(h) >= last),
@@ -817,12 +817,12 @@ def dead_time_height(data: Data, least: int, max_lag=None, scans=None):
     """``(height, late, reach)``: the least tree height from ``least`` whose
     trees reach every input that acts on the output only beyond the lags
     ``reach`` that ``least`` reaches (capped by ``max_lag``; ``late``:
-    :func:`narx.deadtime.late_inputs`, a dead time found by a linear ARX
-    scan, ``scans`` its :func:`narx.deadtime.onset_scans` when already
+    :func:`narx.records.deadtime.late_inputs`, a dead time found by a linear ARX
+    scan, ``scans`` its :func:`narx.records.deadtime.onset_scans` when already
     computed); ``least`` itself when there is none, when one lies beyond
     what :data:`mggp.gp.primitives.MAX_HEIGHT` reaches, or when ``max_lag``
     forbids the lags (the search could not use them)."""
-    from narx.deadtime import late_inputs
+    from narx.records.deadtime import late_inputs
     from ..gp.primitives import reachable_lag
     reach = reachable_lag(least, max_lag)
     late = late_inputs(data, reach, scans)
@@ -837,7 +837,7 @@ def height_choice(data: Data, max_lag=None, scans=None) -> Choice:
     whose trees reach every input that acts on the output only beyond its
     lags, up to :data:`mggp.gp.primitives.MAX_HEIGHT`
     (:func:`dead_time_height`)."""
-    from narx.deadtime import late_words
+    from narx.records.deadtime import late_words
     from ..gp.primitives import reachable_lag
     h, late, reach = dead_time_height(data, HEIGHT, max_lag, scans)
     if not late:

@@ -44,14 +44,14 @@ from typing import NamedTuple, Optional, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data, DataError, as_data
-from narx.fitness import StructureScorer
-from narx.deadtime import onset_scans
-from narx.outliers import find_spikes, repaired
-from narx.metrics import r2
-from narx.phi import default_registry
-from narx.simulate import mode_name
-from narx.ranges import ExtrapolationWarning, range_warning
+from narx.records.data import Data, DataError, as_data
+from narx.estimation.fitness import StructureScorer
+from narx.records.deadtime import onset_scans
+from narx.records.outliers import find_spikes, repaired
+from narx.simulation.metrics import r2
+from narx.language.phi import default_registry
+from narx.simulation.simulate import mode_name
+from narx.records.ranges import ExtrapolationWarning, range_warning
 
 from ..gp.checkpoint import (checkpoint_search, checkpoint_seed, copy_checkpoint, data_digest,
                          pilot_checkpoint)
@@ -97,7 +97,7 @@ def _keywords_checked(init):
 
 
 def _warn_outside(model, u) -> None:
-    """Warn (:class:`narx.ranges.ExtrapolationWarning`) when the inputs ``u``
+    """Warn (:class:`narx.records.ranges.ExtrapolationWarning`) when the inputs ``u``
     (a narx.Data or an array, as :func:`predict_inputs` returns them) leave
     the training ranges ``model`` records."""
     data = u if isinstance(u, Data) else Data(u, None, inputs=model.inputs,
@@ -209,7 +209,7 @@ class MGGPRegressor:
     within the size tolerance of the least (the choice lines say which;
     when all within the tolerance fail, none is refused and the line says
     so). ``simulate`` and ``predict`` warn
-    (:class:`narx.ranges.ExtrapolationWarning`) when the inputs leave the
+    (:class:`narx.records.ranges.ExtrapolationWarning`) when the inputs leave the
     training range every model records in ``meta['ranges']``.
 
     ``select``: ``'freerun'`` takes, among the ``select_candidates`` best
@@ -270,7 +270,7 @@ class MGGPRegressor:
     signal before the search (its normal equations lose precision on such
     data). ``outliers_`` holds the isolated glitches of the output and the
     inputs that ``outliers='auto'`` repaired before the search
-    (:class:`narx.outliers.Spike`; the models are fitted on the repaired
+    (:class:`narx.records.outliers.Spike`; the models are fitted on the repaired
     record). ``search_samples_`` is ``(start, stop)``, the samples the
     search, every automatic choice and every θ used: with ``search_samples``
     an integer, a longer record is searched on the part of that length
@@ -867,13 +867,13 @@ class MGGPRegressor:
         return self.model_cls_ if constrained else self.model_
 
     def simulate(self, u, y=None, mode="freerun", constrained=None, **kw):
-        """The simulation (:class:`narx.simulate.SimulationResult`) of the best
+        """The simulation (:class:`narx.simulation.simulate.SimulationResult`) of the best
         model (:meth:`get_best`) on the inputs ``u`` (as ``fit`` takes them,
         the same number of inputs) in ``mode`` ('freerun', 'osa', 'ksa' with
         ``k``, 'ms' with ``window``), from the measured output ``y`` (free
         run: its first samples, or ``y0=`` initial outputs). An
-        :class:`narx.ranges.ExtrapolationWarning` names the inputs that leave
-        the training record's range (:func:`narx.ranges.range_warning`), here
+        :class:`narx.records.ranges.ExtrapolationWarning` names the inputs that leave
+        the training record's range (:func:`narx.records.ranges.range_warning`), here
         and in :meth:`predict`."""
         self._check_fitted()
         model = self.get_best(constrained)

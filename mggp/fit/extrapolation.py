@@ -61,9 +61,9 @@ from typing import Dict, Optional
 import numpy as np
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 from narx.model import ignore_rank_warnings
-from narx.terms import Lag
+from narx.language.terms import Lag
 
 __all__ = ["STRESS_SCALE", "STRESS_BAND", "HOLD_SAMPLES", "POWER_CAP", "signal_power",
            "stress_records", "StressCheck", "bounded_first", "power_words",

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 from typing import Callable, Iterable, Iterator, List, Optional, Sequence, Tuple
 
-from narx.terms import Lag, Term
+from narx.language.terms import Lag, Term
 
 __all__ = ["improve", "term_moves", "LocalStep", "moves_text"]
 

@@ -30,11 +30,11 @@ from typing import Optional, Tuple
 import numpy as np
 
 from narx import Model
-from narx.estimate import t_statistics
+from narx.estimation.estimate import t_statistics
 from narx.linalg import added_column_t
 from narx.model import ignore_rank_warnings
-from narx.regressors import regressor_matrix
-from narx.terms import parse_term
+from narx.records.regressors import regressor_matrix
+from narx.language.terms import parse_term
 
 from .pruning import prune_by_t
 

@@ -3,14 +3,14 @@ r"""Memory-operator terms added to a searched structure, stepwise.
 Typical use (``MGGPRegressor(operators="play,dengtan")`` does this after
 the search)::
 
-    from narx.fitness import StructureScorer
+    from narx.estimation.fitness import StructureScorer
     from mggp.fit.operator_stage import operator_candidates, add_operators
     scorer = StructureScorer(data, "ms", window=100, start=16)
     cands = operator_candidates(data, ("play", "dengtan"))
     terms, steps = add_operators(scorer, terms, cands, max_terms=15)
 
 With ``operator_entry='stage'`` (the default) the memory operators of
-:mod:`narx.memory` do not join the primitive set of the search: the search
+:mod:`narx.language.memory` do not join the primitive set of the search: the search
 runs on the set it would have without them, and this stage then offers the
 operator columns to the structure it chose.
 
@@ -48,7 +48,7 @@ from __future__ import annotations
 
 from typing import List, Sequence, Tuple
 
-from narx.terms import Term, format_param, parse_term
+from narx.language.terms import Term, format_param, parse_term
 
 __all__ = ["OPERATOR_GAIN", "OPERATOR_KEEP", "operator_candidates", "add_operators"]
 
@@ -81,7 +81,7 @@ def add_operators(scorer, terms: Sequence[Term], candidates: Sequence[Term], max
 
     Parameters
     ----------
-    scorer : narx.fitness.StructureScorer
+    scorer : narx.estimation.fitness.StructureScorer
         ``scorer.score(terms)`` is the fitness :math:`J` (lower is better).
     terms : sequence of Term
         The searched structure.

@@ -28,9 +28,9 @@ import textwrap
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, Iterable, Optional, Sequence, Tuple
 
-from narx.memory import OPERATOR_BUILTINS
-from narx.outliers import ARX_SIGMAS, SPIKE_BAND, SPIKE_WIDTH
-from narx.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
+from narx.language.memory import OPERATOR_BUILTINS
+from narx.records.outliers import ARX_SIGMAS, SPIKE_BAND, SPIKE_WIDTH
+from narx.estimation.output_error import BURN_IN, ESTIMATORS, NOISE_ORDER, OE_ESTIMATORS
 
 from ..gp.checkpoint import CHECKPOINT_SHARE
 from .choices import (GAIN, HEIGHT, LEVEL, PILOT, SIZE_TOLERANCE, class_margins,
@@ -553,7 +553,7 @@ _ROWS = (
           f"output does not answer (an ARX prediction over {ARX_SIGMAS:g} standard "
           "deviations worse with it than with values inside the input's range, which fit "
           "the output); the straight line between its neighbours replaces it "
-          "(narx.outliers); 'keep': fit every sample as measured",
+          "(narx.records.outliers); 'keep': fit every sample as measured",
           "data", "--outliers", context="if set", meta=True,
           default_text="auto (repair isolated glitches of the output and inputs)"),
     Param("checkpoint", None, PATH, "save the search state to this file after a "

@@ -201,12 +201,12 @@ def horizon_message(y, horizon: int, what: str, limit: float = 0.99) -> str:
 
 
 def dead_time_message(data, reach: int, max_height: int, max_lag=None, scans=None) -> str:
-    """A sentence for each input of :func:`narx.deadtime.late_inputs` (``reach``: what
+    """A sentence for each input of :func:`narx.records.deadtime.late_inputs` (``reach``: what
     ``max_height`` reaches, 1 + 3 × height, capped by ``max_lag``), saying
     which ``max_height`` (or ``max_lag``) reaches it; '' when there is
-    none (``scans``: :func:`narx.deadtime.onset_scans` of ``data``, when
+    none (``scans``: :func:`narx.records.deadtime.onset_scans` of ``data``, when
     already computed)."""
-    from narx.deadtime import SPAN, late_inputs, late_words
+    from narx.records.deadtime import SPAN, late_inputs, late_words
     from .choices import height_for
     from ..gp.primitives import MAX_HEIGHT, max_lag_for_height
     out = []

@@ -25,7 +25,7 @@ from typing import Callable, Iterator, Tuple
 
 import numpy as np
 
-from narx.terms import Term
+from narx.language.terms import Term
 
 from ..gp.evaluate import criterion_value
 from .local_search import improve

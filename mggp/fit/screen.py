@@ -47,11 +47,11 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from narx.data import Data
-from narx.fitness import StructureScorer
-from narx.phi import PhiRegistry
-from narx.simulate import recursion_windows
-from narx.terms import Term
+from narx.records.data import Data
+from narx.estimation.fitness import StructureScorer
+from narx.language.phi import PhiRegistry
+from narx.simulation.simulate import recursion_windows
+from narx.language.terms import Term
 
 from .params import PARAMS, Int, Real
 

@@ -26,9 +26,9 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from narx.data import Data
-from narx.fitness import StructureScorer
-from narx.terms import Term
+from narx.records.data import Data
+from narx.estimation.fitness import StructureScorer
+from narx.language.terms import Term
 
 from ..exceptions import CLSRejectedWarning
 from .screen import StabilityScreen

@@ -24,7 +24,7 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from narx.data import Data, DataError
+from narx.records.data import Data, DataError
 
 from ..exceptions import NotFittedError
 

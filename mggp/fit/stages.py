@@ -63,7 +63,7 @@ order (:data:`STAGES`, decision in brackets):
 ``pareto`` (:class:`Front`)
     ``pareto_front_`` of the run, with the θ the search scored.
 
-All stages score with the one :class:`narx.fitness.StructureScorer` of the
+All stages score with the one :class:`narx.estimation.fitness.StructureScorer` of the
 search's settings (``ctx.scorer``, also the search's own in this process);
 a stage that simulates with other settings asks :meth:`FitContext.scorer_for`,
 which builds at most one scorer per setting.
@@ -75,13 +75,13 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Protocol, Tuple
 
 from narx import Model
-from narx.data import Data
-from narx.fitness import StructureScorer
+from narx.records.data import Data
+from narx.estimation.fitness import StructureScorer
 from narx.model import ignore_rank_warnings
-from narx.output_error import OE_ESTIMATORS
-from narx.phi import PhiRegistry
-from narx.ranges import signal_ranges
-from narx.terms import Term
+from narx.estimation.output_error import OE_ESTIMATORS
+from narx.language.phi import PhiRegistry
+from narx.records.ranges import signal_ranges
+from narx.language.terms import Term
 
 from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
                       heldout_rmse, heldout_samples, local_search_kept, resolve_select,
@@ -495,8 +495,8 @@ def prune(terms, data, ctx):
     if est.prune == "bic":
         return Pruned(prune_by_criterion(ctx.scorer, terms, data.n - ctx.start))
     if est.prune == "t":
-        from narx.estimate import t_statistics
-        from narx.regressors import regressor_matrix
+        from narx.estimation.estimate import t_statistics
+        from narx.records.regressors import regressor_matrix
         crit = t_threshold_of(est, len(data.inputs))
         return Pruned(prune_by_t(terms, lambda ts: t_statistics(
             *regressor_matrix(ts, data, start=ctx.start)[:2]), crit), crit)
@@ -550,7 +550,7 @@ def qr_refit(terms, data, ctx):
     """``model_``: least squares by QR on the record. Terms the record cannot
     tell apart (``rank_`` below their number) get the minimum-norm θ.
     With ``estimator`` 'oe' or 'bj' (and no noise terms) θ is the output-error
-    estimate of the search's scorer (:mod:`narx.output_error`), which
+    estimate of the search's scorer (:mod:`narx.estimation.output_error`), which
     measurement noise does not bias, and ``model_.meta['estimation']`` is
     ``'oe'``."""
     est = ctx.est

@@ -10,7 +10,7 @@ Typical use::
     # the same on a dask.distributed cluster (pip install 'mggp-narx[dask]')
     ev = Evaluator(data, fitness="ms", backend="dask", scheduler="tcp://10.0.0.5:8786")
 
-Each worker keeps a :class:`narx.fitness.StructureScorer` per record and
+Each worker keeps a :class:`narx.estimation.fitness.StructureScorer` per record and
 settings (keyed by a content hash), so regressor columns and Gram entries
 are computed once per worker and reused across generations; a worker
 running several threads keeps one scorer per concurrently busy thread (a
@@ -53,10 +53,10 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from narx.data import Data
-from narx.fitness import StructureScorer
-from narx.phi import PhiRegistry, default_registry
-from narx.terms import Term
+from narx.records.data import Data
+from narx.estimation.fitness import StructureScorer
+from narx.language.phi import PhiRegistry, default_registry
+from narx.language.terms import Term
 
 from ..exceptions import WorkerLostError
 
@@ -155,8 +155,8 @@ _LOKY_GUARD = 300 * 2**20
 def _store_bytes(n: int) -> int:
     """Bytes a worker's scorer allocates for a record of ``n`` samples (the
     column store, at least 64 columns, and the window-major store)."""
-    from narx.fitness import SCORER_BUDGET, ColumnStore
-    from narx.ms_kernel import BUDGET
+    from narx.estimation.fitness import SCORER_BUDGET, ColumnStore
+    from narx.simulation.ms_kernel import BUDGET
     return ColumnStore.slots_for(n, SCORER_BUDGET) * 8 * n + BUDGET
 
 
@@ -199,7 +199,7 @@ class Evaluator:
         ``MGGPRegressor`` fixes it from ``max_height``, so all structures
         are scored on the same rows). Default: each set's own largest lag.
     estimator : {'ls', 'oe', 'bj'}
-        θ of each set (:class:`narx.fitness.StructureScorer`).
+        θ of each set (:class:`narx.estimation.fitness.StructureScorer`).
     criterion : {'mse', 'bic', 'aic'}
     n_jobs : int
         Worker count (``-1``: all cores). Results do not depend on it.

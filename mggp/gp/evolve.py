@@ -48,7 +48,7 @@ from typing import Callable, List, Optional, Sequence, Tuple
 import numpy as np
 from deap import base, tools
 
-from narx.terms import Term
+from narx.language.terms import Term
 
 from .checkpoint import (CHECKPOINT_SHARE, CheckpointWriter, EvolutionState,
                          checkpoint_settings, load_checkpoint, settings_fingerprint)

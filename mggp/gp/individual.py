@@ -19,7 +19,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 from deap import base, gp
 
-from narx.terms import Term
+from narx.language.terms import Term
 
 __all__ = ["FitnessMin", "Individual", "ParetoRow", "ParetoArchive",
            "fitness_of"]
@@ -37,7 +37,7 @@ class Individual(list):
     Attributes
     ----------
     fitness : FitnessMin
-    _terms : tuple of narx.terms.Term or None
+    _terms : tuple of narx.language.terms.Term or None
         Decoded distinct terms, filled by
         :meth:`mggp.gp.primitives.Decoder.decode_individual`; cleared by every
         list mutation and by :meth:`invalidate`. Genes are replaced, never
@@ -146,7 +146,7 @@ class ParetoRow:
     complexity : int
         Number of distinct terms.
     fitness : float
-    terms : tuple of narx.terms.Term
+    terms : tuple of narx.language.terms.Term
     genes : tuple of tuple of str
         Node names of the genes of the first individual with these terms.
     """

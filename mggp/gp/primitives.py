@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.terms import Signals
+    from narx.language.terms import Signals
     from mggp.gp.primitives import make_pset, tree_from_tokens, Decoder
 
     pset = make_pset(Signals("y", ("u",)))
@@ -46,7 +46,7 @@ DEAP selects candidates by type; the types are:
     Only the search is restricted: a hand-written model (``narx.Model``,
     ``mggp estimate``) may still use a Φ-call mixing inputs.
 
-Memory operators (``operators``, see :mod:`narx.memory`) are primitives
+Memory operators (``operators``, see :mod:`narx.language.memory`) are primitives
 ``(OperatorArg_<input>) -> Expr`` (:func:`operator_arg_type`, one type
 per input) whose argument is the terminal ``u[k-1]`` alone:
 ``Play@0.2(u[k-1])`` decodes to ``Play(u[k-1],0.2)``, and only a
@@ -82,10 +82,10 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 from deap import gp
 
-from narx.memory import OPERATOR_BUILTINS, default_operators, operator_table
-from narx.memory import BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS  # noqa: F401 (re-exported)
-from narx.phi import PhiRegistry, default_registry
-from narx.terms import Lag, OpCall, PhiCall, Signals, Term, format_param
+from narx.language.memory import OPERATOR_BUILTINS, default_operators, operator_table
+from narx.language.memory import BOUC_WEN_SHAPES, PLAY_RADIUS_FRACTIONS  # noqa: F401 (re-exported)
+from narx.language.phi import PhiRegistry, default_registry
+from narx.language.terms import Lag, OpCall, PhiCall, Signals, Term, format_param
 
 __all__ = ["Expr", "InputLag", "input_lag_type", "LagSymbol", "SHIFTS", "make_pset",
            "tree_from_tokens", "tree_to_tokens", "decode", "Decoder",
@@ -108,7 +108,7 @@ def _class_names(label: str) -> Tuple[str, ...]:
 
 #: operators of the model class "operators" that ``operators='auto'`` pilots:
 #: the rate-independent ones (``auto_class`` 'operators' in
-#: :data:`narx.memory.OPERATOR_BUILTINS`). The Bouc–Wen variables are a
+#: :data:`narx.language.memory.OPERATOR_BUILTINS`). The Bouc–Wen variables are a
 #: class of their own (:func:`mggp.fit.choices.search_classes`): in this one they
 #: won the pilots on Prandtl–Ishlinskii, MR damper and Bouc–Wen oscillator
 #: records whose validation they then simulated worse
@@ -130,7 +130,7 @@ def auto_classes() -> Dict[str, Tuple[str, ...]]:
 
 def operator_choices() -> Dict[str, str]:
     """Command-line name -> operator name of every registered operator
-    (:func:`narx.memory.operator_table`: built-ins, then plug-ins)."""
+    (:func:`narx.language.memory.operator_table`: built-ins, then plug-ins)."""
     return {op.name.lower(): op.name for op in operator_table()}
 
 
@@ -142,14 +142,14 @@ def _span(u) -> float:
 def operator_grid(name: str, u) -> Tuple[Tuple[float, ...], ...]:
     """Parameter tuples the search offers of operator ``name`` (its name
     or command-line name) for an input ``u``: the operator table's
-    :meth:`narx.memory.MemoryOperator.search_grid` of its range
+    :meth:`narx.language.memory.MemoryOperator.search_grid` of its range
     ``max(u) - min(u)``."""
     return default_operators().get(operator_choices().get(name, name)).search_grid(_span(u))
 
 
 def play_radii(u) -> Tuple[float, ...]:
     """Play radii of the search for an input ``u``
-    (:func:`operator_grid`: :data:`narx.memory.PLAY_RADIUS_FRACTIONS` of
+    (:func:`operator_grid`: :data:`narx.language.memory.PLAY_RADIUS_FRACTIONS` of
     its range, two significant digits; empty for a constant input)."""
     return tuple(p[0] for p in operator_grid("Play", u))
 
@@ -157,7 +157,7 @@ def play_radii(u) -> Tuple[float, ...]:
 def bouc_wen_shapes(u) -> Tuple[Tuple[float, float], ...]:
     """Bouc–Wen parameters (β, γ) of the search for an input ``u``
     (:func:`operator_grid`: one pair per shape of
-    :data:`narx.memory.BOUC_WEN_SHAPES`; empty for a constant input)."""
+    :data:`narx.language.memory.BOUC_WEN_SHAPES`; empty for a constant input)."""
     return operator_grid("BoucWen", u)
 
 
@@ -249,7 +249,7 @@ def input_lag_type(name: str) -> type:
     Parameters
     ----------
     name : str
-        Input name (an identifier, see :class:`narx.terms.Signals`).
+        Input name (an identifier, see :class:`narx.language.terms.Signals`).
 
     Returns
     -------
@@ -316,7 +316,7 @@ def _lag_types(inputs: Sequence[str]) -> Dict[str, type]:
 
 
 class LagSymbol:
-    """Value of a terminal node: a :class:`narx.terms.Lag` that prints as
+    """Value of a terminal node: a :class:`narx.language.terms.Lag` that prints as
     its term text (``y[k-1]``), so trees print readably and decode without
     any name lookup."""
 
@@ -368,9 +368,9 @@ def make_pset(signals: Optional[Signals] = None,
 
     Parameters
     ----------
-    signals : narx.terms.Signals, optional
+    signals : narx.language.terms.Signals, optional
         Output and input names (default ``y`` and ``u``).
-    registry : narx.phi.PhiRegistry, optional
+    registry : narx.language.phi.PhiRegistry, optional
         Where Φ-functions come from (default: the process-wide registry).
     use_phi : bool
         False gives the plain polynomial set ``{mul, q1, q2, q3}``.
@@ -585,12 +585,12 @@ def decode(tree, signals: Optional[Signals] = None) -> Term:
     ----------
     tree : deap.gp.PrimitiveTree
         A tree of the set built by :func:`make_pset`.
-    signals : narx.terms.Signals, optional
+    signals : narx.language.terms.Signals, optional
         If given, every terminal must be one of these signals.
 
     Returns
     -------
-    narx.terms.Term
+    narx.language.terms.Term
 
     Raises
     ------
@@ -651,7 +651,7 @@ class Decoder:
 
     Parameters
     ----------
-    signals : narx.terms.Signals, optional
+    signals : narx.language.terms.Signals, optional
         Passed to :func:`decode` for validation.
     maxsize : int
         The cache is emptied when it holds this many entries.

@@ -13,7 +13,7 @@ The figure draws, in the input-output plane, the model's free-run loop with
 arrows for its orientation, the attracting and repelling solutions of the
 frozen equation under loading (ŷ_L^a, ŷ_L^r) and unloading (ŷ_U^a, ŷ_U^r),
 the bounding structure (equilibria over the input's range with the rate at
-its limit, :mod:`narx.quasistatic`) and, on one loading and one unloading
+its limit, :mod:`narx.analysis.quasistatic`) and, on one loading and one unloading
 sample, the output (A, C) and the attracting solution pulling it (B, D).
 
 References
@@ -257,7 +257,7 @@ def _arrows(ax, u, y, lo, hi, n=8):
 
 def plot_quasistatic(path, qs, title: str = "Quasi-static analysis",
                      xlabel: Optional[str] = None, ylabel: Optional[str] = None) -> str:
-    """Write the figure (PNG) of a :class:`narx.quasistatic.QuasiStaticResult`.
+    """Write the figure (PNG) of a :class:`narx.analysis.quasistatic.QuasiStaticResult`.
 
     Parameters
     ----------

@@ -16,15 +16,15 @@ from typing import Optional
 
 import numpy as np
 
-from narx.simulate import mode_name
+from narx.simulation.simulate import mode_name
 
 from .plotting import figure, save as _save
 
 __all__ = ["write_fit_report", "plot_freerun", "plot_loop", "plot_convergence", "figure",
            "error_groups", "plot_errors", "fitness_words", "figure_lines"]
 
-#: canonical mode name (:data:`narx.simulate.MODE_TABLE`; aliases such as ``pem``
-#: resolved by :func:`narx.simulate.mode_name`) -> the simulation its fitness scores
+#: canonical mode name (:data:`narx.simulation.simulate.MODE_TABLE`; aliases such as ``pem``
+#: resolved by :func:`narx.simulation.simulate.mode_name`) -> the simulation its fitness scores
 FITNESS_WORDS = {"osa": "one-step-ahead prediction", "freerun": "free-run simulation",
                  "ksa": "k-steps-ahead prediction", "ms": "multiple-shooting simulation"}
 

@@ -1,6 +1,6 @@
 """Compiled recursion kernels shared by free-run, k-steps-ahead and shooting.
 
-Typical use (internal; :mod:`narx.simulate` wraps it)::
+Typical use (internal; :mod:`narx.simulation.simulate` wraps it)::
 
     plan = Plan.from_terms(terms, data.inputs)
     P = plan.input_parts(data)                      # (T, N), once per record
@@ -27,14 +27,14 @@ windows. A window whose output leaves ``bound`` or becomes non-finite
 flags the simulation as diverged and stops quietly.
 
 A memory operator of an output lag (``Play(y[k-1],0.1)``, see
-:mod:`narx.memory`) carries a state. Each window starts it from the state
+:mod:`narx.language.memory`) carries a state. Each window starts it from the state
 the operator reaches on the *measured* output before the window's first
 sample :math:`s_w` (its initial state, then one step per measured sample
 :math:`y_0..y_{s_w-1}`); from there it steps on the simulated output.
 Free run therefore starts it on the measured initial conditions, and every
 multiple-shooting or k-steps-ahead window on the measured history before
 it, as its lags start on measured values. The built-in operators are
-compiled (:func:`narx.memory.operator_step`); plug-ins run in the numpy
+compiled (:func:`narx.language.memory.operator_step`); plug-ins run in the numpy
 loop.
 """
 from __future__ import annotations
@@ -46,9 +46,9 @@ import numpy as np
 
 from numba import njit
 
-from .phi import PhiRegistry, builtin_code, check_codes, default_registry, phi_value
-from .memory import default_operators, operator_step
-from .terms import Lag, OpCall, Term
+from ..language.phi import PhiRegistry, builtin_code, check_codes, default_registry, phi_value
+from ..language.memory import default_operators, operator_step
+from ..language.terms import Lag, OpCall, Term
 
 __all__ = ["Plan", "run_windows", "KIND_USER"]
 
@@ -223,7 +223,7 @@ class Plan:
 
     def input_parts(self, data, registry: Optional[PhiRegistry] = None) -> np.ndarray:
         """(T, N) matrix of input parts (row i: term i)."""
-        from .regressors import input_part
+        from ..records.regressors import input_part
         P = np.empty((len(self.terms), data.n))
         for i, t in enumerate(self.terms):
             P[i] = input_part(t, data, registry)
@@ -317,7 +317,7 @@ def _operator_arrays(plan: Plan, y_meas, starts):
     if not ops:
         return (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
                 np.zeros((0, 1)), np.zeros((0, 1)), np.zeros((0, W, 1)))
-    from .memory import BUILTIN_OPERATOR_CODES
+    from ..language.memory import BUILTIN_OPERATOR_CODES
     win = [_OperatorWindows(f, y_meas, starts) for f in ops]
     width = max(w.state.shape[1] for w in win)
     npar = max([1] + [len(f.params) for f in ops])
@@ -352,7 +352,7 @@ def run_windows(plan: Plan, P, U, y_meas, theta, starts, length: int,
         raise ValueError(f"a window starts at sample {starts.min()} but the "
                          f"model needs {plan.maxlag} initial samples")
     if bound is None:
-        from .linalg import divergence_bound
+        from ..linalg import divergence_bound
         bound = divergence_bound(y_meas)
     if out is None:
         out = np.full(y_meas.shape[0], np.nan)

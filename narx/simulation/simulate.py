@@ -2,13 +2,13 @@
 
 Typical use::
 
-    from narx.simulate import simulate
+    from narx.simulation.simulate import simulate
     r = simulate(terms, theta, data, mode="freerun")
     r.y_hat, r.valid, r.diverged, r.mse
 
 The modes are one table, :data:`MODE_TABLE`: a row per mode gives its
 name, the aliases also accepted and what it simulates. The same names
-serve as fitness names (:class:`narx.fitness.StructureScorer`); the alias
+serve as fitness names (:class:`narx.estimation.fitness.StructureScorer`); the alias
 ``pem`` (prediction-error method) is the usual name of the one-step-ahead
 fitness, as in ``mggp fit --fitness pem``:
 
@@ -38,11 +38,11 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .data import Data
-from .exceptions import DataError
+from ..records.data import Data
+from ..exceptions import DataError
 from .kernels import Plan, run_windows
-from .phi import PhiRegistry
-from .terms import Term
+from ..language.phi import PhiRegistry
+from ..language.terms import Term
 
 __all__ = ["SimulationResult", "simulate", "MODES", "MODE_TABLE", "mode_name",
            "window_starts", "recursion_windows"]
@@ -209,7 +209,7 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
     valid = np.zeros(n, dtype=bool)
     horizon = None
     if mode == "osa":
-        from .regressors import term_column
+        from ..records.regressors import term_column
         cols = [np.zeros(n) if plan.noise_terms[i] else
                 term_column(t, data, y_meas, None, registry)
                 for i, t in enumerate(terms)]

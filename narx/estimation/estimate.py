@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.estimate import least_squares, constrained_least_squares
+    from narx.estimation.estimate import least_squares, constrained_least_squares
     theta = least_squares(Psi, target).theta
     theta = constrained_least_squares(Psi, target, S, c).theta
 
@@ -37,9 +37,9 @@ from typing import Optional
 
 import numpy as np
 
-from .linalg import matrix_rank, scaled_lstsq, t_values
+from ..linalg import matrix_rank, scaled_lstsq, t_values
 
-from .exceptions import EstimationError
+from ..exceptions import EstimationError
 
 __all__ = ["Estimate", "EstimationError", "least_squares",
            "constrained_least_squares", "t_statistics"]

@@ -1,9 +1,9 @@
 """Gram entries of regressor columns with a fixed summation order.
 
-Typical use (internal: :class:`narx.fitness.StructureScorer` keeps a
+Typical use (internal: :class:`narx.estimation.fitness.StructureScorer` keeps a
 slot-indexed cache of entries and fills the missing ones)::
 
-    from narx.gram import fixed_dot, fill_gram
+    from narx.estimation.gram import fixed_dot, fill_gram
     G_sub, b = fill_gram(G, bv, store.array, slots, y, start)
 
 Every entry :math:`\\psi_i^T\\psi_j = \\sum_k \\psi_{i,k}\\psi_{j,k}` is

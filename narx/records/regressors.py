@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.regressors import regressor_matrix
+    from narx.records.regressors import regressor_matrix
     Psi, target, start = regressor_matrix(terms, data)   # rows k = start..N-1
     theta = lstsq(Psi, target)
 
@@ -14,7 +14,7 @@ Each term factor evaluated at time k:
 A term's column is the product of its factor columns. The *input part* (the
 product of the factors that depend on inputs only) never depends on the
 simulated output, so it is computed once per record and cached in the
-:class:`~narx.data.Data` column cache; simulation kernels multiply it by the
+:class:`~narx.records.data.Data` column cache; simulation kernels multiply it by the
 output part at each step.
 """
 from __future__ import annotations
@@ -26,9 +26,9 @@ import numpy as np
 from numba import njit
 
 from .data import Data
-from .memory import default_operators
-from .phi import PhiRegistry, default_registry, phi_value
-from .terms import Lag, OpCall, PhiCall, Term
+from ..language.memory import default_operators
+from ..language.phi import PhiRegistry, default_registry, phi_value
+from ..language.terms import Lag, OpCall, PhiCall, Term
 
 __all__ = ["shift", "signal_array", "factor_column", "input_part", "input_part_into",
            "term_column", "regressor_matrix", "max_lag"]
@@ -63,7 +63,7 @@ def signal_array(lag: Lag, data: Data, y=None, noise=None) -> np.ndarray:
 @njit(cache=True, nogil=True)
 def _lagged_builtin(code, x1, a, x2, b):
     """The built-in of kernel ``code`` of ``x1[k-a]`` and ``x2[k-b]``
-    (:func:`narx.phi.phi_value`), NaN before the larger lag: in one pass,
+    (:func:`narx.language.phi.phi_value`), NaN before the larger lag: in one pass,
     without the shifted copies (bit for bit the row's numpy function)."""
     n = x1.shape[0]
     out = np.empty(n)
@@ -97,9 +97,9 @@ def factor_column(f, data: Data, y=None, noise=None,
 
 def operator_sequence(f: OpCall, x) -> np.ndarray:
     """The operator of ``f`` over the whole (unshifted) signal ``x``, from
-    the operator's default initial state (:mod:`narx.memory`). A plug-in
+    the operator's default initial state (:mod:`narx.language.memory`). A plug-in
     operator's overflow is left as inf or NaN without a numpy warning (the
-    fit refuses a non-finite column: :meth:`narx.fitness.StructureScorer.fit`)."""
+    fit refuses a non-finite column: :meth:`narx.estimation.fitness.StructureScorer.fit`)."""
     with np.errstate(over="ignore", invalid="ignore"):
         return default_operators().get(f.name).sequence(x, f.params)
 
@@ -113,7 +113,7 @@ def _product(cols, n):
 def _multiply_into(cols, out: np.ndarray) -> np.ndarray:
     """The product of two or more ``cols`` written into ``out``; an overflow
     is left as inf or NaN without a numpy warning (the fit refuses a
-    non-finite column: :meth:`narx.fitness.StructureScorer.fit`)."""
+    non-finite column: :meth:`narx.estimation.fitness.StructureScorer.fit`)."""
     with np.errstate(over="ignore", invalid="ignore"):
         np.multiply(cols[0], cols[1], out=out)
         for c in cols[2:]:

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.steady import clusters, steady_state_constraints
+    from narx.analysis.steady import clusters, steady_state_constraints
     cons = steady_state_constraints(terms)
     cons.labels          # ['Σ_y = 1', 'Σ_u = 0', 'Σ_u^3 = 0', ...]
     cons.S, cons.c       # S θ = c, for constrained least squares
@@ -23,7 +23,7 @@ cluster sum is 0. Noise terms are zero at steady state.
 at which a given model rests with its other signal held (the rest point a
 compensator aims at).
 
-Memory operators (:mod:`narx.memory`). With its argument held, an operator
+Memory operators (:mod:`narx.language.memory`). With its argument held, an operator
 holds a value fixed by the history, not by the held signal alone: a play of
 radius r rests anywhere in :math:`[\\bar x - r, \\bar x + r]`. The cluster
 analysis therefore treats an operator factor as a *held state symbol* of its
@@ -51,10 +51,10 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .exceptions import EstimationError
-from .phi import PhiRegistry, default_registry
-from .memory import default_operators
-from .terms import Lag, OpCall, PhiCall, Term, parse_term
+from ..exceptions import EstimationError
+from ..language.phi import PhiRegistry, default_registry
+from ..language.memory import default_operators
+from ..language.terms import Lag, OpCall, PhiCall, Term, parse_term
 
 __all__ = ["Cluster", "SteadyStateConstraints", "clusters", "cluster_sums",
            "steady_state_constraints", "rest_actuator", "held_outputs"]

@@ -99,9 +99,9 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from .data import Data, DataError, as_data
-from .regressors import factor_column
-from .terms import Lag
+from ..records.data import Data, DataError, as_data
+from ..records.regressors import factor_column
+from ..language.terms import Lag
 
 __all__ = ["quasistatic", "QuasiStaticResult", "Equilibria", "BoundingStructure",
            "BRANCHES"]

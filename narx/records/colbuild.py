@@ -1,12 +1,12 @@
 """Compiled regressor columns for the structure scorer.
 
-Typical use (internal: :class:`narx.fitness.StructureScorer` fills its
+Typical use (internal: :class:`narx.estimation.fitness.StructureScorer` fills its
 column store with it)::
 
-    from narx.colbuild import ColumnBuilder
+    from narx.records.colbuild import ColumnBuilder
     cb = ColumnBuilder(data, y, registry)
     if not cb.build(term, row):             # False: not compiled here
-        ...                                 # the numpy path (narx.regressors)
+        ...                                 # the numpy path (narx.records.regressors)
 
 A term's column on measured data is the product of its factors,
 
@@ -14,9 +14,9 @@ A term's column on measured data is the product of its factors,
 
 input factors first, then output factors, each in the term's order; a
 factor is a lagged signal :math:`x_{k-a}` or a built-in Φ of two lags,
-:math:`\\Phi(x_{k-a}, z_{k-b})` computed by :func:`narx.phi.phi_value`.
+:math:`\\Phi(x_{k-a}, z_{k-b})` computed by :func:`narx.language.phi.phi_value`.
 Rows before the term's largest lag are 0 and non-finite products are
-clipped as in :func:`narx.fitness._finite_inplace`.
+clipped as in :func:`narx.estimation.fitness._finite_inplace`.
 
 Each factor is computed on the fly and multiplied into the store's row, one
 pass per factor, without a new array per factor (the numpy path builds
@@ -35,13 +35,13 @@ import numpy as np
 
 from numba import njit
 
-from .phi import PhiRegistry, builtin_code, phi_value
-from .terms import Lag, PhiCall, Term
+from ..language.phi import PhiRegistry, builtin_code, phi_value
+from ..language.terms import Lag, PhiCall, Term
 
 __all__ = ["ColumnBuilder", "build_into", "LAG"]
 
 #: factor kind of a lagged signal; a built-in Φ has its kernel code (> 0)
-#: of :data:`narx.phi.BUILTINS` (built-ins cannot be re-registered, so the
+#: of :data:`narx.language.phi.BUILTINS` (built-ins cannot be re-registered, so the
 #: name decides)
 LAG = 0
 
@@ -52,7 +52,7 @@ def build_into(out, S, kind, sa, la, sb, lb):
 
     Factor ``f`` is ``S[sa[f], k - la[f]]`` (kind 0), or the built-in of
     kernel code ``kind[f]`` of that and ``S[sb[f], k - lb[f]]``
-    (:func:`narx.phi.phi_value`, which raises on an unknown code). Rows
+    (:func:`narx.language.phi.phi_value`, which raises on an unknown code). Rows
     before the largest lag are 0; NaN -> 0 and ±inf -> ±max float.
     """
     n = out.shape[0]
@@ -101,7 +101,7 @@ class ColumnBuilder:
     y : ndarray
         The measured output.
     registry : PhiRegistry
-        Φ-functions; the built-ins (:data:`narx.phi.BUILTINS`) are compiled.
+        Φ-functions; the built-ins (:data:`narx.language.phi.BUILTINS`) are compiled.
     """
 
     def __init__(self, data, y: np.ndarray, registry: PhiRegistry):

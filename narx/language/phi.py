@@ -153,7 +153,7 @@ def phi_value(code, a, b):
         # branch-free select, so the kernels' loops vectorise
         s = (1.0 if d > 0.0 else 0.0) - (1.0 if d < 0.0 else 0.0)
         return s if d == d else d
-    raise ValueError("unknown built-in Φ-function code (narx.phi.BUILTINS)")
+    raise ValueError("unknown built-in Φ-function code (narx.language.phi.BUILTINS)")
 
 
 def builtin(name: str) -> Optional[PhiFunction]:
@@ -173,7 +173,7 @@ def check_codes(codes) -> None:
     bad = sorted({int(c) for c in np.ravel(codes)} - known)
     if bad:
         raise ValueError(f"unknown built-in Φ-function code(s) {bad}; the table "
-                         f"narx.phi.BUILTINS has {sorted(known)}")
+                         f"narx.language.phi.BUILTINS has {sorted(known)}")
 
 
 class PhiRegistry(NamedRegistry):
@@ -186,7 +186,7 @@ class PhiRegistry(NamedRegistry):
         for f in (functions or ()):
             if f.builtin and f.name not in self._items:
                 raise ValueError(f"Φ-function {f.name!r} has kernel code {f.code!r} but "
-                                 f"is not in narx.phi.BUILTINS")
+                                 f"is not in narx.language.phi.BUILTINS")
             if f.name not in self._items:
                 self._items[f.name] = f
 

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.metrics import rmse, mape, rrse
+    from narx.simulation.metrics import rmse, mape, rrse
     mape(y, y_hat)     # range-normalised MAPE in %, the published metric
 
 .. math::

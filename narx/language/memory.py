@@ -114,12 +114,12 @@ of its range, whatever :math:`\bar x`).
 Typical use::
 
     >>> import numpy as np
-    >>> from narx.memory import play, deng_tan, get_operator
+    >>> from narx.language.memory import play, deng_tan, get_operator
     >>> play(np.array([0.0, 1.0, 0.5, -1.0]), 0.5).tolist()
     [0.0, 0.5, 0.5, -0.5]
     >>> get_operator("Play").steady_set(2.0, (0.5,))
     (1.5, 2.5)
-    >>> from narx.memory import bouc_wen
+    >>> from narx.language.memory import bouc_wen
     >>> bouc_wen(np.array([0.0, 10.0, 20.0, 20.0, 10.0]), 0.05, 0.0).round(4).tolist()
     [0.0, 7.8646, 12.6366, 12.6366, -0.1971]
 

@@ -6,7 +6,7 @@ so a test can check that an identification method recovers the structure.
 
 Typical use::
 
-    >>> from narx.testsystems import system_S3, system_by_name, SYSTEMS
+    >>> from narx.systems.testsystems import system_S3, system_by_name, SYSTEMS
     >>> d = system_S3(n=500, seed=0)
     >>> d.terms[:2], d.theta[:2]
     (('y[k-1]*y[k-1]*y[k-1]', 'y[k-1]*u[k-1]'), (0.2, 0.7))
@@ -47,7 +47,7 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from .systems import _count, _num, _rng
+from . import _count, _num, _rng
 
 __all__ = ["TestSystemData", "TRANSIENT", "SYSTEMS", "system_S1", "system_S2",
            "system_S3", "system_S4", "system_S5", "system_S6", "system_piroddi",

@@ -3,7 +3,7 @@
 Typical use::
 
     import narx
-    from narx.compensate import compensate
+    from narx.analysis.compensate import compensate
     model = narx.load_model("model.json")             # any model with Phi1/Phi2 terms
     res = compensate(model, r, input_range=(-80, 80))  # r: desired actuator output
     res.m               # actuator input to apply (the compensator's output)
@@ -70,12 +70,12 @@ import numpy as np
 
 from .compensate_args import (check_count, check_range, check_reference, past_values,
                               training_magnitudes)
-from .exceptions import NonMinimumPhaseWarning
+from ..exceptions import NonMinimumPhaseWarning
 from .inverse_check import (active_terms, input_lags, inverse_stability,
                             uninvertible_reason)
-from .linalg import DIVERGENCE_FACTOR
-from .phi import BUILTINS, phi_value
-from .terms import Lag
+from ..linalg import DIVERGENCE_FACTOR
+from ..language.phi import BUILTINS, phi_value
+from ..language.terms import Lag
 
 __all__ = ["CompensationResult", "RootCompensator", "TermPlan", "compensate",
            "check_range", "check_reference", "check_count", "past_values",
@@ -291,7 +291,7 @@ class RootCompensator:
 
     Attributes
     ----------
-    inverse_check : narx.inverse_check.InverseStability
+    inverse_check : narx.analysis.inverse_check.InverseStability
         Zeros of the model's linear input part; when one lies outside the
         unit circle (``not inverse_check.minimum_phase``) the exact inverse
         is unstable and a :class:`NonMinimumPhaseWarning` is issued.

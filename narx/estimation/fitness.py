@@ -2,7 +2,7 @@
 
 Typical use (the inner loop of a structure search)::
 
-    from narx.fitness import StructureScorer
+    from narx.estimation.fitness import StructureScorer
     sc = StructureScorer(data, fitness="ms", window=100, start=16)
     mse, theta = sc.evaluate(terms)
 
@@ -20,19 +20,19 @@ Speed comes from caching across term sets, as a structure search meets the
 same terms again and again:
 
 * every distinct regressor column (on measured data) and every input-only
-  part is computed once (compiled, :mod:`narx.colbuild`, for the built-in
+  part is computed once (compiled, :mod:`narx.records.colbuild`, for the built-in
   Φ-functions) and kept in a :class:`ColumnStore` (bounded LRU);
 * every Gram entry :math:`\\psi_i^T\\psi_j` and :math:`\\psi_i^T y` is
-  computed once, in a fixed summation order (:mod:`narx.gram`); θ then
+  computed once, in a fixed summation order (:mod:`narx.estimation.gram`); θ then
   comes from the small normal equations, solved on unit-diagonal scaling
   by a rank-revealing pivoted-QR least-squares solve
   (:func:`narx.linalg.gram_lstsq`), which is the minimum-norm LS solution
   when columns are dependent. Final models
-  are refitted with :func:`narx.estimate.least_squares` on the regressor
+  are refitted with :func:`narx.estimation.estimate.least_squares` on the regressor
   matrix itself (``Model.fit``);
 * the compiled kernel reads input parts straight from the store;
 * the ``ms`` fitness with a fixed ``start`` runs the window-major kernel of
-  a :class:`~narx.ms_kernel.MultipleShooting` the scorer owns.
+  a :class:`~narx.simulation.ms_kernel.MultipleShooting` the scorer owns.
 
 The stores are allocated empty (``numpy.empty``): a scorer's resident
 memory grows with the columns it actually holds, up to its budget.
@@ -45,20 +45,20 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 from numba import njit
 
-from .colbuild import ColumnBuilder
-from .data import Data
-from .exceptions import EstimationError
+from ..records.colbuild import ColumnBuilder
+from ..records.data import Data
+from ..exceptions import EstimationError
 from .gram import fill_gram as _fill_gram, fixed_dot
-from .kernels import Plan, run_windows
-from .linalg import divergence_bound, gram_lstsq
-from .ms_kernel import BUDGET as MS_BUDGET, MultipleShooting, window_sse
-from .phi import PhiRegistry, default_registry
+from ..simulation.kernels import Plan, run_windows
+from ..linalg import divergence_bound, gram_lstsq
+from ..simulation.ms_kernel import BUDGET as MS_BUDGET, MultipleShooting, window_sse
+from ..language.phi import PhiRegistry, default_registry
 from .output_error import (OE_ESTIMATORS, OutputErrorProblem, burn_in, check_estimator,
                            innovation_mse, noise_order, output_error_theta)
-from .regressors import factor_column, input_part_into, regressor_matrix
-from .simulate import MODES, mode_name, recursion_windows
-from .steady import steady_state_constraints
-from .terms import Term
+from ..records.regressors import factor_column, input_part_into, regressor_matrix
+from ..simulation.simulate import MODES, mode_name, recursion_windows
+from ..analysis.steady import steady_state_constraints
+from ..language.terms import Term
 
 __all__ = ["StructureScorer", "ColumnStore", "FITNESS", "fixed_dot"]
 
@@ -93,7 +93,7 @@ def _osa_sse(P, idx, theta, y, s):
 
 
 #: the fitness names: the simulation modes (``pem`` is accepted for ``osa``,
-#: :data:`narx.simulate.MODE_TABLE`)
+#: :data:`narx.simulation.simulate.MODE_TABLE`)
 FITNESS = MODES
 #: default size of a scorer's column cache (bytes)
 SCORER_BUDGET = 160 * 2**20
@@ -175,7 +175,7 @@ class StructureScorer:
         largest lag of every scored set (default: the set's own).
     budget_bytes : int
         Size of the column cache (default 160 MB; the ``ms`` fitness keeps
-        a second, window-major cache of ``narx.ms_kernel.BUDGET``, 128 MB,
+        a second, window-major cache of ``narx.simulation.ms_kernel.BUDGET``, 128 MB,
         at most the column cache's size). Both are allocated empty and
         touched as they fill.
     bound : float, optional
@@ -187,21 +187,21 @@ class StructureScorer:
         not grow later (for long-lived worker processes).
     estimator : {'ls', 'oe', 'bj'}
         θ of a term set: least squares (default), or output error
-        (:mod:`narx.output_error`: IV from the LS θ, then Gauss–Newton on
+        (:mod:`narx.estimation.output_error`: IV from the LS θ, then Gauss–Newton on
         the simulation error), which is not biased by white noise on the
         measured output; for the ``ms`` and ``freerun`` fitness, without
         ``constraints``. With ``'oe'`` the first
-        :func:`narx.output_error.burn_in` steps of each simulated window
+        :func:`narx.estimation.output_error.burn_in` steps of each simulated window
         are not scored. ``'bj'``: θ as ``'oe'``, and the score is the
         simulation error's variance after an autoregressive noise model
-        has whitened it (:func:`narx.output_error.innovation_mse`; the
+        has whitened it (:func:`narx.estimation.output_error.innovation_mse`; the
         mean squared error when it is white).
 
     Attributes
     ----------
     bound : float
         The divergence bound in use.
-    shooting : narx.ms_kernel.MultipleShooting or None
+    shooting : narx.simulation.ms_kernel.MultipleShooting or None
         The window-major multiple-shooting kernel (``ms`` fitness with a
         fixed ``start``), else None.
     """
@@ -370,7 +370,7 @@ class StructureScorer:
         return theta, s
 
     def _output_error(self, terms, slots, s) -> OutputErrorProblem:
-        """The :class:`~narx.output_error.OutputErrorProblem` of ``terms``
+        """The :class:`~narx.estimation.output_error.OutputErrorProblem` of ``terms``
         (regressor columns in store ``slots``) from row ``s``."""
         n = self.data.n
         Psi = self.store.array[slots, s:]
@@ -416,7 +416,7 @@ class StructureScorer:
 
     def run_windows(self, terms, theta, starts, length: int, write_from: int = 0,
                     bound: Optional[float] = None):
-        """:func:`narx.kernels.run_windows` of ``terms`` on this record, with
+        """:func:`narx.simulation.kernels.run_windows` of ``terms`` on this record, with
         the input parts from the column store; returns ``(out, diverged)``.
         ``bound`` defaults to the scorer's."""
         plan = Plan.from_terms(terms, self.data.inputs, self.registry)
@@ -458,7 +458,7 @@ class StructureScorer:
         """MSE of the ``ms``/``freerun`` simulation without the first
         ``self.burn`` steps of each window, or with ``estimator='bj'`` its
         variance whitened by a noise model
-        (:func:`narx.output_error.innovation_mse`); ``inf`` when it
+        (:func:`narx.estimation.output_error.innovation_mse`); ``inf`` when it
         diverges."""
         starts, length, _, _ = recursion_windows(self.fitness, self.data.n, s, self.window)
         out, diverged = self.run_windows(terms, theta, starts, length, self.burn)

@@ -3,14 +3,14 @@
 Typical use::
 
     import narx
-    from narx.inverse_check import inverse_stability
+    from narx.analysis.inverse_check import inverse_stability
     model = narx.Model(["y[k-1]", "u[k-1]", "u[k-2]"], theta=[0.5, 1.0, -2.0])
     chk = inverse_stability(model)
     chk.minimum_phase       # False: B(q⁻¹) = q⁻¹ - 2q⁻² has the zero z = 2
     chk.unstable_zeros      # array([2.+0.j])
     print(chk.describe())
 
-The model-based compensator (:mod:`narx.compensate`) solves the model for
+The model-based compensator (:mod:`narx.analysis.compensate`) solves the model for
 its most recent input at every step: it runs the model *backwards*, from
 output to input. The terms linear in the input, :math:`\\theta\\,u[k-i]` and
 :math:`\\theta\\,\\Phi_1(u[k-a], u[k-b]) = \\theta\\,(u[k-a] - u[k-b])`, form
@@ -31,9 +31,9 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from .exceptions import NonMinimumPhaseWarning
-from .phi import builtin
-from .terms import Lag
+from ..exceptions import NonMinimumPhaseWarning
+from ..language.phi import builtin
+from ..language.terms import Lag
 
 __all__ = ["InverseStability", "NonMinimumPhaseWarning", "inverse_stability",
            "uninvertible_reason"]
@@ -48,7 +48,7 @@ def active_terms(model):
 
 
 def _form(factor):
-    """Form of a Φ-call's function (:data:`narx.phi.BUILTINS`); None for
+    """Form of a Φ-call's function (:data:`narx.language.phi.BUILTINS`); None for
     a plug-in, which has no known form."""
     row = builtin(factor.name)
     return None if row is None else row.form

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.paired import paired_bootstrap
+    from narx.analysis.paired import paired_bootstrap
     t = paired_bootstrap(err_simple ** 2, err_rich ** 2, seed=3)   # per-sample losses
     t.p_value           # one-sided: the second loss is lower on average
     t.spread(np.sqrt)   # bootstrap standard deviation of RMSE_simple - RMSE_rich

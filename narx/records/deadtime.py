@@ -3,7 +3,7 @@ a scan of linear ARX models.
 
 Typical use::
 
-    from narx.deadtime import onset_scan
+    from narx.records.deadtime import onset_scan
     scan = onset_scan(data, "u")      # OnsetScan(lags=..., rmse=...)
     scan.best                         # the lag d whose model predicts best
     scan.best_within(16)              # the best RMSE of a model starting within 16
@@ -32,7 +32,7 @@ import numpy as np
 
 from .data import Data
 from .regressors import regressor_matrix
-from .terms import parse_terms
+from ..language.terms import parse_terms
 
 __all__ = ["GAIN", "MAX_DELAY", "ROWS", "SPAN", "OnsetScan", "late_inputs", "late_words",
            "onset_scan", "onset_scans"]

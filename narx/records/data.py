@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.data import Data
+    from narx.records.data import Data
     d = Data(u, y)                       # one input named 'u', output 'y'
     d = Data(U, y, inputs=("x", "v"))    # U of shape (N, 2)
     d.n, d.inputs, d.output
@@ -19,8 +19,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .exceptions import DataError
-from .terms import HasSignals, Signals
+from ..exceptions import DataError
+from ..language.terms import HasSignals, Signals
 
 __all__ = ["Data", "DataError", "as_data"]
 

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.csvdata import read_csv
+    from narx.records.csvdata import read_csv
     data = read_csv("DATA.csv")                               # columns u, y
     data = read_csv("damper.csv", inputs=["v", "E"], output="f")
     data = read_csv("ref.csv", inputs=["r"], output=None)     # no output
@@ -17,7 +17,7 @@ a ``;`` or tab separated file a decimal comma is read as a point
 (``1,5e-3``), as spreadsheet programs of many locales write them; other columns are ignored (their
 content is not checked), blank lines are skipped, rows must all have the
 header's number of fields (empty fields after the last are ignored). Every problem raises
-:class:`~narx.data.DataError` with the file, the line (1-based, header =
+:class:`~narx.records.data.DataError` with the file, the line (1-based, header =
 line 1), the column and the rule. Memory is linear in the number of rows
 (8 bytes per value read, no per-row Python objects kept).
 """
@@ -33,9 +33,9 @@ from typing import Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .atomic import atomic_writer
+from ..atomic import atomic_writer
 from .data import MAX_ABS, Data
-from .exceptions import DataError
+from ..exceptions import DataError
 
 __all__ = ["read_csv", "read_columns", "iter_rows", "write_with_column", "time_column",
            "sampling_message", "GAP_FACTOR"]
@@ -258,7 +258,7 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
         Said in the too-few-rows message (e.g. ``"for lags up to 16"``).
     varying_output : str
         If given, reject an output column that holds one value on every row
-        (:meth:`narx.data.Data.require_varying_output`, as
+        (:meth:`narx.records.data.Data.require_varying_output`, as
         :meth:`mggp.MGGPRegressor.fit` does); the text says why.
     """
     inputs = ["u"] if inputs is None else ([inputs] if isinstance(inputs, str) else list(inputs))
@@ -297,7 +297,7 @@ def read_csv(path, inputs: Optional[Sequence[str]] = None, output: Optional[str]
                 raise DataError(f"{os.fspath(path)}: input {name!r} is constant (column "
                                 f"{name!r} holds {col[0]:g} on all {n} data rows): an "
                                 f"input must vary to identify a model")
-    from .terms import TermError
+    from ..language.terms import TermError
     try:
         data = Data(arr[:, :m], arr[:, m] if output else None, inputs=inputs,
                     output=output or "y")

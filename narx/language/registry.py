@@ -1,7 +1,7 @@
 """The base of the registries of named built-ins and user plug-ins.
 
-:class:`narx.phi.PhiRegistry` (Φ-functions) and
-:class:`narx.memory.OperatorRegistry` (memory operators) hold their entries
+:class:`narx.language.phi.PhiRegistry` (Φ-functions) and
+:class:`narx.language.memory.OperatorRegistry` (memory operators) hold their entries
 by name; built-ins (entries whose ``builtin`` is true) are always there and
 can be neither replaced nor removed. This class holds the lookups and the
 rules they share; each registry adds its own ``register``. Typical use::

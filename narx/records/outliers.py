@@ -2,7 +2,7 @@
 
 Typical use (``MGGPRegressor(outliers='auto')``, the default, does this)::
 
-    from narx.outliers import find_spikes, repaired
+    from narx.records.outliers import find_spikes, repaired
     spikes = find_spikes(data)            # [Spike(signal='y', start=500, stop=501, ...), ...]
     data = repaired(data, spikes)         # each spike replaced by a line
 
@@ -109,7 +109,7 @@ import numpy as np
 
 from .data import Data
 from .regressors import regressor_matrix
-from .terms import parse_terms
+from ..language.terms import parse_terms
 
 __all__ = ["ARX_ORDER", "ARX_SIGMAS", "EDGE_SHARE", "EDGE_SIGMAS", "FIT_ROWS", "GRID",
            "INPUT_LAGS", "MAX_SHARE", "QUIET_SIGMAS", "SPIKE_BAND", "SPIKE_WIDTH", "Spike",

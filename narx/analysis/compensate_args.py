@@ -1,12 +1,12 @@
-"""Argument checks shared by the compensators (``narx.compensate`` and
+"""Argument checks shared by the compensators (``narx.analysis.compensate`` and
 ``mggp.compensate``), each raising one ``ValueError`` that names the
 argument, the rule and the value given, and the signal ranges a model was
-fitted on (``meta['ranges']``). :func:`narx.steady.rest_actuator` is
+fitted on (``meta['ranges']``). :func:`narx.analysis.steady.rest_actuator` is
 importable from here too.
 
 Typical use::
 
-    from narx.compensate_args import check_range, past_values
+    from narx.analysis.compensate_args import check_range, past_values
     lo, hi = check_range((-80, 80))
     u_past = past_values("u_past", 0.0, 3)        # [0.0, 0.0, 0.0]
 """
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .ranges import recorded_ranges
+from ..records.ranges import recorded_ranges
 from .steady import rest_actuator
 
 __all__ = ["check_range", "check_count", "check_reference", "past_values",
@@ -64,7 +64,7 @@ def past_values(name, value, n):
 
 def training_ranges(model) -> dict:
     """``{signal: (low, high)}`` of the ranges the model was fitted on
-    (:func:`narx.ranges.recorded_ranges`)."""
+    (:func:`narx.records.ranges.recorded_ranges`)."""
     return recorded_ranges(model)
 
 

@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.ranges import signal_ranges, range_warning
+    from narx.records.ranges import signal_ranges, range_warning
     model.meta["ranges"] = signal_ranges(train)   # Model.fit does this
     line = range_warning(model, record)           # '' when every input stays inside
     if line:
@@ -33,7 +33,7 @@ from typing import Dict, List, NamedTuple, Tuple
 
 import numpy as np
 
-from .exceptions import ExtrapolationWarning
+from ..exceptions import ExtrapolationWarning
 
 __all__ = ["MARGIN", "signal_ranges", "recorded_ranges", "Excursion", "excursions",
            "range_warning", "range_line", "range_text", "ExtrapolationWarning"]
@@ -41,7 +41,7 @@ __all__ = ["MARGIN", "signal_ranges", "recorded_ranges", "Excursion", "excursion
 
 def signal_ranges(data) -> Dict[str, List[float]]:
     """``{name: [min, max]}`` of every input and of the output of ``data``
-    (a :class:`narx.data.Data`), as a model file records them."""
+    (a :class:`narx.records.data.Data`), as a model file records them."""
     pairs = [(n, data.input(n)) for n in data.inputs] + [(data.output, data.y)]
     return {name: [float(np.min(x)), float(np.max(x))] for name, x in pairs}
 

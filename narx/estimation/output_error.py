@@ -1,9 +1,9 @@
 """Output-error estimation of θ for one structure, fast enough for a search.
 
-Typical use (inside :class:`narx.fitness.StructureScorer` with
+Typical use (inside :class:`narx.estimation.fitness.StructureScorer` with
 ``estimator='oe'``)::
 
-    from narx.output_error import (OutputErrorProblem, output_error_theta,
+    from narx.estimation.output_error import (OutputErrorProblem, output_error_theta,
                                    innovation_mse, noise_order)
     problem = OutputErrorProblem(y, Psi, start, instruments, freerun, scored)
     theta = output_error_theta(problem, theta_ls)
@@ -71,7 +71,7 @@ from typing import Callable, Tuple
 import numpy as np
 
 from .gram import cross_products, fixed_dot
-from .linalg import gram_lstsq, iv_lstsq
+from ..linalg import gram_lstsq, iv_lstsq
 
 __all__ = ["ESTIMATORS", "OE_ESTIMATORS", "IV_ITERATIONS", "GN_ITERATIONS", "GN_RTOL", "BURN_IN",
            "NOISE_ORDER", "OutputErrorProblem", "iv_theta", "gauss_newton",
@@ -169,7 +169,7 @@ def iv_theta(problem: OutputErrorProblem, theta: np.ndarray,
              iterations: int = IV_ITERATIONS) -> np.ndarray:
     """θ after ``iterations`` IV passes, each with instruments from the
     free run of the previous θ (stops at a diverging free run). Every cross
-    product is summed in a fixed order (:func:`narx.gram.cross_products`),
+    product is summed in a fixed order (:func:`narx.estimation.gram.cross_products`),
     so θ does not depend on the process that computes it."""
     s, y = problem.start, problem.y
     Psi = problem.Psi
@@ -292,7 +292,7 @@ def innovation_mse(r: np.ndarray, order: int) -> float:
     own terms are penalised by the search's criterion on top. A white
     simulation error (output noise only) gives :math:`m^* = 0`: the mean
     squared error. Every sum is taken in a fixed order
-    (:func:`narx.gram.cross_products`).
+    (:func:`narx.estimation.gram.cross_products`).
     """
     r = np.asarray(r, dtype=np.float64)
     ok = np.isfinite(r)

@@ -4,13 +4,13 @@ A *term* is a product of factors; a factor is a lagged signal (``y[k-2]``,
 ``u[k-1]``, ``u2[k]``, a noise lag ``e[k-1]``) or a Φ-function of lagged
 signals (``Phi1(u[k-1],u[k-3])``) or a memory operator of one lagged signal
 with numeric parameters (``Play(u[k-1],0.3)``, ``DengTan(y[k-1])``; see
-:mod:`narx.memory`). The empty product is the constant term ``1``. A model output is
+:mod:`narx.language.memory`). The empty product is the constant term ``1``. A model output is
 
 .. math::  \\hat y_k = \\sum_i \\theta_i \\prod_{f \\in t_i} f_k .
 
 Typical use::
 
-    from narx.terms import parse_term, parse_terms
+    from narx.language.terms import parse_term, parse_terms
     t = parse_term("Phi2(u[k-1],u[k-3])*y[k-1]*u[k-2]^2")
     str(t)        # 'y[k-1]*u[k-2]*u[k-2]*Phi2(u[k-1],u[k-3])'
     t.max_lag     # 3
@@ -33,7 +33,7 @@ import re
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple, Union
 
-from .exceptions import TermError
+from ..exceptions import TermError
 from .memory import OperatorRegistry, default_operators
 from .phi import PhiRegistry, default_registry
 
@@ -173,7 +173,7 @@ def format_param(x: float) -> str:
 @dataclass(frozen=True)
 class OpCall:
     """A memory operator applied to one lagged signal, with parameters,
-    e.g. ``Play(u[k-1],0.3)`` (see :mod:`narx.memory`)."""
+    e.g. ``Play(u[k-1],0.3)`` (see :mod:`narx.language.memory`)."""
 
     name: str
     arg: Lag
@@ -277,7 +277,7 @@ class Term:
 
     @property
     def operator_factors(self) -> Tuple[OpCall, ...]:
-        """The memory-operator factors (see :mod:`narx.memory`)."""
+        """The memory-operator factors (see :mod:`narx.language.memory`)."""
         return tuple(f for f in self.factors if isinstance(f, OpCall))
 
     def to_struct(self):
@@ -405,7 +405,7 @@ class _Parser:
             raise TermError(f"unknown Φ-function {name!r} in term {self.text!r} "
                             f"(registered: {', '.join(self.reg.names())}; memory "
                             f"operators: {', '.join(self.ops)}; register yours with "
-                            f"narx.register_phi or narx.memory.register_operator, or "
+                            f"narx.register_phi or narx.language.memory.register_operator, or "
                             f"give the mggp command --phi-module MODULE)")
         fn = self.reg.get(name)
         self.take("op", "(")

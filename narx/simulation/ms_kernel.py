@@ -1,15 +1,15 @@
 """Window-major multiple-shooting kernel for the ``ms`` fitness of a search.
 
-Typical use (internal: :class:`narx.fitness.StructureScorer` creates one
+Typical use (internal: :class:`narx.estimation.fitness.StructureScorer` creates one
 :class:`MultipleShooting` for its record and calls it first)::
 
-    from narx.ms_kernel import MultipleShooting
+    from narx.simulation.ms_kernel import MultipleShooting
     ms = MultipleShooting(y, window=100, budget_bytes=128 * 2**20)
     mse = ms.mse(terms, theta, s, bound, scorer.input_column)
     # None: not handled, use run_windows
 
 Multiple shooting is ``W`` independent windows of Δm steps. The general
-kernel (:mod:`narx.kernels`) runs them one after the other, so every step
+kernel (:mod:`narx.simulation.kernels`) runs them one after the other, so every step
 waits for the previous one (the recursion ``ŷ_k <- ŷ_{k-1}`` is a chain of
 dependent multiply-adds). Here step ``j`` of *all* windows is computed
 together: the innermost loop runs over windows, which are independent, so it
@@ -41,8 +41,8 @@ import numpy as np
 
 from numba import njit
 
-from .phi import builtin_code, phi_value
-from .terms import Lag, PhiCall, Term
+from ..language.phi import builtin_code, phi_value
+from ..language.terms import Lag, PhiCall, Term
 
 __all__ = ["MultipleShooting", "window_sse", "WindowStore", "ENABLED", "BUDGET"]
 
@@ -89,8 +89,8 @@ def _ms_sse(y, YT, PT, idx, theta, static, dyn, lags, nlag, s, L, W, ml, bound,
     measured output at that step. ``lags[i, q]`` is the q-th output factor
     of dynamic term i: an output lag (> 0) or ``-f`` for the Φ-call of
     output lags in slot f (the built-in of kernel code ``pkind[f]`` of the
-    output at lags ``pla[f]`` and ``plb[f]``, :func:`narx.phi.phi_value`),
-    computed at each step as :func:`narx.kernels._kernel` does.
+    output at lags ``pla[f]`` and ``plb[f]``, :func:`narx.language.phi.phi_value`),
+    computed at each step as :func:`narx.simulation.kernels._kernel` does.
     """
     n = y.shape[0]
     B = np.empty((ml + L, W))
@@ -285,7 +285,7 @@ class MultipleShooting:
         """Multiple-shooting MSE of ``terms`` with ``theta`` from row ``s``.
 
         ``input_column(term)`` gives the term's input part on the record, a
-        length-N array, read at once and not kept. Same value, bit for bit, as :func:`narx.kernels.run_windows` over
+        length-N array, read at once and not kept. Same value, bit for bit, as :func:`narx.simulation.kernels.run_windows` over
         the windows followed by :func:`window_sse`; ``inf`` when a window
         leaves ``bound``; ``None`` when not handled here (or when
         :data:`ENABLED` is False).
