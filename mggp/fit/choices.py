@@ -58,7 +58,7 @@ Held-out free-run error
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Any, Callable, Dict, Optional
 
 import numpy as np
 
@@ -82,7 +82,8 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
            "holdout_message", "holdout_words", "local_search_kept", "percent", "rmse_text",
            "terms_text", "pilot_generations", "resolve_screen", "resolve_select",
-           "search_classes", "size_choice", "steady", "stress_said"]
+           "search_classes", "size_choice", "steady", "stress_said", "STAGE_CHOICES",
+           "stage_choice"]
 
 #: share of the record (its tail) on which the held-out free-run error is measured
 HOLDOUT = 0.3
@@ -519,6 +520,24 @@ def resolve_screen(est) -> Choice:
                       "whose CLS refit does not hold are screened out", {})
     return Choice("screen", "freerun", "screen freerun: leaders whose free run leaves the "
                   "output band are screened out", {})
+
+
+#: the automatic choices taken when the stages start (after the search), by
+#: parameter name: ``resolve(ctx) -> Choice`` of the
+#: :class:`~mggp.fit.stages.FitContext`, for a parameter left at 'auto'. The
+#: stages then read the value taken as the parameter's, and the choice is
+#: recorded with the others. Adding one is a function here under
+#: :func:`stage_choice` and 'auto' in its row of :data:`mggp.fit.params.PARAMS`.
+STAGE_CHOICES: Dict[str, Callable[[Any], Choice]] = {}
+
+
+def stage_choice(name: str):
+    """Register the decorated ``resolve(ctx) -> Choice`` as the automatic
+    choice of the parameter ``name`` (:data:`STAGE_CHOICES`)."""
+    def register(resolve):
+        STAGE_CHOICES[name] = resolve
+        return resolve
+    return register
 
 
 def resolve_select(est) -> Choice:

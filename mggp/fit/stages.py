@@ -83,7 +83,7 @@ from narx.language.phi import PhiRegistry
 from narx.records.ranges import signal_ranges
 from narx.language.terms import Term
 
-from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
+from .choices import (STAGE_CHOICES, Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
                       heldout_rmse, heldout_samples, local_search_kept, resolve_select,
                       size_choice, steady)
 from ..gp.evaluate import criterion_value
@@ -662,10 +662,38 @@ STAGES = (("select", select), ("size", size), ("constant", constant),
           ("cls_verdict", cls_verdict), ("pareto", pareto))
 
 
+class _Resolved:
+    """The estimator's settings with the stage-time automatic choices taken
+    (:data:`mggp.fit.choices.STAGE_CHOICES`): each parameter chosen reads as
+    the value taken, every other as set."""
+
+    def __init__(self, est, values: dict):
+        self._est, self._values = est, values
+
+    def __getattr__(self, name):
+        values = self.__dict__["_values"]
+        return values[name] if name in values else getattr(self.__dict__["_est"], name)
+
+
+def resolve_stage_choices(ctx: FitContext) -> None:
+    """Take the automatic choices of :data:`mggp.fit.choices.STAGE_CHOICES`
+    whose parameter is 'auto', record each in ``ctx.choices``, and let the
+    stages read the values taken (``ctx.est``)."""
+    values = {}
+    for name, resolve in STAGE_CHOICES.items():
+        if getattr(ctx.est, name) == "auto":
+            ctx.choices[name] = c = resolve(ctx)
+            values[name] = c.value
+    if values:
+        ctx.est = _Resolved(ctx.est, values)
+
+
 def run_stages(terms, data: Data, ctx: FitContext, stages=STAGES) -> Dict[str, Decision]:
-    """Pass ``terms`` through ``stages``, each taking the structure the one
+    """Take the stage-time automatic choices (:func:`resolve_stage_choices`),
+    then pass ``terms`` through ``stages``, each taking the structure the one
     before handed on; returns the decisions by stage name (also
     :attr:`FitContext.decided`)."""
+    resolve_stage_choices(ctx)
     for name, stage in stages:
         ctx.decided[name] = decision = stage(terms, data, ctx)
         terms = decision.terms
