@@ -10,7 +10,9 @@ Typical use::
 
 The numerics live in :mod:`narx`; this package decodes DEAP individuals
 into narx terms, runs the evolution, and holds the command line (``mggp``).
-Its subpackages, each importing only those listed before it:
+Its subpackages, each importing only those listed before it (but
+:mod:`mggp.gp.evolve` checks its settings by the rules of
+:mod:`mggp.fit.params`):
 
 - :mod:`mggp.gp`: the genetic programming (primitives, individuals,
   operators, the generational loop, batch evaluation, checkpoints, Pareto
