@@ -90,6 +90,9 @@ class _Face(types.ModuleType):
             return
         super().__setattr__(name, value)
 
+    def __reduce__(self):                              # pickled by name, as a module is
+        return importlib.import_module, (self.__name__,)
+
 
 def keep_functions(package: str) -> None:
     """Keep the functions of ``package`` that share a name with a moved module

@@ -46,7 +46,7 @@ def _worker_scorers(address):
     from dask.distributed import Client
 
     def count():
-        from mggp import evaluate
+        from mggp.gp import evaluate
         return sum(len(v) for v in evaluate._IDLE.values())
     with Client(address, set_as_default=False) as c:
         return c.run(count)

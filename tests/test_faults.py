@@ -21,7 +21,7 @@ import pytest
 
 import narx
 from mggp import MGGPRegressor
-from mggp import checkpoint as ckmod
+from mggp.gp import checkpoint as ckmod
 from mggp.gp.checkpoint import load_checkpoint
 from mggp.cli.app import main
 from mggp.gp.evaluate import Evaluator, WorkerLostError
