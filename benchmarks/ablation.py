@@ -55,9 +55,9 @@ SETTINGS = {
 def fit_row(tr, va, seed: int, kw: dict, budget: dict = None) -> dict:
     """One fit at one job: its validation free-run RMSE (inf: diverged), the
     held-out free-run RMSE of its structure on the training record
-    (:func:`mggp.choices.heldout_rmse`) and what it chose."""
+    (:func:`mggp.fit.choices.heldout_rmse`) and what it chose."""
     from mggp import MGGPRegressor
-    from mggp.choices import heldout_rmse
+    from mggp.fit.choices import heldout_rmse
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -95,20 +95,20 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     p.add_argument("--population", type=int)
     p.add_argument("--generations", type=int)
-    p.add_argument("--pilot", type=float, help="mggp.choices.PILOT for these fits (a trial "
+    p.add_argument("--pilot", type=float, help="mggp.fit.choices.PILOT for these fits (a trial "
                    "of a longer or shorter class pilot; default: the module's)")
     p.add_argument("--holdout-ends", nargs="+", choices=["head", "tail"],
-                   help="mggp.choices.HOLDOUT_ENDS for these fits (a trial of held-out "
+                   help="mggp.fit.choices.HOLDOUT_ENDS for these fits (a trial of held-out "
                    "errors at both ends of the record; default: the module's)")
     p.add_argument("--jsonl", help="append one JSON line per fit here")
     a = p.parse_args(argv)
     budget = {k: v for k, v in (("population", a.population),
                                 ("generations", a.generations)) if v is not None}
-    import mggp.choices
+    import mggp.fit.choices
     if a.pilot is not None:
-        mggp.choices.PILOT = a.pilot
+        mggp.fit.choices.PILOT = a.pilot
     if a.holdout_ends:
-        mggp.choices.HOLDOUT_ENDS = tuple(a.holdout_ends)
+        mggp.fit.choices.HOLDOUT_ENDS = tuple(a.holdout_ends)
     tr, va = RECORDS[a.record]()
     rows = {}
     for label in a.settings:

@@ -11,10 +11,10 @@ automatic choices included) on ``training_input(N)`` through
 process on one job, and reports each run's CPU time
 (``time.process_time``: robust to other processes on the machine, unlike
 the wall time), the CPU time inside the checkpoint writes (every call of
-:func:`mggp.checkpoint.save_checkpoint` and of the copy of the chosen
-pilot's file, :func:`mggp.checkpoint.copy_checkpoint`) as a share of the
+:func:`mggp.gp.checkpoint.save_checkpoint` and of the copy of the chosen
+pilot's file, :func:`mggp.gp.checkpoint.copy_checkpoint`) as a share of the
 checkpointed run, the files written with their size, and whether both runs
-end on the same model (terms and θ). :data:`mggp.checkpoint.CHECKPOINT_SHARE`
+end on the same model (terms and θ). :data:`mggp.gp.checkpoint.CHECKPOINT_SHARE`
 spaces each search's writes so that they take about 5 % of its time.
 """
 from __future__ import annotations
@@ -34,8 +34,8 @@ def measure(samples: int = 4000, seed: int = 1) -> dict:
     """CPU seconds of the plain and the checkpointed fit, of the writes,
     the writes' count, the files and their bytes, and whether the models
     are the same."""
-    import mggp.checkpoint as ck
-    import mggp.estimator as es
+    import mggp.gp.checkpoint as ck
+    import mggp.fit.estimator as es
     from mggp import MGGPRegressor
     from narx.systems import piezo_bouc_wen, training_input
     u = training_input(samples, seed=1)

@@ -17,7 +17,7 @@ Rows (``d`` = the model's smallest input lag):
   ratios (×); and, for scale, with the gain that minimises that reference's
   own tracking RMSE (found on the actuator, a 1-D search);
 * *root, model (19)*: the published reference model with its published θ,
-  inverted by :mod:`narx.compensate`, with preview ``lead = d`` and without
+  inverted by :mod:`narx.analysis.compensate`, with preview ``lead = d`` and without
   (``lead = d - 1``: the model's one-sample input delay stands for the
   actuator's direct feed-through, so this aligns the actuator with ``r``);
 * *root, model (19) terms, our CLS θ*: the same terms, θ estimated here by
@@ -52,11 +52,11 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from narx.atomic import atomic_write_text
-from narx.compensate import RootCompensator
-from narx.metrics import mape
+from narx.analysis.compensate import RootCompensator
+from narx.simulation.metrics import mape
 from narx.systems import piezo_bouc_wen, sine_input, training_input
 from mggp import MGGPRegressor
-from mggp.choices import AS_SEARCHED
+from mggp.fit.choices import AS_SEARCHED
 from mggp.compensate import PiezoPlant, identify_inverse, pi_loop
 
 from .casestudy import model19

@@ -1,6 +1,6 @@
 """A dead time beyond the search's reach: found before the search, the tree
-height raised to reach it, and what that gives (:mod:`narx.deadtime`,
-:func:`mggp.choices.height_choice`, ``mggp.precision``).
+height raised to reach it, and what that gives (:mod:`narx.records.deadtime`,
+:func:`mggp.fit.choices.height_choice`, ``mggp.fit.precision``).
 
 Typical use::
 
@@ -33,8 +33,8 @@ import warnings
 import numpy as np
 
 from narx import Data
-from narx.deadtime import onset_scan
-from mggp.precision import dead_time_message
+from narx.records.deadtime import onset_scan
+from mggp.fit.precision import dead_time_message
 
 DELAYS = (3, 10, 16, 20, 25, 40, 60)
 REACH, HEIGHT = 16, 5
@@ -51,7 +51,7 @@ def delayed(d: int, seed: int, n: int = 2000) -> Data:
 
 
 def detection(seeds: int = 10) -> str:
-    from mggp.choices import height_choice
+    from mggp.fit.choices import height_choice
     md = ["| dead time d | records | lag found (scan window contains d) | warned at a fixed "
           "height 5 (reach 16) | heights `max_height='auto'` takes |",
           "|---:|---:|---:|---:|---|"]

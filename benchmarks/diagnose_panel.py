@@ -43,8 +43,8 @@ from typing import Callable, Optional, Tuple
 import numpy as np
 from scipy.signal import lfilter
 
-from narx.csvdata import read_csv
-from narx.data import Data
+from narx.records.csvdata import read_csv
+from narx.records.data import Data
 from narx.systems import held_sine, piezo_bouc_wen, prandtl_ishlinskii, training_input
 
 from mggp.diagnose import Budget, diagnose

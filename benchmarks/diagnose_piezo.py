@@ -28,7 +28,7 @@ import sys
 import time
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 
 from benchmarks.casestudy import MODEL32_TERMS, MODEL33_TERMS, case_data
 

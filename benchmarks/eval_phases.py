@@ -5,12 +5,12 @@ Typical call::
     python -m benchmarks.eval_phases                  # Δm = 100, 500 random individuals
     python -m benchmarks.eval_phases --window 1000 --individuals 200
 
-A fresh :class:`narx.fitness.StructureScorer` scores the random individuals
+A fresh :class:`narx.estimation.fitness.StructureScorer` scores the random individuals
 of :mod:`benchmarks.evals` once (a generation 0: every column, Gram entry
 and window-major copy is built on first sight), best of ``--repeats``
 passes. The scorer's phases are timed by wrapping them:
 
-* ``Gram entries``: ``narx.gram.fill_gram`` (one compiled pass: a 4-lane
+* ``Gram entries``: ``narx.estimation.gram.fill_gram`` (one compiled pass: a 4-lane
   fixed-order dot product per new pair of columns, and per column with y);
 * ``MS kernel``: the window-major multiple-shooting kernel ``_ms_sse``;
 * ``columns``: building the regressor columns and input parts on first
@@ -48,13 +48,13 @@ def _timed(acc, key, f):
 
 
 def run(n=50_000, individuals=500, window=100, repeats=3, seed=0) -> dict:
-    import narx.ms_kernel as msk
-    from narx.data import as_data
-    from narx.fitness import StructureScorer
+    import narx.simulation.ms_kernel as msk
+    from narx.records.data import as_data
+    from narx.estimation.fitness import StructureScorer
     u, y = piezo_record(n)
     sets = random_term_sets(individuals, seed)
     acc: dict = {}
-    import narx.fitness as fit
+    import narx.estimation.fitness as fit
     import narx.linalg as linalg
     owners = {"fitness": fit, "linalg": linalg, "ms_kernel": msk,
               "ColumnStore": fit.ColumnStore, "WindowStore": msk.WindowStore}

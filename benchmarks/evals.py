@@ -7,7 +7,7 @@ Typical call::
         --toolbox-k 1000 100 10 --repeats 3 --json evals.json
     python -m benchmarks.evals --no-peers --individuals 100   # ours only
 
-Individuals: ``mggp.operators.random_individual`` with our primitive set
+Individuals: ``mggp.gp.operators.random_individual`` with our primitive set
 (×, Φ1, Φ2, q⁻¹..q⁻³ over y[k-1], u[k-1]), up to 15 genes of height <= 5,
 decoded to distinct terms; terms that vanish identically (``Phi1(a,a)``)
 are dropped, as ``MGGPRegressor`` does. Record: the 50,000-sample piezo
@@ -16,13 +16,13 @@ height 5), then the MSE of multiple shooting with windows of Δm samples.
 
 Measured in the same run:
 
-* ours, sequential (``narx.fitness.StructureScorer``): *cold* = a fresh
+* ours, sequential (``narx.estimation.fitness.StructureScorer``): *cold* = a fresh
   scorer's first pass (every term's columns and Gram entries built on
   first sight; best of repeats; the scorer's construction, once per worker
   and run, timed apart), *warm* = later passes (all cached, as in a GP
   run once the population's terms have been seen); with the window-major MS kernel
-  (:mod:`narx.ms_kernel`, the default) and with the general kernel;
-* ours, ``mggp.evaluate.Evaluator`` with ``n_jobs=2`` (loky processes; pool
+  (:mod:`narx.simulation.ms_kernel`, the default) and with the general kernel;
+* ours, ``mggp.gp.evaluate.Evaluator`` with ``n_jobs=2`` (loky processes; pool
   start-up timed apart), cold and warm; its values must equal the
   sequential ones bit for bit;
 * the published toolbox (``compile_model`` + ``ls`` + ``score_ksa``, its own
@@ -53,10 +53,10 @@ START = 16          # max_lag_for_height(5)
 
 def random_term_sets(count: int, seed: int = 0, max_terms: int = 15, max_height: int = 5):
     """``count`` random individuals decoded to non-empty tuples of terms."""
-    from mggp.primitives import identically_zero
-    from mggp.operators import random_individual
-    from mggp.primitives import Decoder, make_pset
-    from narx.phi import default_registry
+    from mggp.gp.primitives import identically_zero
+    from mggp.gp.operators import random_individual
+    from mggp.gp.primitives import Decoder, make_pset
+    from narx.language.phi import default_registry
     pset, rng = make_pset(), random.Random(seed)
     dec, reg = Decoder(pset.signals), default_registry()
     sets = []
@@ -81,9 +81,9 @@ def sequential(u, y, sets, window: int, repeats: int, fast: bool) -> dict:
     the scorer's construction (allocating and writing its column stores,
     once per worker and run) timed apart. Warm: best of ``repeats`` further
     passes."""
-    import narx.ms_kernel as msk
-    from narx.data import as_data
-    from narx.fitness import StructureScorer
+    import narx.simulation.ms_kernel as msk
+    from narx.records.data import as_data
+    from narx.estimation.fitness import StructureScorer
     old = msk.ENABLED
     msk.ENABLED = fast
     try:
@@ -106,8 +106,8 @@ def sequential(u, y, sets, window: int, repeats: int, fast: bool) -> dict:
 
 def parallel(u, y, sets, window: int, repeats: int, n_jobs: int) -> dict:
     """Cold and warm throughput of the Evaluator (fresh scorers in the workers)."""
-    from mggp.evaluate import Evaluator
-    from narx.data import as_data
+    from mggp.gp.evaluate import Evaluator
+    from narx.records.data import as_data
     data = as_data(u, y)
     t0 = time.perf_counter()
     spin = Evaluator(data, "ms", window=window, start=START + 1, n_jobs=n_jobs)
@@ -126,8 +126,8 @@ def parallel(u, y, sets, window: int, repeats: int, n_jobs: int) -> dict:
 def versus_toolbox(u, y, sets, ks, repeats: int) -> dict:
     """Per-individual times, toolbox against ours, on the same individuals."""
     from benchmarks import peers as pe
-    from narx.data import as_data
-    from narx.fitness import StructureScorer
+    from narx.records.data import as_data
+    from narx.estimation.fitness import StructureScorer
     out = {}
     for k in ks:
         rows, rejected, reason = [], 0, None

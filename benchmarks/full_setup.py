@@ -28,9 +28,9 @@ from .speed import _fmt_s, finish, load_note, piezo_record
 
 def run(n=50_000, population=500, generations=200, jobs=2, seed=0, window=100,
         max_terms=15, max_height=5, backend="loky") -> dict:
-    import narx.ms_kernel as msk
+    import narx.simulation.ms_kernel as msk
     from mggp import MGGPRegressor
-    from mggp.choices import AS_SEARCHED
+    from mggp.fit.choices import AS_SEARCHED
     from narx.systems import piezo_bouc_wen, sine_input
     u, y = piezo_record(n)
     _, uv = sine_input()

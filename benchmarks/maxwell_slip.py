@@ -14,7 +14,7 @@ slips once its deflection reaches :math:`\\Delta_i`:
 .. math:: F_k = \\sum_i k_i \\bigl(x_k - \\mathcal{P}_{\\Delta_i}[x]_k\\bigr) + v_k,
 
 :math:`\\mathcal{P}_r` the play operator of radius r
-(:func:`narx.memory.play`), :math:`v_k` white noise at 40 dB below the
+(:func:`narx.language.memory.play`), :math:`v_k` white noise at 40 dB below the
 force (:math:`\\sigma_v = \\mathrm{std}(F)/100`). The force has no offset:
 a model that needs a constant term to fit it has found a level the system
 does not have (Lampaert, Swevers and Al-Bender, "Modification of the Leuven
@@ -35,7 +35,7 @@ import warnings
 import numpy as np
 
 from narx import Data
-from narx.memory import play
+from narx.language.memory import play
 from narx.systems import training_input
 
 __all__ = ["ELEMENTS", "SNR_DB", "maxwell_slip_record", "validation_seed", "compare", "run",

@@ -73,7 +73,7 @@ def explodes(y_hat, y) -> bool:
 
 
 def _columns(name, cols):
-    from narx.csvdata import read_columns
+    from narx.records.csvdata import read_columns
 
     from .mr_damper import data_path
     path = data_path(name)
@@ -134,7 +134,7 @@ PUBLISHED_RRSE = {"MR damper": {"FROLS with sign(v), max-scaled signals": 0.0451
 
 def _fit(train: Data, val: Data, seed: int, budget: dict, jobs: int) -> dict:
     from mggp import MGGPRegressor
-    from narx.metrics import rrse
+    from narx.simulation.metrics import rrse
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -29,7 +29,7 @@ import time
 import numpy as np
 
 from narx import Data, PhiRegistry, rrse
-from narx.csvdata import read_columns
+from narx.records.csvdata import read_columns
 
 __all__ = ["load_damper", "run_damper", "damper_path", "data_path", "data_dirs"]
 
@@ -87,7 +87,7 @@ def _registry():
 
 def run_damper(args, log):
     from mggp import MGGPRegressor
-    from mggp.choices import AS_SEARCHED
+    from mggp.fit.choices import AS_SEARCHED
     path = damper_path()
     if path is None:
         log("  MR damper: data file not found (set MGGP_SHARED_DATA)")

@@ -25,7 +25,7 @@ Each case is searched at the same budget with three sets:
 ``phi`` (×, q, Φ1, Φ2: the default), ``ops`` (×, q and the operators
 ``play,dengtan``, ``--no-phi``) and ``both``; the operators enter as
 :class:`mggp.MGGPRegressor` puts them by default (``operator_entry``:
-added stepwise after the search, :mod:`mggp.operator_stage`). The table gives, per case and
+added stepwise after the search, :mod:`mggp.fit.operator_stage`). The table gives, per case and
 set, the median over seeds of the validation free-run error and of the
 search time, and the ratios to ``phi``. Goals: on pi and backlash the
 ``ops`` or ``both`` error at most 1/3 of ``phi``; on piezo no worse; search

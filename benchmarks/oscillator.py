@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from narx.data import Data
+from narx.records.data import Data
 
 from .panel import bouc_wen_oscillator, multisine, sweep
 

@@ -1,5 +1,5 @@
 """Isolated glitches of the output and inputs: false alarms, planted glitches
-found, and what the repair does to a fit (:mod:`narx.outliers`).
+found, and what the repair does to a fit (:mod:`narx.records.outliers`).
 
 Typical use::
 
@@ -8,7 +8,7 @@ Typical use::
 
 Five parts, each printed as a Markdown table:
 
-1. **False alarms**: :func:`narx.outliers.find_spikes` (output and inputs)
+1. **False alarms**: :func:`narx.records.outliers.find_spikes` (output and inputs)
    on records without glitches: Piroddi's S1-S6 at 500 and 2,000 samples,
    noise-free and with white output noise at 20 dB, 30 data seeds each,
    and the training and validation records of :mod:`benchmarks.panel` and
@@ -50,8 +50,8 @@ import warnings
 import numpy as np
 
 from narx import Data
-from narx.outliers import find_spikes
-from narx.testsystems import system_by_name
+from narx.records.outliers import find_spikes
+from narx.systems.testsystems import system_by_name
 
 SYSTEMS = ("S1", "S2", "S3", "S4", "S5", "S6")
 TRUE = {"y[k-1]", "y[k-2]", "u[k-1]", "y[k-1]*u[k-1]"}

@@ -149,7 +149,7 @@ def _damper():
 
 
 def _piroddi(name):
-    from narx.testsystems import system_by_name
+    from narx.systems.testsystems import system_by_name
     d, v = system_by_name(name, n=500, seed=0), system_by_name(name, n=500, seed=100)
     return Data(d.u, d.y), Data(v.u, v.y)
 

@@ -11,7 +11,7 @@ Identifies the Bouc-Wen piezo actuator of the published case study
 (Abreu et al., Nonlinear Dynamics 2020) by MGGP with
 one-step-ahead (PEM) fitness and with multiple-shooting (MS) fitness, both
 estimated by LS, both searches with the free-run stability screen of
-:mod:`mggp.screen`, the MS structure chosen as the best whose CLS refit
+:mod:`mggp.fit.screen`, the MS structure chosen as the best whose CLS refit
 holds its output on held inputs (``select='hold'``; ``--no-screen`` turns
 both off); refits the MS structure by CLS under the derived
 continuum-of-steady-states constraints; fits the published model (19) by
@@ -35,7 +35,7 @@ import time
 import numpy as np
 
 from mggp import MGGPRegressor
-from mggp.choices import AS_SEARCHED
+from mggp.fit.choices import AS_SEARCHED
 from narx import Model
 
 from .study_report import fmt as _fmt
@@ -191,7 +191,7 @@ def main(argv=None):
                         "no: none (default yes)")
     p.add_argument("--no-damper", action="store_true", help="skip the MR damper study")
     p.add_argument("--no-screen", action="store_true",
-                   help="search without the free-run stability screen (mggp.screen)")
+                   help="search without the free-run stability screen (mggp.fit.screen)")
     p.add_argument("--filter-order", type=int, default=TRAINING_FILTER_ORDER,
                    help="order of the training input's 1 Hz Butterworth low-pass "
                         "(default %(default)s; see benchmarks.casestudy.case_data)")

@@ -29,7 +29,7 @@ import numpy as np
 
 import narx
 from benchmarks.casestudy import MODEL19
-from mggp.quasistatic_report import conclusion, plot_quasistatic, summary_markdown
+from mggp.report.quasistatic import conclusion, plot_quasistatic, summary_markdown
 
 __all__ = ["run", "main", "model16", "regressor18"]
 

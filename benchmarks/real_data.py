@@ -67,7 +67,7 @@ ARX = ("y[k-1]", "y[k-2]", "u[k-1]", "u[k-2]")
 def load_record(name):
     """(training Data, validation Data) of a record, signals named u and y;
     None when its files are not found."""
-    from narx.csvdata import read_columns
+    from narx.records.csvdata import read_columns
     ftr, fva, ctr, cva, _ = RECORDS[name]
     ptr, pva = data_path(ftr), data_path(fva)
     if ptr is None or pva is None:

@@ -26,8 +26,8 @@ four of six, MetaMSS 100 %.
 
 Options change one setting each: ``--n`` samples, ``--noise-snr`` white
 measurement noise on the output at that SNR in dB
-(:func:`narx.testsystems.with_output_noise`), ``--fitness`` and
-``--estimator`` (:mod:`narx.output_error`). With ``--vary-data`` a data
+(:func:`narx.systems.testsystems.with_output_noise`), ``--fitness`` and
+``--estimator`` (:mod:`narx.estimation.output_error`). With ``--vary-data`` a data
 realisation on which the system itself diverges (S3 has a cubic output
 term: at 2,000 samples data seeds 0, 7 and 10 of 0–19 diverge) is
 replaced by the next seed not yet used. ``--default`` replaces the
@@ -41,7 +41,7 @@ import sys
 import time
 
 from mggp import MGGPRegressor
-from narx.testsystems import SYSTEMS, system_by_name
+from narx.systems.testsystems import SYSTEMS, system_by_name
 
 SETTINGS = dict(fitness="pem", criterion="bic", population=200, generations=40,
                 max_terms=8, max_height=3, use_phi=False, prune="t", max_lag=4,

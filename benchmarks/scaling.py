@@ -18,7 +18,7 @@ fit in memory the allocator already holds (``tracemalloc`` in turn misses
 numba's own few arrays).
 The call is:
 
-``csv``      ``narx.csvdata.read_csv`` of the N-row file (columns t, u, y)
+``csv``      ``narx.records.csvdata.read_csv`` of the N-row file (columns t, u, y)
 ``ls``       ``Model(MODEL33).fit`` — LS of the 15-term MS model (33)
 ``freerun``  ``Model.simulate(..., mode='freerun')`` of that fitted model
 ``ms``       ``StructureScorer(fitness='ms', window=100).evaluate`` — LS from
@@ -83,7 +83,7 @@ def _warm():
     """Compile/load every kernel on a small record (not measured)."""
     import narx
     from mggp import MGGPRegressor
-    from narx.fitness import StructureScorer
+    from narx.estimation.fitness import StructureScorer
     from narx.systems import piezo_bouc_wen, training_input
     u = training_input(2000, seed=2)
     y = piezo_bouc_wen(u)
@@ -95,7 +95,7 @@ def _warm():
 
 def worker(stage: str, folder: str, n: int, trace: bool = False) -> dict:
     import narx
-    from narx.csvdata import read_csv
+    from narx.records.csvdata import read_csv
     _warm()
     ud = np.load(os.path.join(folder, f"uy_{n}.npy"))
     u, y = np.ascontiguousarray(ud[:, 0]), np.ascontiguousarray(ud[:, 1])
@@ -120,7 +120,7 @@ def worker(stage: str, folder: str, n: int, trace: bool = False) -> dict:
         r = narx.Model(MODEL33, theta).simulate(data, mode="freerun")
         info["mape"] = r.mape
     elif stage == "ms":
-        from narx.fitness import StructureScorer
+        from narx.estimation.fitness import StructureScorer
         sc = StructureScorer(data, "ms", window=100, start=16)
         mse, _ = sc.evaluate(narx.Model(MODEL33).terms)
         info["mse"] = mse

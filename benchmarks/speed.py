@@ -148,8 +148,8 @@ def first_call(npz: Path, terms, cache_dir=None) -> dict:
 
 def run_freerun(n: int, repeats: int, peers: bool, rtol: float) -> dict:
     import narx
-    from narx.data import as_data
-    from narx.kernels import Plan, run_windows
+    from narx.records.data import as_data
+    from narx.simulation.kernels import Plan, run_windows
     from numba import njit
 
     u, y = piezo_record(n)
@@ -258,7 +258,7 @@ def run_cli(n: int) -> dict:
                    header="u,y", comments="", fmt="%.17g")
         env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp / "numba-cache"), NUMBA_DEBUG_CACHE="1")
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-c", "import narx, mggp.cli"], env=env, check=True,
+        subprocess.run([sys.executable, "-c", "import narx, mggp.cli.app"], env=env, check=True,
                        capture_output=True)
         out["import_seconds"] = time.perf_counter() - t0
         for i in range(2):
@@ -280,7 +280,7 @@ def run_cli(n: int) -> dict:
 
 
 def _cache_lines(log: str, what: str) -> int:
-    """Lines of numba's cache log about the free-run kernel (narx.kernels._kernel)."""
+    """Lines of numba's cache log about the free-run kernel (narx.simulation.kernels._kernel)."""
     return sum(1 for ln in log.splitlines() if what in ln and "kernels._kernel" in ln)
 
 
@@ -320,7 +320,7 @@ def markdown(res: dict) -> str:
     cli = res.get("cli")
     if cli:
         lines += ["", f"CLI, `{cli['command']}` twice on a fresh numba cache "
-                  f"(`import narx, mggp.cli` alone: {_fmt_s(cli['import_seconds'])}):", "",
+                  f"(`import narx, mggp.cli.app` alone: {_fmt_s(cli['import_seconds'])}):", "",
                   "| call | wall | wall minus import | `_kernel` cache: saved / loaded |",
                   "|---|---:|---:|---:|"]
         for i, c in enumerate(cli["calls"]):

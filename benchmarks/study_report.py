@@ -18,7 +18,7 @@ import platform
 
 import numpy as np
 
-from mggp.report import (error_groups, figure, figure_lines, plot_convergence, plot_errors,
+from mggp.report.summary import (error_groups, figure, figure_lines, plot_convergence, plot_errors,
                          plot_freerun, plot_loop)
 
 from .casestudy import PUBLISHED

@@ -63,7 +63,7 @@ from typing import Dict, Iterable, List, Optional
 
 import numpy as np
 
-from mggp.params import DIAGNOSE_PARAMS
+from mggp.fit.params import DIAGNOSE_PARAMS
 
 #: the study budget of :func:`evaluate` (the rest: Budget defaults)
 STUDY_BUDGET = {"population": 100, "generations": 20}
@@ -394,7 +394,7 @@ def _p(r) -> float:
 
 def _figure(ident, ctrl, path) -> str:
     """Power against false-alarm rate as α varies; returns the caption."""
-    from mggp.plotting import figure, save
+    from mggp.report.plotting import figure, save
     ph = np.array([_p(r) for r in ident])
     pc = np.array([_p(r) for r in ctrl])
     if not (np.isfinite(ph).any() and np.isfinite(pc).any()):

@@ -88,7 +88,7 @@ def diagnose():
     residual-direction and model figures."""
     from mggp.diagnose import Budget, diagnose as run
     from mggp.diagnose.report import write_report
-    from narx.data import Data
+    from narx.records.data import Data
     from narx.systems import piezo_bouc_wen, training_input
     u = training_input(4000, bandwidth=4.0, seed=3)
     dx = run(Data(u, piezo_bouc_wen(u)), budget=Budget(population=60, generations=10),
@@ -113,7 +113,7 @@ def _shrink(src, dst):
 def quasistatic():
     """The quasi-static figure of model (16), y_k = 0.9 y_{k-1} + 0.5 Φ2."""
     import narx
-    from mggp.quasistatic_report import plot_quasistatic
+    from mggp.report.quasistatic import plot_quasistatic
     m = narx.Model(["y[k-1]", "Phi2(u[k-1],u[k-2])"], [0.9, 0.5])
     k = np.arange(400)
     u = np.sin(2 * np.pi * 0.1 * k * 0.05)     # 1 V, 0.1 Hz, sampled at 20 Hz: 2 periods
@@ -128,7 +128,7 @@ def quasistatic():
 def compensate():
     """The published model (19) inverted step by step on a smooth reference."""
     from benchmarks.casestudy import model19
-    from narx.compensate import compensate as invert
+    from narx.analysis.compensate import compensate as invert
     from narx.systems import piezo_bouc_wen, sine_input
     plt = _plt()
     m = model19()

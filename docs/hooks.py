@@ -3,20 +3,20 @@
 Registered in ``mkdocs.yml`` (``hooks: [docs/hooks.py]``). Before a page's
 Markdown is converted, every placeholder ``{{ ... }}`` is replaced:
 
-``{{ const mggp.choices.GAIN }}``
+``{{ const mggp.fit.choices.GAIN }}``
     the value of a module attribute (numbers as ``:g``, tuples joined by
     ", "); filters after ``|``: ``percent`` (0.05 -> "5 %", as the
     command line writes it), ``complement`` (1 − x), ``first`` (the
     distinct first items of a tuple of tuples), ``span`` (a range's first
     and last values, "0–999").
-``{{ call mggp.choices.class_margins }}``, ``{{ call F ARG ... }}``
+``{{ call mggp.fit.choices.class_margins }}``, ``{{ call F ARG ... }}``
     the text a function returns; each argument is a dotted constant or a
     number.
-``{{ default mggp.precision.offsets factor }}``
+``{{ default mggp.fit.precision.offsets factor }}``
     the default of a function's keyword, or of a row of a parameter table
-    (``{{ default mggp.params.DIAGNOSE_PARAMS holdout }}``).
+    (``{{ default mggp.fit.params.DIAGNOSE_PARAMS holdout }}``).
 ``{{ params }}``
-    the table of :data:`mggp.params.PARAMS`: every keyword of
+    the table of :data:`mggp.fit.params.PARAMS`: every keyword of
     ``MGGPRegressor``, its rule, default and flag.
 ``{{ help }}``, ``{{ help fit }}``
     ``mggp --help`` or ``mggp COMMAND --help`` as a text block, from the
@@ -82,7 +82,7 @@ def _text(v) -> str:
 
 
 def _percent(v) -> str:
-    from mggp.choices import percent
+    from mggp.fit.choices import percent
     return percent(v)
 
 
@@ -144,8 +144,8 @@ def _cell(text: str) -> str:
 
 
 def params_table() -> str:
-    """The Markdown table of :data:`mggp.params.PARAMS`."""
-    from mggp.params import PARAMS
+    """The Markdown table of :data:`mggp.fit.params.PARAMS`."""
+    from mggp.fit.params import PARAMS
     rows = ["| parameter | default | rule | flag | what it does |",
             "|---|---|---|---|---|"]
     for p in PARAMS.values():
@@ -165,7 +165,7 @@ def _subparsers(parser):
 def help_text(command: str = "") -> str:
     """``mggp [COMMAND] --help`` as the parsers print it, at
     :data:`HELP_COLUMNS` columns."""
-    from mggp.cli import build_parser
+    from mggp.cli.app import build_parser
     old = os.environ.get("COLUMNS")
     os.environ["COLUMNS"] = str(HELP_COLUMNS)
     try:

@@ -1,6 +1,6 @@
 """``python -m mggp`` runs the command line (same as the ``mggp`` script)."""
 import sys
 
-from .cli import main
+from .cli.app import main
 
 sys.exit(main())

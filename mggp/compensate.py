@@ -3,7 +3,7 @@
 Typical use::
 
     from mggp.compensate import identify_inverse, pi_loop, PiezoPlant
-    from narx.compensate import RootCompensator
+    from narx.analysis.compensate import RootCompensator
     inv = identify_inverse(u, y, lead=1, fitness="ms", window=500, max_lag=2,
                            random_state=0, n_jobs=2)      # actuator data (u -> y)
     res = inv.run(r, input_range=(-80, 80))               # res.m: actuator input
@@ -24,7 +24,7 @@ MGGP searches
 so with :math:`\\ell = 1` the term :math:`\\rho_{k-1} = r_k` is the present
 reference. The structure search, the LS/CLS estimation and the
 continuum-of-steady-states constraints are those of
-:class:`~mggp.estimator.MGGPRegressor` (an inverse that holds its output
+:class:`~mggp.fit.estimator.MGGPRegressor` (an inverse that holds its output
 when the reference holds is refitted by CLS). At run time the inverse model
 runs in free run, one sample at a time (so it can sit inside a loop), with
 its output clipped to the actuator's input range.
@@ -54,9 +54,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from narx import Model
-from narx.compensate import (CompensationResult, TermPlan, check_count, check_range,
+from narx.analysis.compensate import (CompensationResult, TermPlan, check_count, check_range,
                              check_reference, past_values)
-from narx.data import Data
+from narx.records.data import Data
 from narx.systems import piezo_bouc_wen
 
 from .exceptions import CLSRejectedWarning
@@ -164,7 +164,7 @@ def identify_inverse(u, y, *, lead=1, reference="r", constrained=True, estimator
     Returns
     -------
     InverseCompensator
-        ``.estimator_`` holds the fitted :class:`~mggp.estimator.MGGPRegressor`.
+        ``.estimator_`` holds the fitted :class:`~mggp.fit.estimator.MGGPRegressor`.
 
     Notes
     -----
@@ -183,7 +183,7 @@ def identify_inverse(u, y, *, lead=1, reference="r", constrained=True, estimator
     ``operators`` is given the search has no memory operators: the
     compensator evaluates polynomial and Φ-terms only.
     """
-    from .estimator import MGGPRegressor
+    from .fit.estimator import MGGPRegressor
     lead = check_count("lead", lead)
     u = np.asarray(u, dtype=float).ravel()
     y = np.asarray(y, dtype=float).ravel()
@@ -268,7 +268,7 @@ def pi_loop(plant, r, *, compensator=None, kp=0.1, ki=0.2, gain=1.0, lead=None,
     r : array_like (N,)
         Reference.
     compensator : object with ``step(target) -> m``, optional
-        A :class:`narx.compensate.RootCompensator` or
+        A :class:`narx.analysis.compensate.RootCompensator` or
         :class:`InverseCompensator` (reset it before the call); ``None``
         runs the PI loop alone.
     kp, ki : float

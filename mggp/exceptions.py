@@ -7,9 +7,9 @@ Typical use::
     warnings.simplefilter("error", CLSRejectedWarning)   # a rejected CLS refit stops
 
 Errors of the numerics (bad data, bad terms, model files) are
-:mod:`narx`'s (``narx.data.DataError``, ``narx.terms.TermError``, ...).
+:mod:`narx`'s (``narx.records.data.DataError``, ``narx.language.terms.TermError``, ...).
 Errors of a parameter out of its rule are ``ValueError`` naming the
-parameter, the rule and the value given (:mod:`mggp.params`).
+parameter, the rule and the value given (:mod:`mggp.fit.params`).
 """
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ class NotFittedError(ValueError, AttributeError):
 class CLSRejectedWarning(UserWarning):
     """The CLS refit is not used by default: its free run diverges on the
     training record, or its error there is over twice the LS fit's
-    (:func:`mggp.stages.cls_rejection`)."""
+    (:func:`mggp.fit.stages.cls_rejection`)."""
 
 
 class SearchPrecisionWarning(UserWarning):

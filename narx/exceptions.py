@@ -13,7 +13,7 @@ Typical use::
 Every error is a ``ValueError`` (bad input: text, data, files, an
 ill-posed estimation), so ``except ValueError`` catches them all; every
 warning is a ``UserWarning``. The modules that raise them re-export them
-(``narx.terms.TermError`` is ``narx.exceptions.TermError``).
+(``narx.language.terms.TermError`` is ``narx.exceptions.TermError``).
 """
 from __future__ import annotations
 
@@ -55,7 +55,7 @@ class NonMinimumPhaseWarning(UserWarning):
 
 class ExtrapolationWarning(UserWarning):
     """A record's inputs leave the range the model was fitted on
-    (:func:`narx.ranges.range_warning`)."""
+    (:func:`narx.records.ranges.range_warning`)."""
 
 
 class SeedLeakError(ValueError):

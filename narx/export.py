@@ -10,7 +10,7 @@ Lagged signals become sympy symbols named like the term text (``y[k-1]``);
 """
 from __future__ import annotations
 
-from .terms import Lag, format_param
+from .language.terms import Lag, format_param
 
 __all__ = ["to_sympy", "to_latex", "factor_latex"]
 

@@ -28,17 +28,17 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .data import Data, as_data
+from .records.data import Data, as_data
 from .atomic import atomic_write_text
-from .estimate import constrained_least_squares, least_squares
+from .estimation.estimate import constrained_least_squares, least_squares
 from .exceptions import EstimationError, ModelFileError, RankWarning, TermError
 from .modelio import fail, model_fields, model_json, model_to_dict, read_model_json
-from .phi import PhiRegistry, default_registry
-from .ranges import signal_ranges
-from .regressors import max_lag, regressor_matrix, term_column
-from .simulate import SimulationResult, simulate
-from .steady import cluster_sums, steady_state_constraints
-from .terms import HasSignals, Signals, Term, parse_terms
+from .language.phi import PhiRegistry, default_registry
+from .records.ranges import signal_ranges
+from .records.regressors import max_lag, regressor_matrix, term_column
+from .simulation.simulate import SimulationResult, simulate
+from .analysis.steady import cluster_sums, steady_state_constraints
+from .language.terms import HasSignals, Signals, Term, parse_terms
 
 __all__ = ["Model", "RankWarning", "ignore_rank_warnings", "load_model", "save_model",
            "model_from_dict", "model_to_dict", "ModelFileError"]
@@ -129,10 +129,10 @@ class Model(HasSignals):
 
         Parameters
         ----------
-        u, y : arrays or a :class:`~narx.data.Data` record as ``u``.
+        u, y : arrays or a :class:`~narx.records.data.Data` record as ``u``.
         constraints : None, ``'steady-state'`` or ``(S, c)``
             ``'steady-state'`` derives the continuum-of-steady-states
-            equalities from the terms (:mod:`narx.steady`).
+            equalities from the terms (:mod:`narx.analysis.steady`).
         noise_iterations : int
             Extended-LS iterations when the model has noise terms.
         """
@@ -178,7 +178,7 @@ class Model(HasSignals):
         self.meta["estimation"] = est.method        # the latest fit's method
         # the training record's signal ranges: compensators and checks use
         # them for the scale of the signals (units, offsets), and
-        # narx.ranges.range_warning names a record's inputs that leave them
+        # narx.records.ranges.range_warning names a record's inputs that leave them
         self.meta["ranges"] = signal_ranges(d)
         return self
 
@@ -201,7 +201,7 @@ class Model(HasSignals):
     def simulate(self, u, y=None, mode: str = "freerun", *, k=None, window=None,
                  y0=None) -> SimulationResult:
         """Simulate in ``mode`` ('osa', 'freerun', 'ksa', 'ms'); see
-        :func:`narx.simulate.simulate`."""
+        :func:`narx.simulation.simulate.simulate`."""
         d = self._data(u, y)
         return simulate(self.terms, self._need_theta(), d, mode, k=k, window=window,
                         y0=y0, registry=self.registry)

@@ -15,9 +15,9 @@ file's JSON under the limits below (:func:`read_model_json`);
 A model file holds ``{"output": "y", "inputs": ["u"], "terms": [TERM, ...],
 "theta": [number, ...]}`` plus metadata (``format``, ``version``, ``meta``:
 fitness mode, seed, package versions, and ``ranges``: the training range
-``[low, high]`` of each signal, :mod:`narx.ranges`; a file without it
+``[low, high]`` of each signal, :mod:`narx.records.ranges`; a file without it
 loads, and its models warn of no record). Loading parses JSON with the standard
-library and each term with the term parser (:mod:`narx.terms`), which
+library and each term with the term parser (:mod:`narx.language.terms`), which
 never evaluates text; every problem raises :class:`ModelFileError` naming
 the file, the key (``'terms'[3]``) and the rule. Saving is atomic
 (temporary file, then ``os.replace``), so an interrupted save never leaves a
@@ -26,7 +26,7 @@ half-written file.
 Hostile files are bounded before any work is done: at most ``MAX_BYTES``
 bytes, ``MAX_TERMS`` terms of at most ``MAX_TERM_CHARS`` characters and
 ``MAX_DEGREE`` factors, integers of at most ``MAX_DIGITS`` digits, lags up
-to :data:`narx.terms.MAX_LAG`; nesting too deep for the JSON parser is an
+to :data:`narx.language.terms.MAX_LAG`; nesting too deep for the JSON parser is an
 error, not a crash. Nothing in a file is ever evaluated or imported.
 """
 from __future__ import annotations
@@ -37,8 +37,8 @@ import os
 
 from .atomic import atomic_write_text
 from .exceptions import ModelFileError, TermError
-from .phi import default_registry
-from .terms import Signals, parse_term
+from .language.phi import default_registry
+from .language.terms import Signals, parse_term
 from .version import __version__
 
 __all__ = ["ModelFileError", "model_to_dict", "model_fields", "model_json",
@@ -202,7 +202,7 @@ def model_fields(d, source: str = "model", registry=None) -> dict:
 
 def _check_ranges(source, ranges, names) -> None:
     """``meta['ranges']``, the training range of each signal
-    (:func:`narx.ranges.signal_ranges`): absent (an older file, or one
+    (:func:`narx.records.ranges.signal_ranges`): absent (an older file, or one
     written by hand), or an object whose keys are among the model's signal
     ``names`` and whose values are ``[low, high]``, two finite numbers with
     low <= high."""

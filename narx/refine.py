@@ -82,7 +82,7 @@ def _constraint_space(model):
     # a CLS model loaded from a file has no fit_info_, its meta says 'cls'
     if not (info.get("constraints") or str(model.meta.get("estimation", "")).startswith("cls")):
         return np.zeros_like(th), np.eye(th.size)
-    from .steady import steady_state_constraints
+    from .analysis.steady import steady_state_constraints
     cons = steady_state_constraints(model.terms, model.registry)
     if np.max(np.abs(cons.S @ th - cons.c), initial=0.0) > 1e-8 * max(1.0, np.abs(th).max()):
         raise ValueError("the model was fitted under constraints other than the "
@@ -99,7 +99,7 @@ def refine(model, u, y=None, *, mode: str = "ms", window: Optional[int] = 100,
     ----------
     model : narx.Model
         A fitted model (θ set); it is not modified.
-    u, y : the record (arrays, or a :class:`~narx.data.Data` as ``u``).
+    u, y : the record (arrays, or a :class:`~narx.records.data.Data` as ``u``).
     mode : {'ms', 'freerun'}
         Simulation whose error is minimised.
     window : int
@@ -113,7 +113,7 @@ def refine(model, u, y=None, *, mode: str = "ms", window: Optional[int] = 100,
     """
     from scipy.optimize import least_squares
 
-    from .simulate import Plan, simulate
+    from .simulation.simulate import Plan, simulate
     if mode not in ("ms", "freerun"):
         raise ValueError(f"mode must be 'ms' or 'freerun', got {mode!r}")
     if mode == "ms" and (isinstance(window, bool) or not isinstance(window, (int, np.integer))

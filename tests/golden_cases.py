@@ -47,9 +47,9 @@ def _estimator(est):
 
 def recovery():
     from mggp import MGGPRegressor
-    from mggp.choices import AS_SEARCHED
+    from mggp.fit.choices import AS_SEARCHED
     from benchmarks.recovery import SETTINGS
-    from narx.testsystems import SYSTEMS, system_by_name
+    from narx.systems.testsystems import SYSTEMS, system_by_name
     out = {}
     for name in SYSTEMS:
         d = system_by_name(name, n=500, seed=0)
@@ -62,7 +62,7 @@ def recovery():
 
 def case_study():
     from mggp import MGGPRegressor
-    from mggp.choices import AS_SEARCHED
+    from mggp.fit.choices import AS_SEARCHED
     from benchmarks.casestudy import case_data
     cs = case_data(n=3000)
     out = {}
@@ -81,7 +81,7 @@ def case_study():
 def diagnosis():
     from mggp.diagnose import Budget, diagnose
     from narx import Model
-    from narx.data import Data
+    from narx.records.data import Data
     from benchmarks.casestudy import MODEL32_TERMS, case_data
     cs = case_data(n=4000)
     train, held = Data(cs.u, cs.y), Data(cs.held.u, cs.yh)

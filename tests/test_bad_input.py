@@ -1,6 +1,6 @@
 """Bad and hostile input: one ``error:`` line naming file, place and rule; nothing runs.
 
-Every malformed CSV and model file goes through ``mggp.cli.main`` for
+Every malformed CSV and model file goes through ``mggp.cli.app.main`` for
 ``estimate``, ``simulate`` and ``fit``: exit code 2 and exactly one stderr
 line that names the file, where the problem is (line, column, key) and the
 rule broken. Hostile model files (term text that DEAP's
@@ -24,9 +24,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mggp.cli import main
-from narx.csvdata import read_csv
-from narx.data import DataError
+from mggp.cli.app import main
+from narx.records.csvdata import read_csv
+from narx.records.data import DataError
 from narx import ModelFileError, load_model
 from narx.systems import piezo_bouc_wen, training_input
 
@@ -283,8 +283,8 @@ def test_hostile_terms_on_the_command_line(files, tmp_path):
 
 
 def test_hostile_checkpoint_is_rejected(files, tmp_path):
-    from mggp.checkpoint import load_checkpoint
-    from mggp.primitives import make_pset
+    from mggp.gp.checkpoint import load_checkpoint
+    from mggp.gp.primitives import make_pset
     p = tmp_path / "evil.ckpt"
     p.write_text("[" * 200_000 + "]" * 200_000)
     with pytest.raises(ValueError, match="not a readable JSON file"):
@@ -421,7 +421,7 @@ def test_property_cli_returns_two_with_one_line(model_text, csv_text, cmd):
 def test_non_ascii_column_name_gets_an_ascii_suggestion(files):
     """Signal names are ASCII identifiers; the suggested name must be one
     (it repeated 'Displacement_µm', a Unicode identifier) and the file is named."""
-    from narx.terms import ascii_name
+    from narx.language.terms import ascii_name
     p = files / "uni.csv"
     p.write_text("Voltage_V,Displacement_µm\n" + "".join(
         f"{float(a)!r},{float(b)!r}\n" for a, b in zip(_U, _Y)))

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import narx
-import narx.ms_kernel as msk
+import narx.simulation.ms_kernel as msk
 from benchmarks import evals, full_setup, speed
-from narx.data import as_data
-from narx.fitness import StructureScorer
+from narx.records.data import as_data
+from narx.estimation.fitness import StructureScorer
 from conftest import piezo_record
 
 
@@ -56,8 +56,8 @@ def _sets(n, seed=0):
 def _sets_phi_outputs(n, seed=0):
     """Random individuals of a ``phi_outputs`` set: terms with Φ of output lags."""
     import random
-    from mggp.operators import random_individual
-    from mggp.primitives import Decoder, make_pset
+    from mggp.gp.operators import random_individual
+    from mggp.gp.primitives import Decoder, make_pset
     ps, rng = make_pset(phi_outputs=True), random.Random(seed)
     dec, sets = Decoder(ps.signals), []
     while len(sets) < n:
@@ -152,5 +152,5 @@ def test_eval_phases_account_for_the_whole_evaluation():
     assert {"Gram entries", "MS kernel", "columns", "Python"} <= set(ph)
     assert sum(ph.values()) == pytest.approx(r["seconds_per_eval"])
     assert all(v >= 0 for k, v in ph.items() if k != "Python")
-    import narx.fitness as fit
+    import narx.estimation.fitness as fit
     assert fit.fixed_dot.__name__ == "fixed_dot"          # wrappers removed again

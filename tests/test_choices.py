@@ -1,4 +1,4 @@
-"""Automatic choices of MGGPRegressor (mggp.choices): the model class (no Φ,
+"""Automatic choices of MGGPRegressor (mggp.fit.choices): the model class (no Φ,
 Φ, memory operators) and the constant term by held-out free-run error, the
 selection by the constraints; recorded in choices_ and meta."""
 import warnings
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from mggp.choices import CLASS_GAIN, SearchClass, class_choice, heldout_rmse
-from narx.data import Data
-from narx.testsystems import system_by_name
+from mggp.fit.choices import CLASS_GAIN, SearchClass, class_choice, heldout_rmse
+from narx.records.data import Data
+from narx.systems.testsystems import system_by_name
 
 from conftest import first_order_record
 from test_constant import affine_record
@@ -134,7 +134,7 @@ def test_the_progress_line_says_the_time_left_once_it_knows_the_plan():
     so far; without a plan (a diagnosis's searches) it does not."""
     import io
     from types import SimpleNamespace
-    from mggp.cli_fit import _Progress, _duration
+    from mggp.cli.fit import _Progress, _duration
     for plan, expect in ((12, True), (None, False)):
         out = io.StringIO()
         p = _Progress(5, out, False)
@@ -165,13 +165,13 @@ def test_constant_kept_for_an_offset_only():
 
 
 def _gain(simple, rich, significant, p=0.01):
-    """A :class:`mggp.choices.Gain` by hand (its rule is tested on data below)."""
-    from mggp.choices import CONSTANT_ENDS, Gain
+    """A :class:`mggp.fit.choices.Gain` by hand (its rule is tested on data below)."""
+    from mggp.fit.choices import CONSTANT_ENDS, Gain
     return Gain(simple, rich, 0.004, p, 12, significant, CONSTANT_ENDS)
 
 
 def test_constant_pilot_keeps_the_constant_only_for_a_significant_gain():
-    from mggp.choices import constant_pilot_choice
+    from mggp.fit.choices import constant_pilot_choice
     assert constant_pilot_choice(_gain(1.0, 0.5, True), _gain(1.0, 0.5, True),
                                  "p").value is True
     c = constant_pilot_choice(_gain(0.0551, 0.0502, False, p=0.21), _gain(0.06, 0.0502, True),
@@ -192,7 +192,7 @@ def test_constant_pilot_gain_must_come_from_the_constant_itself():
     """The pilot with the constant beats the one without, but its own
     structure does as well without the constant: the search drops it; the
     control, where dropping the constant from that structure costs, keeps it."""
-    from mggp.choices import constant_pilot_choice
+    from mggp.fit.choices import constant_pilot_choice
     c = constant_pilot_choice(_gain(0.0676, 0.0523, True), _gain(0.0530, 0.0523, False, 0.4),
                               "pilots")
     assert c.value is False
@@ -213,7 +213,7 @@ def test_heldout_gain_takes_only_a_significant_gain_beyond_the_margin():
     structure is not (p above the level), nor a gain under the margin; a
     diverging simpler structure loses to any finite one; the seed fixes
     the figures."""
-    from mggp.choices import LEVEL, heldout_gain
+    from mggp.fit.choices import LEVEL, heldout_gain
     d = system_by_name("S1", n=500, seed=0, output_snr=30)
     data = Data(d.u, d.y)
     exact = list(d.terms)
@@ -274,7 +274,7 @@ def test_constraints_resolve_select_to_hold():
 
 @pytest.mark.parametrize("argv", [["--phi", "--no-phi"]])
 def test_cli_phi_and_no_phi_exclude_each_other(tmp_path, capsys, argv):
-    from mggp.cli import main
+    from mggp.cli.app import main
     d = system_by_name("S1", n=200, seed=0)
     path = tmp_path / "d.csv"
     np.savetxt(path, np.column_stack([d.u, d.y]), delimiter=",", header="u,y", comments="")
@@ -284,7 +284,7 @@ def test_cli_phi_and_no_phi_exclude_each_other(tmp_path, capsys, argv):
 
 def test_cli_constant_and_no_constant(tmp_path, capsys):
     import json
-    from mggp.cli import main
+    from mggp.cli.app import main
     u, y = affine_record(300)
     path = tmp_path / "d.csv"
     np.savetxt(path, np.column_stack([u, y]), delimiter=",", header="u,y", comments="")
@@ -300,7 +300,7 @@ def test_cli_constant_and_no_constant(tmp_path, capsys):
 
 
 def test_cli_prints_each_automatic_choice(tmp_path, capsys):
-    from mggp.cli import main
+    from mggp.cli.app import main
     d = system_by_name("S1", n=300, seed=0)
     path = tmp_path / "d.csv"
     np.savetxt(path, np.column_stack([d.u, d.y]), delimiter=",", header="u,y", comments="")
@@ -320,7 +320,7 @@ def test_screen_follows_the_constraints():
 
 
 def test_size_takes_the_fewest_terms_within_the_tolerance():
-    from mggp.choices import SIZE_TOLERANCE, size_choice
+    from mggp.fit.choices import SIZE_TOLERANCE, size_choice
     big, small, tiny = ("a", "b", "c"), ("a", "b"), ("a",)
     within = 1.0 * (1 + SIZE_TOLERANCE / 2)
     c = size_choice([(3, 1.0, big), (2, within, small), (1, 2.0, tiny)])
@@ -333,7 +333,7 @@ def test_heldout_ends_pool_the_errors_of_each_end(monkeypatch):
     """Both ends held out (the trial of ``HOLDOUT_ENDS``): the figure pools
     the head's and the tail's errors, each end with θ fitted on the rest,
     and the size choice counts the samples of both."""
-    import mggp.choices as ch
+    import mggp.fit.choices as ch
     d = system_by_name("S1", n=500, seed=0)
     data = Data(d.u, d.y)
     ts = ["y[k-1]", "u[k-1]"]                   # misses terms: errors well above noise
@@ -350,7 +350,7 @@ def test_heldout_ends_pool_the_errors_of_each_end(monkeypatch):
 
 
 def test_size_tolerance_widens_on_a_short_held_out_part():
-    from mggp.choices import SIZE_TOLERANCE, heldout_samples, size_choice, size_tolerance
+    from mggp.fit.choices import SIZE_TOLERANCE, heldout_samples, size_choice, size_tolerance
     big, small = ("a", "b", "c", "d"), ("a", "b")
     rows = [(4, 1.0, big), (2, 1.10, small)]
     # 150 held-out samples (a 500-sample record): a 10 % difference is
@@ -363,7 +363,7 @@ def test_size_tolerance_widens_on_a_short_held_out_part():
 
 
 def test_search_classes_follow_the_overrides():
-    from mggp.choices import search_classes
+    from mggp.fit.choices import search_classes
     labels = lambda **kw: [(c.label, c.operators) for c in search_classes(MGGPRegressor(**kw))]
     assert labels() == [("no Φ", ()), ("Φ", ()), ("operators", ("play", "dengtan")),
                         ("Bouc–Wen", ("boucwen",))]
@@ -401,7 +401,7 @@ def test_bouc_wen_class_needs_half_the_error_of_the_class_before():
     """The Bouc–Wen class's own margin (BOUC_WEN_CLASS_GAIN): 40 % lower is
     not enough, 60 % lower is; control: the plays' class with the same
     40 % takes over under the common 15 % margin."""
-    from mggp.choices import BOUC_WEN_CLASS_GAIN, search_classes
+    from mggp.fit.choices import BOUC_WEN_CLASS_GAIN, search_classes
     classes = search_classes(MGGPRegressor())
     assert [c.label for c in classes] == ["no Φ", "Φ", "operators", "Bouc–Wen"]
     assert classes[-1].gain == BOUC_WEN_CLASS_GAIN == 0.5 and classes[2].gain == CLASS_GAIN
@@ -430,7 +430,7 @@ def test_heldout_errors_below_rounding_count_as_equal():
     supersets (a constant, a spurious lag) score the same floor, so no
     comparison ranks their rounding digits; control: with 1 % output noise
     heldout_rmse is the RMSE itself, decades above the floor."""
-    from mggp.choices import RESOLUTION, error_floor
+    from mggp.fit.choices import RESOLUTION, error_floor
     data = _piroddi_noise_free()
     floor = error_floor(data)
     assert floor == RESOLUTION * np.ptp(data.y)
@@ -450,13 +450,13 @@ def test_defaults_return_the_exact_structure_of_a_noise_free_record(seed):
     rounding (both happened when the held-out errors of 1e-16 were
     ranked); control: with 1 % output noise the choices' figures are the
     measured errors, above the floor."""
-    from mggp.choices import error_floor
+    from mggp.fit.choices import error_floor
     kw = dict(population=100, generations=15, random_state=seed)
     est = MGGPRegressor(**kw).fit(_piroddi_noise_free())
     assert set(est.model_.term_texts) == PIRODDI
     figs = est.choices_["use_phi"]["figures"]
     if figs["class"] != "no Φ":           # a richer class, only by a margin above rounding
-        from mggp.choices import _key
+        from mggp.fit.choices import _key
         won = figs[f"heldout_rmse_{_key(figs['class'])}"]
         assert figs["heldout_rmse_no_phi"] - won > 100 * error_floor(_piroddi_noise_free())
     assert est.choices_["constant"]["value"] is False
@@ -491,7 +491,7 @@ def test_a_held_out_part_without_excitation_is_said():
     fit says so; control: the same system on an input that moves to the
     end, and the same step record with every held-out choice fixed."""
     import warnings
-    from mggp.choices import holdout_message
+    from mggp.fit.choices import holdout_message
     n = 600
     u = np.where(np.arange(n) < 200, 0.0, 1.0)
     u[:200] = np.random.default_rng(0).standard_normal(200)
@@ -519,8 +519,8 @@ def test_a_long_record_is_searched_on_the_part_that_covers_its_range():
     choices_ and the meta; the model's θ comes from that part, so it
     differs from the whole-record search's. Controls: 'all' (the default)
     and a part no shorter than the record search it whole."""
-    from mggp.choices import search_span
-    from narx.data import Data
+    from mggp.fit.choices import search_span
+    from narx.records.data import Data
     from narx.systems import piezo_bouc_wen, training_input
     u = training_input(3000, seed=1)
     u[:1000] = u[1000]
@@ -549,7 +549,7 @@ def test_search_samples_takes_all_or_at_least_1000(capsys, tmp_path):
         with pytest.raises(ValueError, match="search_samples must be an integer >= 1000, "
                                              "or 'all'"):
             MGGPRegressor(search_samples=bad).fit(np.zeros(100), np.zeros(100))
-    from mggp.cli import main
+    from mggp.cli.app import main
     path = tmp_path / "d.csv"
     np.savetxt(path, np.c_[np.arange(300.0) % 7, np.arange(300.0) % 5], delimiter=",",
                header="u,y", comments="")
@@ -594,7 +594,7 @@ def test_constant_parsimony_rule_by_hand():
     structure is simpler and needs the constant; controls: the plain one is
     as simple, and the constant's structure does as well without it."""
     import narx
-    from mggp.choices import constant_pilot_choice, fewest_terms
+    from mggp.fit.choices import constant_pilot_choice, fewest_terms
     data = level_record()
 
     def row(texts, err):

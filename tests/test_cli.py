@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from mggp.cli import main
+from mggp.cli.app import main
 from benchmarks.casestudy import MODEL19 as _M19
 from narx.systems import piezo_bouc_wen, sine_input
 
@@ -310,7 +310,7 @@ def test_list_option_does_not_swallow_the_data_file(capsys, tmp_path):
 
 
 def test_fit_help_groups_every_option_with_its_default(capsys):
-    from mggp.cli_fit import FIT_OPTIONS
+    from mggp.cli.fit import FIT_OPTIONS
     with pytest.raises(SystemExit):
         main(["fit", "--help"])
     text = " ".join(capsys.readouterr().out.split())
@@ -347,7 +347,7 @@ def test_simulate_names_the_prediction_after_the_models_output(capsys, tmp_path)
 def test_every_option_has_help_with_its_default(command):
     """Every option but --help (and the required --terms) says what it does
     and its default."""
-    from mggp.cli import build_parser
+    from mggp.cli.app import build_parser
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command").choices[command]
     for action in sub._actions:

@@ -177,14 +177,16 @@ def test_fit_select_reaches_the_estimator(capsys, tmp_path):
 ])
 def test_fit_writes_the_ls_model_when_the_cls_refit_fails(capsys, tmp_path, monkeypatch,
                                                           theta, text):
-    import mggp.estimator as E
-    from mggp.stages import FitContext, cls_verdict
+    import mggp.fit.estimator as E
+    from mggp.fit.stages import FitContext, Refined, Selected, cls_verdict
     real = E.MGGPRegressor.fit
 
     def fit(self, data, *a, **k):
         real(self, data, *a, **k)
         self.model_cls_ = Model(["y[k-1]", "u[k-1]"], theta)
-        cls_verdict(self.terms_, data, FitContext(self, data, None, 0, None))
+        ctx = FitContext(self, data, None, 0, None)
+        ctx.decided["refine"] = Refined(self.terms_, None, self.model_, self.model_cls_)
+        self.cls_rejected_ = cls_verdict(self.terms_, data, ctx).rejected
         return self
     monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
     out = tmp_path / "m.json"
@@ -223,9 +225,9 @@ def test_diagnose_population_rule_comes_first(capsys, tmp_path):
 def test_evaluator_scores_without_a_start():
     """The Evaluator's documented call without ``start=``: finite scores (it
     used to default to row 0, below every set's lag, and score all inf)."""
-    from mggp.evaluate import Evaluator
-    from narx.data import as_data
-    from narx.terms import parse_terms
+    from mggp.gp.evaluate import Evaluator
+    from narx.records.data import as_data
+    from narx.language.terms import parse_terms
     u, y = first_order_record(500)
     data = as_data(u, y)
     sets = [tuple(parse_terms(["y[k-1]", "u[k-1]"], data.signals)),
@@ -278,8 +280,8 @@ def test_resume_refuses_a_checkpoint_of_another_search(capsys, tmp_path):
 def test_fit_keeps_the_cls_model_when_hold_chose_it(capsys, tmp_path, monkeypatch):
     """With --select hold the structure was chosen for its CLS refit, so a
     CLS fit that is only worse in free-run RMSE is still written."""
-    import mggp.estimator as E
-    from mggp.stages import cls_rejection
+    import mggp.fit.estimator as E
+    from mggp.fit.stages import cls_rejection
     real = E.MGGPRegressor.fit
 
     def fit(self, *a, **k):
@@ -312,15 +314,17 @@ def test_fit_writes_the_ls_model_when_hold_found_no_holding_candidate(capsys, tm
     to the best-fitness structure: its CLS refit was not chosen for holding,
     so the guard against a CLS fit far worse than the LS fit applies (it was
     bypassed, and a CLS model 5.8x worse in free run was written)."""
-    import mggp.estimator as E
-    from mggp.stages import FitContext, cls_verdict
+    import mggp.fit.estimator as E
+    from mggp.fit.stages import FitContext, Refined, Selected, cls_verdict
     real = E.MGGPRegressor.fit
 
     def fit(self, data, *a, **k):
         real(self, data, *a, **k)
         self.model_cls_ = Model(["y[k-1]", "u[k-1]"], [0.5, 0.5])   # stable, worse
-        self.selection_ = [(False, ["y[k-1]", "u[k-1]"])]           # none held
-        cls_verdict(self.terms_, data, FitContext(self, data, None, 0, None))
+        ctx = FitContext(self, data, None, 0, None)
+        ctx.decided["select"] = Selected(self.terms_, [(False, ["y[k-1]", "u[k-1]"])])  # none held
+        ctx.decided["refine"] = Refined(self.terms_, None, self.model_, self.model_cls_)
+        self.cls_rejected_ = cls_verdict(self.terms_, data, ctx).rejected
         return self
     monkeypatch.setattr(E.MGGPRegressor, "fit", fit)
     out = tmp_path / "m.json"
@@ -337,8 +341,8 @@ def test_cls_rejection_and_get_best_follow_the_cli_rule():
     as far off in free run (as `mggp fit` writes it); controls: a close CLS
     refit is used, and constrained=True still returns the CLS one."""
     from mggp import MGGPRegressor
-    from mggp.stages import cls_rejection
-    from narx.data import as_data
+    from mggp.fit.stages import cls_rejection
+    from narx.records.data import as_data
     rng = np.random.default_rng(0)
     u = rng.uniform(-1, 1, 400)
     y = np.zeros(400)

@@ -3,13 +3,13 @@ path's values bit for bit (the search's results must not change with them)."""
 import numpy as np
 import pytest
 
-from narx.colbuild import ColumnBuilder
-from narx.data import Data
-from narx.fitness import StructureScorer, _finite_inplace
-from narx.gram import fill_gram, fixed_dot
-from narx.phi import PhiRegistry
-from narx.regressors import input_part, term_column
-from narx.terms import parse_term
+from narx.records.colbuild import ColumnBuilder
+from narx.records.data import Data
+from narx.estimation.fitness import StructureScorer, _finite_inplace
+from narx.estimation.gram import fill_gram, fixed_dot
+from narx.language.phi import PhiRegistry
+from narx.records.regressors import input_part, term_column
+from narx.language.terms import parse_term
 
 TERMS = ["Phi2(u1[k-2],u1[k-3])", "Phi1(u1[k-1],u1[k-3])*u2[k-2]*y[k-1]",
          "u1[k-1]*u1[k-2]*y[k-1]*y[k-2]", "y[k-1]", "u2[k-4]",

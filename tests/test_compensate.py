@@ -5,12 +5,12 @@ import numpy as np
 import pytest
 
 import narx
-from narx.compensate import RootCompensator, compensate
+from narx.analysis.compensate import RootCompensator, compensate
 from narx.systems import (bouc_wen_discrete, bouc_wen_discrete_narx, piezo_bouc_wen,
                           sine_input, training_input)
 from mggp.compensate import (InverseCompensator, PiezoPlant, identify_inverse,
                              pi_loop)
-from mggp.cli import main
+from mggp.cli.app import main
 
 from conftest import MODEL19_TERMS, MODEL19_THETA
 
@@ -315,7 +315,7 @@ def test_an_unstable_inverse_is_detected_and_the_cli_writes_nothing(tmp_path, ca
     assert not m.simulate(u, prandtl_ishlinskii(u), mode="freerun").diverged
     t = np.arange(3000) * 1e-3
     r = 36 * np.sin(2 * np.pi * 0.5 * t)
-    from narx.compensate import NonMinimumPhaseWarning
+    from narx.analysis.compensate import NonMinimumPhaseWarning
     with pytest.warns(NonMinimumPhaseWarning, match="non-minimum-phase"):
         res = compensate(m, r)
     assert res.diverged and 0 <= res.diverged_at < r.size
@@ -401,7 +401,7 @@ def test_a_non_minimum_phase_model_is_reported_with_its_zeros():
     z = 2, so the exact inverse u[k-1] = y[k] - 0.5 y[k-1] + 2 u[k-2] doubles
     any error every step; the compensator says so (it used to say nothing)."""
     import warnings
-    from narx.compensate import NonMinimumPhaseWarning, inverse_stability
+    from narx.analysis.compensate import NonMinimumPhaseWarning, inverse_stability
     nmp = narx.Model(["y[k-1]", "u[k-1]", "u[k-2]"], theta=[0.5, 1.0, -2.0])
     chk = inverse_stability(nmp)
     assert not chk.minimum_phase and not chk.linearised
@@ -471,8 +471,8 @@ def test_an_input_lag_entering_only_through_a_sign_is_named():
 
 def test_cli_fallback_verdict_blames_the_reference_only_for_a_minimum_phase_model():
     import warnings
-    from mggp.cli import CLIError
-    from mggp.cli_compensate import _fallback_verdict
+    from mggp.cli.app import CLIError
+    from mggp.cli.compensate import _fallback_verdict
     nmp = "the model is non-minimum-phase: ... z = 2 (|z| = 2) ..."
     for rate, text, expect in ((0.0, "", None), (0.0, nmp, "z = 2"),
                                (0.1, nmp, "z = 2"), (0.1, "", "the reference jumps"),
@@ -492,14 +492,14 @@ def test_cli_fallback_verdict_blames_the_reference_only_for_a_minimum_phase_mode
 
 
 def test_inverse_check_refuses_several_inputs():
-    from narx.inverse_check import inverse_stability
+    from narx.analysis.inverse_check import inverse_stability
     m = narx.Model(["y[k-1]", "u1[k-1]", "u2[k-2]"], [0.5, 0.3, 1.0], inputs=["u1", "u2"])
     with pytest.raises(ValueError, match="one-input models, got inputs"):
         inverse_stability(m)
 
 
 def test_rest_actuator_solves_the_rest_state():
-    from narx.compensate_args import rest_actuator
+    from narx.analysis.compensate_args import rest_actuator
     gain1 = narx.Model(["y[k-1]", "u[k-1]", "u[k-2]"], [0.5, 0.3, 0.2])      # y_ss = u
     assert rest_actuator(gain1, 2.0, "u", -5, 5) == pytest.approx(2.0)
     assert rest_actuator(gain1, 20.0, "u", -5, 5) is None                  # out of range

@@ -65,7 +65,7 @@ def test_resume_with_other_constant_setting_is_refused(tmp_path, first, then):
 
 
 def test_cli_fit_constant(tmp_path):
-    from mggp.cli import main
+    from mggp.cli.app import main
     u, y = affine_record(300)
     csv = tmp_path / "d.csv"
     csv.write_text("u,y\n" + "".join(f"{a},{b}\n" for a, b in zip(u, y)))

@@ -18,11 +18,11 @@ distributed = pytest.importorskip(
 
 import narx                                                  # noqa: E402
 from mggp import MGGPRegressor                               # noqa: E402
-from mggp.cli import main                                    # noqa: E402
-from mggp.evaluate import Evaluator                          # noqa: E402
-from narx.data import Data                                   # noqa: E402
+from mggp.cli.app import main                                    # noqa: E402
+from mggp.gp.evaluate import Evaluator                          # noqa: E402
+from narx.records.data import Data                                   # noqa: E402
 from narx.systems import piezo_bouc_wen, training_input     # noqa: E402
-from narx.terms import parse_terms                           # noqa: E402
+from narx.language.terms import parse_terms                           # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +46,7 @@ def _worker_scorers(address):
     from dask.distributed import Client
 
     def count():
-        from mggp import evaluate
+        from mggp.gp import evaluate
         return sum(len(v) for v in evaluate._IDLE.values())
     with Client(address, set_as_default=False) as c:
         return c.run(count)
@@ -88,7 +88,7 @@ def test_user_phi_registered_in_parent_reaches_workers(cluster, piezo):
     u, y = piezo
     narx.register_phi("SatD", 1, _user_phi(), steady=0.0)
     try:
-        reg = narx.phi.default_registry()
+        reg = narx.language.phi.default_registry()
         data = Data(u, y)
         sets = [parse_terms(["y[k-1]", f"SatD(u[k-{j}])", "Phi1(u[k-1],u[k-2])",
                              f"y[k-1]*SatD(u[k-{j}])"][: 2 + i % 3])
@@ -98,7 +98,7 @@ def test_user_phi_registered_in_parent_reaches_workers(cluster, piezo):
         local.close()
         from dask.distributed import Client
         with Client(cluster.scheduler_address, set_as_default=False) as client:
-            assert not any(client.run(lambda: "SatD" in narx.phi.default_registry()).values())
+            assert not any(client.run(lambda: "SatD" in narx.language.phi.default_registry()).values())
             with Evaluator(data, "ms", window=50, start=6, backend="dask",
                            scheduler=client) as ev:
                 got = ev(sets)

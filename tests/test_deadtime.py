@@ -1,13 +1,13 @@
 """Dead time beyond the search's reach: found by the ARX scan and named
-before the search (narx.deadtime, mggp.precision.dead_time_message)."""
+before the search (narx.records.deadtime, mggp.fit.precision.dead_time_message)."""
 import warnings
 
 import numpy as np
 import pytest
 
 from narx import Data
-from narx.deadtime import GAIN as DEAD_TIME_GAIN, SPAN, onset_scan
-from mggp.precision import dead_time_message
+from narx.records.deadtime import GAIN as DEAD_TIME_GAIN, SPAN, onset_scan
+from mggp.fit.precision import dead_time_message
 
 
 def _delayed(d, n=2000, seed=5, second=None):
@@ -135,7 +135,7 @@ def test_the_diagnosis_reaches_a_dead_time_and_does_not_call_it_hysteresis():
     says so, and names no hysteresis; with the dead time hidden from it
     (the control: late_inputs patched to find none) the baseline at height
     5 cannot reach lag 25 and simulates far worse."""
-    import narx.deadtime
+    import narx.records.deadtime
     from mggp.diagnose import diagnose
     from mggp.diagnose.extend import Budget
     kw = dict(budget=Budget(population=100, generations=15), seed=1)
@@ -144,7 +144,7 @@ def test_the_diagnosis_reaches_a_dead_time_and_does_not_call_it_hysteresis():
     assert "the searches' trees have height 9" in dx.summary()
     assert "hysteresis" not in dx.effects
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(narx.deadtime, "late_inputs", lambda data, reach, scans=None: [])
+        mp.setattr(narx.records.deadtime, "late_inputs", lambda data, reach, scans=None: [])
         blind = diagnose(_delayed(25), **kw)
     assert blind.settings["dead_time"] is None
     assert blind.baseline.rmse > 2 * dx.baseline.rmse
@@ -154,7 +154,7 @@ def test_the_height_is_not_raised_past_what_max_lag_allows():
     """max_lag below the dead time: raising the height would not let the
     search use the lags, so the height stays and the line says why; with
     max_lag above it (the control) the height is raised."""
-    from mggp.choices import height_choice
+    from mggp.fit.choices import height_choice
     low = height_choice(_delayed(25), max_lag=10)
     assert low.value == 5 and low.why.endswith("beyond what max_lag allows")
     assert height_choice(_delayed(25), max_lag=40).value == 9

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 
 import narx
-from narx.data import Data
+from narx.records.data import Data
 from narx.systems import (held_sine, piezo_bouc_wen, prandtl_ishlinskii, sine_input,
                           training_input)
-from narx.testsystems import hammerstein, polynomial_narx
+from narx.systems.testsystems import hammerstein, polynomial_narx
 
-from mggp.cli import main
+from mggp.cli.app import main
 from mggp.diagnose import EXTENSIONS, VOCABULARY, Budget, diagnose
 from mggp.diagnose.extend import Setting, plan_extension
 from mggp.diagnose.holds import find_holds, probe_holds, steady_rate
@@ -498,7 +498,7 @@ def test_operator_augmentation_on_white_input_tells_a_play_from_a_missing_lag():
     input-lag controls). With them the drop stays below the threshold;
     control: the same dynamics driven by a play of the input is named."""
     from mggp.diagnose.augmentation import operator_augmentation_test
-    from narx.memory import play
+    from narx.language.memory import play
     r = np.random.default_rng(1)
     n = 2000
     u = r.uniform(-1, 1, n)
@@ -545,7 +545,7 @@ def test_operator_augmentation_does_not_take_a_static_saturation_for_memory():
     theirs too, and only memory counts. Control: a play with the same white
     input and dynamics stays far above its threshold."""
     from mggp.diagnose.augmentation import operator_augmentation_test
-    from narx.memory import play
+    from narx.language.memory import play
     r = np.random.default_rng(0)
     n = 3000
     u = r.uniform(-1, 1, n)
@@ -560,3 +560,28 @@ def test_operator_augmentation_does_not_take_a_static_saturation_for_memory():
         ratio[name] = a.statistic / max(a.null_quantile, 0.005 * np.ptp(d.y))
     assert ratio["tanh"] < 1.0, ratio
     assert ratio["play"] > 3.0, ratio
+
+
+def test_shuffled_operators_keep_the_static_part_and_lose_the_path():
+    """A play's placebo at sample t is the play's value at the input u[t]
+    after a random path: within the play's half-width of u[t] (its static
+    part), but not the play's own value (its memory)."""
+    from mggp.diagnose.augmentation import shuffled_operators
+    from narx.language.memory import play
+    r = np.random.default_rng(3)
+    u = r.uniform(-1, 1, 500)
+    d = Data(u, np.zeros(500))
+    out, names = shuffled_operators(d, ["Play(u[k-1],0.3)"], r.permutation(500))
+    w = out.input(names["Play(u[k-1],0.3)"])
+    assert out.inputs == ("u", names["Play(u[k-1],0.3)"])
+    assert np.all(np.abs(w - u) <= 0.3 + 1e-12)
+    real = play(u, 0.3)
+    assert np.mean(np.isclose(w, real)) < 0.6
+    with pytest.raises(ValueError, match="lag 1"):
+        shuffled_operators(d, ["Play(u[k-2],0.3)"], r.permutation(500))
+    # a record whose signals already use the placebo's name keeps its own
+    d2 = Data(np.column_stack([u, u]), np.zeros(500), inputs=("u", "w1"), output="y")
+    out2, names2 = shuffled_operators(d2, ["Play(u[k-1],0.3)"], r.permutation(500))
+    assert names2["Play(u[k-1],0.3)"] not in ("u", "w1", "y")
+    assert np.array_equal(out2.input("w1"), u)
+

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import narx
-from narx.data import Data
+from narx.records.data import Data
 from narx.systems import held_sine, piezo_bouc_wen, training_input
 
 from mggp.diagnose import (Budget, Check, DiagnosticTest, Outcome, diagnose, register,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 from mggp.diagnose import Budget, diagnose
 from mggp.diagnose.report import write_report
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import narx
-from narx.data import Data
+from narx.records.data import Data
 from narx.systems import held_sine, piezo_bouc_wen, training_input
 
 from mggp.diagnose import Budget, diagnose
@@ -263,7 +263,7 @@ def test_share_of_the_measuring_input_outside_the_fitting_range():
 def test_augmentation_leaves_out_only_the_control_terms_in_the_span_of_the_others():
     from mggp.diagnose.augmentation import (augmentation_check, independent_terms,
                                             phi_augmentation_test)
-    from narx.testsystems import polynomial_narx
+    from narx.systems.testsystems import polynomial_narx
     s = polynomial_narx(n=1500, seed=0, noise_std=0.02)
     d = Data(s.u, s.y)
     sig = dict(inputs=d.inputs, output=d.output, registry=narx.Model(["u[k-1]"]).registry)

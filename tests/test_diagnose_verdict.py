@@ -1,5 +1,5 @@
 """The verdict of mggp diagnose: the naming rule over the paired held-out
-test (narx.paired, tested in test_paired.py), its false-alarm rate on
+test (narx.analysis.paired, tested in test_paired.py), its false-alarm rate on
 controls, and the line that says a record cannot separate memory from
 dynamics."""
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 from scipy.signal import lfilter
 
 import narx
-from narx.data import Data
+from narx.records.data import Data
 from narx.systems import piezo_bouc_wen, sine_input, training_input
 
 from mggp.diagnose import Budget, diagnose
@@ -128,7 +128,7 @@ def _piezo_random(seed, n=4000):
 
 
 def _control(kind, seed, n=3000):
-    from narx.testsystems import hammerstein
+    from narx.systems.testsystems import hammerstein
     if kind == "hammerstein":
         s = hammerstein(n=n, seed=seed, noise_std=0.02)
         return Data(s.u, s.y)

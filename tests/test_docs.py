@@ -142,7 +142,7 @@ def test_site_builds_strictly(tmp_path):
     assert r.returncode == 0, r.stderr[-4000:]
     fit = (tmp_path / "site" / "guide" / "fit" / "index.html").read_text(encoding="utf-8")
     assert "{{" not in fit
-    from mggp.choices import HOLDOUT, percent
+    from mggp.fit.choices import HOLDOUT, percent
     assert percent(HOLDOUT).replace(" ", "") in fit.replace(" ", "").replace("&nbsp;", "")
     cli = (tmp_path / "site" / "reference" / "cli" / "index.html").read_text(encoding="utf-8")
     assert "usage: mggp fit" in cli and "--search-samples" in cli
@@ -160,24 +160,24 @@ def _hooks():
 def test_placeholders_give_the_code_values():
     """A threshold in a page is the constant's value; control: another
     constant gives another text."""
-    from mggp.choices import CLASS_GAIN, GAIN, HEIGHT, percent
-    from mggp.params import DIAGNOSE_PARAMS
-    from mggp.primitives import max_lag_for_height
+    from mggp.fit.choices import CLASS_GAIN, GAIN, HEIGHT, percent
+    from mggp.fit.params import DIAGNOSE_PARAMS
+    from mggp.gp.primitives import max_lag_for_height
     render = _hooks().render
-    assert render("{{ const mggp.choices.GAIN | percent }}") == percent(GAIN)
-    assert render("{{ const mggp.choices.CLASS_GAIN | percent }}") == percent(CLASS_GAIN)
+    assert render("{{ const mggp.fit.choices.GAIN | percent }}") == percent(GAIN)
+    assert render("{{ const mggp.fit.choices.CLASS_GAIN | percent }}") == percent(CLASS_GAIN)
     assert percent(GAIN) != percent(CLASS_GAIN)
-    assert render("{{ const mggp.choices.HEIGHT }}") == str(HEIGHT)
-    assert (render("{{ call mggp.primitives.max_lag_for_height mggp.choices.HEIGHT }}")
+    assert render("{{ const mggp.fit.choices.HEIGHT }}") == str(HEIGHT)
+    assert (render("{{ call mggp.gp.primitives.max_lag_for_height mggp.fit.choices.HEIGHT }}")
             == str(max_lag_for_height(HEIGHT)))
-    assert (render("{{ default mggp.params.DIAGNOSE_PARAMS alpha }}")
+    assert (render("{{ default mggp.fit.params.DIAGNOSE_PARAMS alpha }}")
             == f"{DIAGNOSE_PARAMS['alpha'].default:g}")
     assert "usage: mggp diagnose" in render("{{ help diagnose }}")
     assert "| `window` | `100` |" in render("{{ params }}")
 
 
-@pytest.mark.parametrize("text", ["{{ nonsense }}", "{{ const mggp.choices.NO_SUCH }}",
-                                  "{{ const mggp.choices.GAIN | nope }}", "{{ help nocmd }}",
+@pytest.mark.parametrize("text", ["{{ nonsense }}", "{{ const mggp.fit.choices.NO_SUCH }}",
+                                  "{{ const mggp.fit.choices.GAIN | nope }}", "{{ help nocmd }}",
                                   "{{ include no/such/file.md }}"])
 def test_unknown_placeholder_fails_the_build(text):
     from mkdocs.exceptions import PluginError

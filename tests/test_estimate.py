@@ -1,4 +1,4 @@
-"""Parameter estimation (narx.estimate, Model.fit): LS and CLS.
+"""Parameter estimation (narx.estimation.estimate, Model.fit): LS and CLS.
 
 References used here, computed independently of narx: numpy's lstsq (SVD)
 for LS, and the textbook CLS formula
@@ -13,8 +13,8 @@ import pytest
 
 from narx import (EstimationError, Model, constrained_least_squares, least_squares,
                   parse_terms, regressor_matrix)
-from narx.data import Data
-from narx.testsystems import system_piroddi
+from narx.records.data import Data
+from narx.systems.testsystems import system_piroddi
 
 PIRODDI_THETA = np.array([0.75, 0.25, -0.2])
 
@@ -215,7 +215,7 @@ def test_model_fit_with_explicit_and_steady_state_constraints():
 
 
 def test_extended_ls_on_narmax_system_s5():
-    from narx.testsystems import system_by_name
+    from narx.systems.testsystems import system_by_name
     d = system_by_name("S5", n=3000, seed=0)
     assert "e[k-1]" in d.terms
     m = Model(d.terms).fit(d.u, d.y)
@@ -227,7 +227,7 @@ def test_extended_ls_on_narmax_system_s5():
 
 
 def test_t_statistics_with_dependent_columns_keep_the_determined_ones():
-    from narx.estimate import t_statistics
+    from narx.estimation.estimate import t_statistics
     rng = np.random.default_rng(0)
     x0, x1, x2 = rng.standard_normal((3, 500))
     y = 5 * x0 + 0.1 * rng.standard_normal(500)
@@ -260,7 +260,7 @@ def test_t_statistics_of_dependent_columns_on_a_long_record():
     """Dependent columns on 100,000 rows: the t-statistics need V only; a
     full SVD would build a 100,000 × 100,000 U (80 GB: MemoryError, or the
     process killed; a NARMAX selection on 32,000 samples grew to 13 GB)."""
-    from narx.estimate import t_statistics
+    from narx.estimation.estimate import t_statistics
     rng = np.random.default_rng(1)
     x0, x1 = rng.standard_normal((2, 100_000))
     y = 2.0 * x0 + 0.01 * rng.standard_normal(100_000)

@@ -6,10 +6,10 @@ import os
 import pytest
 from joblib import Parallel, delayed
 
-from narx.terms import Signals, parse_terms
-from mggp.checkpoint import load_checkpoint
-from mggp.evolve import EvolutionSettings, evolve, structure_key
-from mggp.primitives import decode_individual, make_pset
+from narx.language.terms import Signals, parse_terms
+from mggp.gp.checkpoint import load_checkpoint
+from mggp.gp.evolve import EvolutionSettings, evolve, structure_key
+from mggp.gp.primitives import decode_individual, make_pset
 
 SMALL = dict(population_size=40, max_terms=6, max_height=4)
 
@@ -194,7 +194,7 @@ def test_checkpoint_writer_keeps_writes_within_their_share(tmp_path, monkeypatch
     """Writes are spaced so that they take at most `share` of the wall time
     (a fake clock: each write costs 1 s, each generation 2 s); the first
     and forced writes always happen. Control: share 1 writes every call."""
-    import mggp.checkpoint as ck
+    import mggp.gp.checkpoint as ck
     now = [0.0]
     monkeypatch.setattr(ck, "save_checkpoint",
                         lambda path, state, packer=None: now.__setitem__(0, now[0] + 1.0))
@@ -214,7 +214,7 @@ def test_checkpoint_writer_keeps_writes_within_their_share(tmp_path, monkeypatch
 
 def test_incremental_cache_encoding_equals_a_fresh_one():
     """The packer kept across saves writes the same cache as a new one."""
-    from mggp.checkpoint import CachePacker, _unpack_cache
+    from mggp.gp.checkpoint import CachePacker, _unpack_cache
     import json as _json
     cache, kept = {}, CachePacker()
     for i in range(5):

@@ -13,12 +13,12 @@ import narx.exceptions as ex
 ROOT = Path(__file__).resolve().parents[1]
 
 #: where each class was importable from before it moved, and still is
-WHERE = {"TermError": ["narx.terms"], "DataError": ["narx.data"],
-         "EstimationError": ["narx.estimate"], "ModelFileError": ["narx.modelio",
+WHERE = {"TermError": ["narx.language.terms"], "DataError": ["narx.records.data"],
+         "EstimationError": ["narx.estimation.estimate"], "ModelFileError": ["narx.modelio",
                                                                   "narx.model"],
          "RankWarning": ["narx.model"],
-         "NonMinimumPhaseWarning": ["narx.inverse_check", "narx.compensate"],
-         "ExtrapolationWarning": ["narx.ranges"],
+         "NonMinimumPhaseWarning": ["narx.analysis.inverse_check", "narx.analysis.compensate"],
+         "ExtrapolationWarning": ["narx.records.ranges"],
          "SeedLeakError": ["narx.systems.zoo"]}
 
 

@@ -5,9 +5,9 @@ measured MR damper's default model held v[k-1]^9 and v[k-1]^7 and ran to an
 RMSE 90 times the force's standard deviation on a test record whose
 velocity left the training range on 0.3 % of its samples. Every model
 file records the training ranges and the simulations name the inputs that
-leave them (narx.ranges); the search refuses structures whose free run is
+leave them (narx.records.ranges); the search refuses structures whose free run is
 unbounded on stress inputs, and caps the power of one signal at 3 unless a
-pilot asks for more (mggp.extrapolation).
+pilot asks for more (mggp.fit.extrapolation).
 """
 import json
 import warnings
@@ -17,14 +17,14 @@ import pytest
 
 import narx
 from narx import Model, ModelFileError, load_model
-from narx.data import Data
-from narx.ranges import (ExtrapolationWarning, excursions, range_line, range_warning,
+from narx.records.data import Data
+from narx.records.ranges import (ExtrapolationWarning, excursions, range_line, range_warning,
                          recorded_ranges, signal_ranges)
-from narx.terms import parse_term
-from mggp.cli import main
-from mggp.extrapolation import (POWER_CAP, STRESS_BAND, STRESS_SCALE, StressCheck,
+from narx.language.terms import parse_term
+from mggp.cli.app import main
+from mggp.fit.extrapolation import (POWER_CAP, STRESS_BAND, STRESS_SCALE, StressCheck,
                                 bounded_first, signal_power, stress_records)
-from mggp.choices import power_choice
+from mggp.fit.choices import power_choice
 
 
 def _saturating(n, seed, scale=1.0):
@@ -78,7 +78,7 @@ def test_range_line_counts_and_measures_in_half_widths():
 def test_a_hair_beyond_the_ends_is_not_named():
     """A new realisation of the training input passes its extremes by a
     hair (within MARGIN half-widths): no line; control: 5 % beyond is named."""
-    from narx.ranges import MARGIN
+    from narx.records.ranges import MARGIN
     ranges = {"u": (-1.0, 1.0)}
     u = np.linspace(-1, 1, 50)
     u[5] = 1.0 + MARGIN / 2
@@ -206,7 +206,7 @@ def test_old_rule_takes_a_fifth_power_that_explodes_and_the_cap_does_not():
     whose free run there stays within 1 range; the pilot with the cap
     lifted gains less than the size tolerance, so the cap stays."""
     from mggp import MGGPRegressor
-    from mggp.choices import heldout_rmse, heldout_samples, size_choice, size_tolerance
+    from mggp.fit.choices import heldout_rmse, heldout_samples, size_choice, size_tolerance
     train, test = _noisy_saturation()
     rows = [(len(s), heldout_rmse(s, train), s) for s in (_odd(1, 3, 5, 7), _odd(1, 3, 5))]
     n_held = heldout_samples(train.n)
@@ -275,7 +275,7 @@ def test_size_choice_line_names_the_refused_structures():
     """The size choice skips the 2-term structure that fails the stress
     inputs for the 3-term one within the tolerance and says why; when every
     one within the tolerance fails it keeps the old choice and says so."""
-    from mggp.choices import size_choice
+    from mggp.fit.choices import size_choice
     rows = [(4, 1.0, "A"), (2, 1.01, "B"), (3, 1.02, "C")]
     c = size_choice(rows, 1600, {"A": "", "B": "diverges when the input is reversed in time",
                                  "C": ""}.get)
@@ -290,7 +290,7 @@ def test_diagnose_names_records_beyond_the_ranges(capsys):
     """mggp diagnose: with a model, each record beyond its ranges gets a line;
     without one, the validation record against the training record's."""
     from argparse import Namespace
-    from mggp.cli_diagnose import _say_ranges
+    from mggp.cli.diagnose import _say_ranges
     u, y = _saturating(300, 0)
     train = Data(u, y)
     big = Data(1.6 * u, y)

@@ -21,14 +21,14 @@ import pytest
 
 import narx
 from mggp import MGGPRegressor
-from mggp import checkpoint as ckmod
-from mggp.checkpoint import load_checkpoint
-from mggp.cli import main
-from mggp.evaluate import Evaluator, WorkerLostError
-from mggp.primitives import make_pset
-from narx.data import Data
+from mggp.gp import checkpoint as ckmod
+from mggp.gp.checkpoint import load_checkpoint
+from mggp.cli.app import main
+from mggp.gp.evaluate import Evaluator, WorkerLostError
+from mggp.gp.primitives import make_pset
+from narx.records.data import Data
 from narx.systems import piezo_bouc_wen, training_input
-from narx.terms import parse_terms
+from narx.language.terms import parse_terms
 
 
 @pytest.fixture(scope="module")
@@ -148,7 +148,7 @@ class _Killed(BaseException):
 
 
 def _tearing_os(fail_on_call):
-    """A stand-in for ``os`` in mggp.checkpoint whose n-th fdopen'ed file
+    """A stand-in for ``os`` in mggp.gp.checkpoint whose n-th fdopen'ed file
     writes half the text and then dies."""
     count = [0]
 
@@ -185,8 +185,8 @@ def test_torn_checkpoint_write_keeps_previous_and_resume_matches(piezo, tmp_path
     u, y = piezo
     full = MGGPRegressor(**FIT).fit(u, y)
     ck = tmp_path / "run.ckpt"
-    import mggp.evolve
-    monkeypatch.setattr(mggp.evolve, "CHECKPOINT_SHARE", 1.0)    # a write every generation
+    import mggp.gp.evolve
+    monkeypatch.setattr(mggp.gp.evolve, "CHECKPOINT_SHARE", 1.0)    # a write every generation
     monkeypatch.setattr(ckmod, "os", _tearing_os(fail_on_call=4))   # gens 0,1,2 ok
     with pytest.raises(_Killed):
         MGGPRegressor(checkpoint=str(ck), **FIT).fit(u, y)
@@ -202,7 +202,7 @@ def test_torn_checkpoint_write_keeps_previous_and_resume_matches(piezo, tmp_path
 
 _SLOW_WRITER = """
 import os, sys, time, types
-import mggp.checkpoint as ck
+import mggp.gp.checkpoint as ck
 opened = []
 class Stalling:
     # the first checkpoint is written whole; every later one stalls after its
@@ -218,7 +218,7 @@ class Stalling:
 proxy = types.SimpleNamespace(**{n: getattr(os, n) for n in dir(os) if not n.startswith("__")})
 proxy.fdopen = lambda *a, **k: Stalling(os.fdopen(*a, **k))
 ck.os = proxy
-from mggp.cli import main
+from mggp.cli.app import main
 sys.exit(main(sys.argv[1:]))
 """
 

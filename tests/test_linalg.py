@@ -71,7 +71,7 @@ def test_cls_satisfies_the_constraints_and_equals_the_closed_formula():
     assert space_g.consistent and np.max(np.abs(S @ theta_g - c)) <= 1e-10
     np.testing.assert_allclose(theta_g, ref, rtol=1e-7, atol=0)
     # and through the public estimator
-    from narx.estimate import constrained_least_squares
+    from narx.estimation.estimate import constrained_least_squares
     est = constrained_least_squares(Psi, y, S, c)
     assert np.array_equal(est.theta, theta) and est.rank == rank
 
@@ -145,7 +145,7 @@ def test_t_statistics_against_a_hand_calculation():
     theta = np.array([1.4, 0.8])
     t = L.t_values(Psi, y - Psi @ theta, theta)
     np.testing.assert_allclose(t, [1.4 / np.sqrt(0.72), 0.8 / np.sqrt(0.12)], rtol=1e-13)
-    from narx.estimate import t_statistics
+    from narx.estimation.estimate import t_statistics
     np.testing.assert_allclose(t_statistics(Psi, y), t, rtol=1e-13)
 
 

@@ -1,14 +1,14 @@
-"""Local search on the chosen structure (mggp.local_search, the local_search stage)."""
+"""Local search on the chosen structure (mggp.fit.local_search, the local_search stage)."""
 import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from mggp.evaluate import criterion_value
-from mggp.local_search import improve, term_moves
+from mggp.gp.evaluate import criterion_value
+from mggp.fit.local_search import improve, term_moves
 from narx import Data
-from narx.fitness import StructureScorer
-from narx.terms import Signals, parse_terms
-from narx.testsystems import system_by_name
+from narx.estimation.fitness import StructureScorer
+from narx.language.terms import Signals, parse_terms
+from narx.systems.testsystems import system_by_name
 
 S3_TRUE = ["u[k-2]*u[k-2]", "y[k-1]*u[k-1]", "y[k-1]*y[k-1]*y[k-1]", "y[k-2]",
            "y[k-2]*u[k-2]*u[k-2]"]
@@ -85,7 +85,7 @@ def test_estimator_stage_records_its_moves(on):
     assert est.get_params()["local_search"] is on
     assert est.model_.meta["local_search"] is on
     if not on:                                  # the structure searched, but a constant
-        from mggp.choices import CONSTANT       # the constant choice dropped
+        from mggp.fit.choices import CONSTANT       # the constant choice dropped
         dropped = () if est.choices_["constant"]["value"] else (CONSTANT,)
         assert est.local_search_ == []
         assert est.terms_ == tuple(t for t in est.search_terms_ if t not in dropped)
@@ -96,7 +96,7 @@ def test_estimator_stage_records_its_moves(on):
 
 
 def test_cli_says_the_moves_and_the_flag_turns_them_off(tmp_path, capsys):
-    from mggp.cli import main
+    from mggp.cli.app import main
     from narx import Model
     d = system_by_name("S3", n=500, seed=0)
     csv = tmp_path / "s3.csv"
@@ -144,7 +144,7 @@ def test_moves_that_give_up_the_inputs_for_the_fitness_are_not_kept():
     + y[k-3], an extrapolator of each window) and the free-run RMSE went
     from 1.8 to 37. Its held-out free-run error says so, and the
     structure the size choice took is kept; the choice line says why."""
-    from mggp.choices import local_search_kept
+    from mggp.fit.choices import local_search_kept
     from narx.systems import piezo_bouc_wen, training_input
     a, b = training_input(2000, seed=1), training_input(2000, seed=5)
     y = piezo_bouc_wen(a) + 0.3 * piezo_bouc_wen(b)

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from narx.memory import (DENG_TAN_DEPTH, OperatorRegistry, bouc_wen, bouc_wen_reference,
+from narx.language.memory import (DENG_TAN_DEPTH, OperatorRegistry, bouc_wen, bouc_wen_reference,
                          deng_tan, deng_tan_reference, deng_tan_state, deng_tan_step,
                          get_operator, play, play_reference)
 from narx.systems import (backlash_second_order, held_sine, operator_record,
@@ -255,11 +255,11 @@ def test_operator_record_noise_level_and_seed():
 
 # ------------------------------------------------- terms with operators
 from narx import Model  # noqa: E402
-from narx.data import as_data  # noqa: E402
-from narx.simulate import simulate  # noqa: E402
-from narx.steady import (cluster_sums, clusters, held_outputs,  # noqa: E402
+from narx.records.data import as_data  # noqa: E402
+from narx.simulation.simulate import simulate  # noqa: E402
+from narx.analysis.steady import (cluster_sums, clusters, held_outputs,  # noqa: E402
                          steady_state_constraints)
-from narx.terms import OpCall, TermError, parse_term  # noqa: E402
+from narx.language.terms import OpCall, TermError, parse_term  # noqa: E402
 
 ISSUE_TERMS = ("y[k-1]", "Play(u[k-1],0.3)", "Play(u[k-1],0.8)", "u[k-1]*Play(u[k-1],0.3)")
 ISSUE_THETA = (0.8, 0.15, 0.1, -0.2)
@@ -380,7 +380,7 @@ def parse_terms_(texts):
 
 # ------------------------------------------------------------ command line
 def _cli(capsys, *argv):
-    from mggp.cli import main
+    from mggp.cli.app import main
     code = main([str(a) for a in argv])
     out, err = capsys.readouterr()
     return code, out, err
@@ -425,8 +425,8 @@ def test_cli_bad_operator_text_exits_2_with_one_line(capsys, tmp_path, bad):
 # ------------------------------------------------------------------ search
 def test_search_pset_with_operators_decodes_and_keeps_phi_only_set():
     import random
-    from mggp.operators import random_individual
-    from mggp.primitives import (Decoder, make_pset, play_radii, search_operators,
+    from mggp.gp.operators import random_individual
+    from mggp.gp.primitives import (Decoder, make_pset, play_radii, search_operators,
                                  tree_from_tokens)
     assert play_radii(np.linspace(-1, 1, 5)) == (0.1, 0.2, 0.4, 0.7)
     ops = search_operators(("play", "dengtan"), np.linspace(-1, 1, 5)[None, :])
@@ -462,8 +462,8 @@ def test_search_pset_with_operators_decodes_and_keeps_phi_only_set():
 
 
 def test_operator_stage_adds_plays_to_a_pi_record_not_to_a_linear_one():
-    from narx.fitness import StructureScorer
-    from mggp.operator_stage import add_operators, operator_candidates
+    from narx.estimation.fitness import StructureScorer
+    from mggp.fit.operator_stage import add_operators, operator_candidates
     rec = operator_record("pi", n=1500, seed=0, snr_db=40)
     start = [parse_term("y[k-1]"), parse_term("u[k-1]")]
     data = as_data(rec.u, rec.y)
@@ -488,7 +488,7 @@ def test_operator_stage_adds_plays_to_a_pi_record_not_to_a_linear_one():
 
 def test_operator_candidates_name_each_input_with_its_own_radii():
     from narx import Data
-    from mggp.operator_stage import operator_candidates
+    from mggp.fit.operator_stage import operator_candidates
     t = np.linspace(0, 6, 60)
     d = Data(np.c_[np.sin(t), 4 * np.cos(t)], np.sin(t), inputs=("E", "v"), output="f")
     texts = [c.text for c in operator_candidates(d, "play,dengtan")]
@@ -551,7 +551,7 @@ def _window_loop(u, y_meas, s, length, theta=OUT_THETA):
 @pytest.mark.parametrize("mode, kw", [("freerun", {}), ("osa", {}), ("ksa", {"k": 4}),
                                       ("ms", {"window": 25})])
 def test_output_operators_every_mode_equals_plain_window_loop(mode, kw):
-    from narx.simulate import recursion_windows
+    from narx.simulation.simulate import recursion_windows
     rec = operator_record("backlash", n=150, seed=5, snr_db=30)
     u, y = rec.u, rec.y                      # not the model's output: windows matter
     r = simulate(tuple(parse_term(t) for t in OUT_TERMS), OUT_THETA, as_data(u, y),
@@ -578,7 +578,7 @@ def test_output_operators_every_mode_equals_plain_window_loop(mode, kw):
 
 # ------------------------------------------------------------ compensation
 def test_compensate_refuses_operator_terms_naming_the_term(capsys, tmp_path):
-    from narx.compensate import RootCompensator
+    from narx.analysis.compensate import RootCompensator
     m = Model(("y[k-1]", "Play(u[k-1],0.3)", "u[k-1]"), theta=(0.5, 0.2, 0.3))
     with pytest.raises(ValueError, match=r"Play\(u\[k-1\],0.3\) cannot be inverted"):
         RootCompensator(m)
@@ -593,8 +593,8 @@ def test_compensate_refuses_operator_terms_naming_the_term(capsys, tmp_path):
 
 
 def test_output_operators_compiled_equals_numpy_loop_and_plugin_runs():
-    from narx.kernels import Plan, run_windows
-    from narx.memory import OperatorRegistry, default_operators
+    from narx.simulation.kernels import Plan, run_windows
+    from narx.language.memory import OperatorRegistry, default_operators
     rec = operator_record("backlash", n=300, seed=6, snr_db=30)
     terms = tuple(parse_term(t) for t in OUT_TERMS)
     plan = Plan.from_terms(terms, ("u",))
@@ -636,7 +636,7 @@ def test_output_operators_compiled_equals_numpy_loop_and_plugin_runs():
 
 
 def test_every_builtin_operator_row_steps_by_its_code():
-    from narx.memory import OPERATOR_BUILTINS, operator_step
+    from narx.language.memory import OPERATOR_BUILTINS, operator_step
     x = _walk(500, seed=9)
     for op in OPERATOR_BUILTINS:
         params = (0.3,) * len(op.params)
@@ -671,8 +671,8 @@ def test_search_with_bouc_wen_operators_finds_them_on_a_piezo_record():
     far better than the same search without operators (control); the
     automatic classes offer them in a class of their own, not with the plays."""
     from mggp import MGGPRegressor
-    from mggp.choices import search_classes
-    from mggp.primitives import bouc_wen_shapes, search_operators
+    from mggp.fit.choices import search_classes
+    from mggp.gp.primitives import bouc_wen_shapes, search_operators
     from narx import Data
     from narx.systems import piezo_bouc_wen, training_input
     u = training_input(2000, seed=4)
@@ -703,10 +703,10 @@ def test_an_overflowing_operator_column_scores_inf_without_numpy_warnings():
     fit on the same record."""
     import warnings
 
-    from narx.data import Data
-    from narx.fitness import StructureScorer
-    from narx.memory import register_operator, unregister_operator
-    from narx.terms import parse_terms
+    from narx.records.data import Data
+    from narx.estimation.fitness import StructureScorer
+    from narx.language.memory import register_operator, unregister_operator
+    from narx.language.terms import parse_terms
 
     def init(x0, p, init=None):
         return np.array([x0, 0.0 if init is None else init])

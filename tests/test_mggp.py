@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from narx.testsystems import SYSTEMS, system_by_name
+from narx.systems.testsystems import SYSTEMS, system_by_name
 
 
 def recover(name, seed, data_seed=0, **kw):
@@ -74,7 +74,7 @@ def test_same_seed_same_model_for_one_and_two_workers():
     assert [r["best"] for r in c.logbook_] != [r["best"] for r in a.logbook_]
 
 
-@pytest.mark.filterwarnings("ignore::mggp.selection.CLSRejectedWarning")
+@pytest.mark.filterwarnings("ignore::mggp.fit.selection.CLSRejectedWarning")
 def test_cls_refit_satisfies_steady_state_constraints():
     u, y = _piezo()
     est = MGGPRegressor(fitness="ms", window=50, population=40, generations=4,
@@ -130,7 +130,7 @@ def test_resume_after_kill_equals_uninterrupted(tmp_path):
 
 
 def test_fit_cli_bad_arguments(tmp_path, capsys):
-    from mggp.cli import main
+    from mggp.cli.app import main
     csv = tmp_path / "d.csv"
     csv.write_text("u,y\n" + "\n".join(f"{i % 7},{i % 5}" for i in range(300)))
     assert main(["fit", str(csv), "--population", "0"]) == 2
@@ -177,13 +177,13 @@ def _two_input_fit(scale=1.0):
 
 
 def _phi_input_sets(terms):
-    from narx.terms import PhiCall
+    from narx.language.terms import PhiCall
     return [{a.signal for a in f.args} for t in terms for f in t.factors
             if isinstance(f, PhiCall)]
 
 
 def test_two_input_search_never_mixes_inputs_in_phi():
-    from mggp.primitives import Decoder
+    from mggp.gp.primitives import Decoder
     est = _two_input_fit()
     dec = Decoder(est.model_.signals)
     searched = [t for ind in est.result_.population for t in dec.decode_individual(ind)]
@@ -224,7 +224,7 @@ def _structures(est):
     """Every structure the fit scored, printed or chose: the final
     population and the archive as scored, the logbook's best, the Pareto
     front, the model."""
-    from mggp.primitives import Decoder
+    from mggp.gp.primitives import Decoder
     dec = Decoder(est.model_.signals)
     res = est.result_
     sizes = [len(est._structure(dec.decode_individual(i))) for i in res.population]

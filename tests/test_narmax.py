@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from narx.testsystems import system_by_name
+from narx.systems.testsystems import system_by_name
 
 SETTINGS = dict(fitness="pem", criterion="bic", population=200, generations=40,
                 max_terms=8, max_height=3, use_phi=False, prune="t", max_lag=4,
@@ -56,7 +56,7 @@ def test_cli_noise_lags_selects_the_ma_terms(tmp_path, capsys):
     """`mggp fit --noise-lags Q` reaches the NARMAX selection; without it no
     noise term appears (control)."""
     import json
-    from mggp.cli import main
+    from mggp.cli.app import main
     d = system_by_name("S5", n=500, seed=1)
     csv = tmp_path / "s5.csv"
     np.savetxt(csv, np.c_[d.u.ravel(), d.y], delimiter=",", header="u,y", comments="")

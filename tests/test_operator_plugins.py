@@ -1,7 +1,7 @@
 """A memory operator registered by the user enters the structure search.
 
-The operator table (:data:`narx.memory.OPERATOR_BUILTINS` and the plug-ins
-of :func:`narx.memory.register_operator`) names every operator the search
+The operator table (:data:`narx.language.memory.OPERATOR_BUILTINS` and the plug-ins
+of :func:`narx.language.memory.register_operator`) names every operator the search
 offers and gives its parameter grid: a toy *stop* operator (the
 elastic-plastic complement of a play), registered here with a grid of
 radii, is searched by name, with ``MGGPRegressor(operators=[...])`` in both
@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from mggp.cli import main
+from mggp.cli.app import main
 from narx import Data
-from narx.memory import default_operators, get_operator, register_operator
+from narx.language.memory import default_operators, get_operator, register_operator
 from narx.systems import training_input
 
 #: the stop radii the search offers, as fractions of the input's range
@@ -87,7 +87,7 @@ def test_a_registered_operator_is_found_where_it_acts_and_only_there(stop, entry
 
 
 def test_the_grid_and_names_come_from_the_table(stop):
-    from mggp.primitives import operator_choices, operator_names, search_operators
+    from mggp.gp.primitives import operator_choices, operator_names, search_operators
     assert operator_choices()["stop"] == "Stop"
     assert operator_names("Play, STOP") == ("play", "stop")
     assert search_operators("stop", U[None, :]) == {"Stop": stop_search(np.ptp(U))}

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from deap import gp
 
-from narx.phi import PhiRegistry
-from narx.terms import Lag, PhiCall, Signals, parse_term
-from mggp.individual import Individual
-from mggp.operators import (cx_high_level, cx_low_level, gen_tree,
+from narx.language.phi import PhiRegistry
+from narx.language.terms import Lag, PhiCall, Signals, parse_term
+from mggp.gp.individual import Individual
+from mggp.gp.operators import (cx_high_level, cx_low_level, gen_tree,
                             mut_high_level, mut_low_level, random_individual,
                             remove_duplicate_genes, sel_tournament)
-from mggp.primitives import (Decoder, Expr, InputLag, LagSymbol, decode,
+from mggp.gp.primitives import (Decoder, Expr, InputLag, LagSymbol, decode,
                              decode_individual, make_pset, max_lag_for_height,
                              tree_from_tokens, tree_to_tokens)
 

@@ -1,5 +1,5 @@
 """Isolated glitches of the output and inputs: found, repaired, and the fit
-that follows (narx.outliers, MGGPRegressor(outliers=...), mggp fit --outliers)."""
+that follows (narx.records.outliers, MGGPRegressor(outliers=...), mggp fit --outliers)."""
 import json
 import subprocess
 import sys
@@ -8,11 +8,11 @@ import warnings
 import numpy as np
 import pytest
 
-import narx.outliers as outliers
+import narx.records.outliers as outliers
 from benchmarks.outliers import (RECEIVERS, TRUE, bilinear_record, glitched, glitched_input,
                                  received)
 from narx import Data, Model
-from narx.outliers import find_spikes, repaired
+from narx.records.outliers import find_spikes, repaired
 
 
 def test_the_planted_spikes_are_found_and_nothing_else():
@@ -259,7 +259,7 @@ def test_the_diagnosis_repairs_the_glitches_of_both_records_and_says_so():
 
 @pytest.mark.parametrize("cmd", [["fit"], ["estimate", "--terms", "y[k-1]"]])
 def test_a_bad_outliers_value_is_one_error_line(tmp_path, cmd):
-    """fit and estimate take --outliers from the one row of mggp.params:
+    """fit and estimate take --outliers from the one row of mggp.fit.params:
     a value not in it gets one error line naming the choices, exit code 2."""
     u, y = bilinear_record()
     path = tmp_path / "rec.csv"

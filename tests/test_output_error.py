@@ -1,16 +1,16 @@
-"""Output-error θ inside the search (``estimator='oe'``, narx.output_error):
+"""Output-error θ inside the search (``estimator='oe'``, narx.estimation.output_error):
 not biased by white measurement noise on the output, where least squares is."""
 import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from narx.data import as_data
-from narx.fitness import StructureScorer
-from narx.gram import cross_products, fixed_dot
+from narx.records.data import as_data
+from narx.estimation.fitness import StructureScorer
+from narx.estimation.gram import cross_products, fixed_dot
 from narx.linalg import iv_lstsq, scaled_lstsq
-from narx.output_error import NOISE_ORDER, burn_in, innovation_mse, noise_order
-from narx.terms import parse_term
-from narx.testsystems import system_by_name, system_piroddi, with_output_noise
+from narx.estimation.output_error import NOISE_ORDER, burn_in, innovation_mse, noise_order
+from narx.language.terms import parse_term
+from narx.systems.testsystems import system_by_name, system_piroddi, with_output_noise
 
 
 def _theta_errors(make, n, estimator, seeds=range(3)):
@@ -123,7 +123,7 @@ def test_oe_search_recovers_s1_from_noisy_output_where_ls_does_not():
 
 
 def test_estimator_enters_checkpoint_context_only_when_set():
-    from mggp.params import context_of, meta_of
+    from mggp.fit.params import context_of, meta_of
     assert "estimator" not in context_of(MGGPRegressor())
     assert context_of(MGGPRegressor(estimator="oe"))["estimator"] == "oe"
     assert meta_of(MGGPRegressor())["estimator"] == "ls"

@@ -1,4 +1,4 @@
-"""narx.paired: the one paired block-bootstrap test of the choices and the
+"""narx.analysis.paired: the one paired block-bootstrap test of the choices and the
 diagnosis; its level under the null (calibration), its power, the block
 length, segments, Holm's correction and bad input."""
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 from scipy.signal import lfilter
 from scipy.stats import binom
 
-from narx.paired import block_length, holm, paired_bootstrap, paired_test
+from narx.analysis.paired import block_length, holm, paired_bootstrap, paired_test
 
 ALPHA = 0.05
 
@@ -21,12 +21,12 @@ def _interval(trials, alpha=ALPHA):
 
 
 def test_the_choices_and_the_diagnosis_call_the_one_test():
-    import mggp.choices
+    import mggp.fit.choices
     import mggp.diagnose.paired
     import mggp.diagnose.verdict
     assert mggp.diagnose.paired.paired_test is paired_test
     assert mggp.diagnose.verdict.paired_test is paired_test
-    assert "paired_test" in mggp.choices.heldout_gain.__code__.co_names
+    assert "paired_test" in mggp.fit.choices.heldout_gain.__code__.co_names
 
 
 # ------------------------------------------------------------ calibration

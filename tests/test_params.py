@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from narx.data import DataError
+from narx.records.data import DataError
 
 from conftest import first_order_record
 
@@ -112,7 +112,7 @@ def test_signature_and_table_agree():
     """MGGPRegressor.__init__ takes exactly the table's parameters, in its
     order, with its defaults (get_params and repr read the table)."""
     import inspect
-    from mggp.params import PARAMS
+    from mggp.fit.params import PARAMS
     sig = inspect.signature(MGGPRegressor.__init__).parameters
     names = [n for n in sig if n != "self"]
     assert names == list(PARAMS)
@@ -128,7 +128,7 @@ def test_signature_and_table_agree():
 def test_checkpoint_context_and_meta_keep_their_names():
     """Checkpoints written before the table resume: the context holds the
     same keys (phi_outputs and constant only when set)."""
-    from mggp.params import context_of, meta_of
+    from mggp.fit.params import context_of, meta_of
     old = {"fitness", "window", "k", "criterion", "search_constraints", "use_phi",
            "phi_names", "max_lag", "max_degree", "screen", "screen_top", "screen_band"}
     assert set(context_of(MGGPRegressor())) == old
@@ -162,18 +162,18 @@ def test_fit_builds_one_scorer_per_setting(record, monkeypatch):
     """The search (in this process) and every stage after it share one
     scorer of the search's settings; select='freerun' adds one free-run
     scorer (several were built: one only to check the settings)."""
-    import narx.fitness
-    import mggp.evaluate
-    import mggp.estimator
-    import mggp.stages
+    import narx.estimation.fitness
+    import mggp.gp.evaluate
+    import mggp.fit.estimator
+    import mggp.fit.stages
     built = []
-    real = narx.fitness.StructureScorer
+    real = narx.estimation.fitness.StructureScorer
 
     class Counting(real):
         def __init__(self, *a, **k):
             built.append(a[1] if len(a) > 1 else k.get("fitness", "ms"))
             super().__init__(*a, **k)
-    for mod in (mggp.evaluate, mggp.estimator, mggp.stages):
+    for mod in (mggp.gp.evaluate, mggp.fit.estimator, mggp.fit.stages):
         monkeypatch.setattr(mod, "StructureScorer", Counting)
     kw = dict(population=10, generations=2, max_height=2, use_phi=False, fitness="ms",
               window=20, random_state=0, prune="bic")
@@ -186,19 +186,19 @@ def test_fit_builds_one_scorer_per_setting(record, monkeypatch):
 
 def test_help_texts_state_the_figures_of_the_constants_they_describe():
     """The help of the automatic choices is written from the constants of
-    mggp.choices, narx.memory (the operator table's search grids) and
-    mggp.operator_stage: changed there,
+    mggp.fit.choices, narx.language.memory (the operator table's search grids) and
+    mggp.fit.operator_stage: changed there,
     the help follows (a fresh interpreter, the constants set before the
     table is built again); control: the shipped values in the shipped help."""
     import subprocess
     import sys
-    from mggp.params import PARAMS
+    from mggp.fit.params import PARAMS
     assert "within 5 % of the least" in PARAMS["size"].help
     assert "by over 5 %" in PARAMS["constant"].help
     assert "over 15 % lower, Bouc–Wen variables over 50 %" in PARAMS["use_phi"].help
     assert "p < 0.05" in PARAMS["constant"].help and "p < 0.05" not in PARAMS["use_phi"].help
-    code = ("import importlib, mggp.choices as c, narx.memory as m, "
-            "mggp.operator_stage as o, mggp.params as p\n"
+    code = ("import importlib, mggp.fit.choices as c, narx.language.memory as m, "
+            "mggp.fit.operator_stage as o, mggp.fit.params as p\n"
             "c.GAIN, c.CLASS_GAIN, c.SIZE_TOLERANCE, c.PILOT = 0.07, 0.25, 0.08, 0.3\n"
             "c.LEVEL = 0.01\n"
             "m.PLAY_RADIUS_FRACTIONS, o.OPERATOR_GAIN = (0.1, 0.4), 0.02\n"
@@ -221,8 +221,8 @@ def test_parameters_in_tiers_common_first():
     rest its *Other Parameters*) and the first group of `mggp fit --help`,
     whose expert groups hold the others."""
     import inspect
-    from mggp.cli import build_parser
-    from mggp.params import PARAMS, TIERS
+    from mggp.cli.app import build_parser
+    from mggp.fit.params import PARAMS, TIERS
     common = [n for n, p in PARAMS.items() if p.tier == "common"]
     assert len(common) == 10 and {p.tier for p in PARAMS.values()} == set(TIERS)
     names = [n for n in inspect.signature(MGGPRegressor.__init__).parameters if n != "self"]
@@ -246,7 +246,7 @@ def test_parameters_in_tiers_common_first():
 
 
 def test_misspelt_keyword_suggests_the_closest_parameter():
-    from mggp.params import unknown_keyword
+    from mggp.fit.params import unknown_keyword
     with pytest.raises(TypeError, match="'max_term': did you mean 'max_terms'"):
         MGGPRegressor(max_term=5)
     assert "did you mean" not in unknown_keyword("qqqq")     # control: nothing close

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from mggp.pareto import ParetoFront
+from mggp.gp.pareto import ParetoFront
 from narx import Model
 
 
@@ -68,7 +68,7 @@ def test_exports_and_errors():
 
 def test_search_front_carries_the_search_parameters():
     from mggp import MGGPRegressor
-    from narx.testsystems import system_by_name
+    from narx.systems.testsystems import system_by_name
     d = system_by_name("S6", n=500, seed=0)
     est = MGGPRegressor(fitness="pem", population=60, generations=8, max_terms=5,
                         max_height=3, use_phi=False, random_state=0).fit(d.u, d.y)
@@ -78,7 +78,7 @@ def test_search_front_carries_the_search_parameters():
     assert all(a > b for a, b in zip(losses, losses[1:]))
     last = f.get_best()
     # the front's θ gives the loss it reports (one-step MSE on the scored rows)
-    from mggp.primitives import max_lag_for_height
+    from mggp.gp.primitives import max_lag_for_height
     s = max_lag_for_height(3)                  # the rows the search scores
     r = last.simulate(d.u, d.y, mode="osa")
     assert np.mean((d.y[s:] - r.y_hat[s:]) ** 2) == pytest.approx(f[-1]["loss"], rel=1e-9)

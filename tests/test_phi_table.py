@@ -1,4 +1,4 @@
-"""The table of built-in Φ-functions (narx.phi.BUILTINS) and every compiled
+"""The table of built-in Φ-functions (narx.language.phi.BUILTINS) and every compiled
 kernel that reads it: each computes the row's numpy function bit for bit,
 and a code not in the table is rejected, never computed."""
 from __future__ import annotations
@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 
 import narx
-import narx.ms_kernel as msk
-from narx.colbuild import ColumnBuilder, build_into
-from narx.data import Data
-from narx.fitness import StructureScorer
-from narx.kernels import Plan, run_windows
-from narx.phi import BUILTINS, FORMS, builtin_code, check_codes, phi_value
-from narx.regressors import factor_column, shift
-from narx.terms import parse_term
+import narx.simulation.ms_kernel as msk
+from narx.records.colbuild import ColumnBuilder, build_into
+from narx.records.data import Data
+from narx.estimation.fitness import StructureScorer
+from narx.simulation.kernels import Plan, run_windows
+from narx.language.phi import BUILTINS, FORMS, builtin_code, check_codes, phi_value
+from narx.records.regressors import factor_column, shift
+from narx.language.terms import parse_term
 
 ROWS = [f for f in BUILTINS]
 UNKNOWN = max(f.code for f in BUILTINS) + 1
@@ -102,7 +102,7 @@ def test_column_builder_is_the_numpy_function(row):
         t = parse_term(text)
         out = np.empty(d.n)
         assert cb.build(t, out)
-        want = np.nan_to_num(narx.regressors.term_column(t, d, y), nan=0.0)
+        want = np.nan_to_num(narx.records.regressors.term_column(t, d, y), nan=0.0)
         np.testing.assert_array_equal(out, want)
 
 

@@ -1,4 +1,4 @@
-"""The search's normal-equation fits against the final QR refit (mggp.precision)."""
+"""The search's normal-equation fits against the final QR refit (mggp.fit.precision)."""
 import subprocess
 import sys
 import warnings
@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from mggp.precision import SearchPrecisionWarning, offsets, search_precision
+from mggp.fit.precision import SearchPrecisionWarning, offsets, search_precision
 from narx import Model
-from narx.data import as_data
-from narx.fitness import StructureScorer
+from narx.records.data import as_data
+from narx.estimation.fitness import StructureScorer
 from conftest import piezo_record
-from narx.terms import parse_terms
+from narx.language.terms import parse_terms
 
 #: a structure a search found on the record below: nearly collinear Φ1 and
 #: output lags, whose exact LS θ (QR) has large cancelling coefficients
@@ -46,7 +46,7 @@ def test_qr_refit_of_collinear_terms_simulates_worse_than_the_search_fit(record)
 def test_estimator_keeps_the_scored_theta_when_the_refit_is_worse(record, monkeypatch):
     """The search is replaced by one that returns COLLINEAR, so the test
     needs no search: model_ must simulate as the search scored it."""
-    import mggp.estimator as E
+    import mggp.fit.estimator as E
     u, y = record
     real = E.evolve
 
@@ -140,7 +140,7 @@ def test_an_output_held_at_its_extreme_is_named_and_a_quantised_one_is_not(tmp_p
     the clip, its count and its longest run; the record unclipped and the
     same record quantised to 40 levels (every level repeats, the extremes
     no more than others) are not (controls)."""
-    from mggp.precision import saturation, saturation_message
+    from mggp.fit.precision import saturation, saturation_message
     u, y = _bilinear()
     top = 0.8 * float(np.max(y))
     clipped = np.minimum(y, top)
@@ -171,7 +171,7 @@ def test_the_cascaded_tanks_saturation_is_named():
     samples (the overflow of the benchmark); the quantised buck converter
     (every 0.2 V level repeats) is not named (control)."""
     from benchmarks.real_data import load_record
-    from mggp.precision import saturation
+    from mggp.fit.precision import saturation
     tanks, buck = load_record("cascaded tanks"), load_record("buck converter")
     if tanks is None or buck is None:
         pytest.skip("shared data not found")

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import narx
-from mggp.cli import main
+from mggp.cli.app import main
 
 from conftest import MODEL19_TERMS, MODEL19_THETA
 
@@ -85,7 +85,7 @@ def test_model19_roots_to_full_precision_and_the_polish_does_it():
     few digits. The polished roots agree with eq. (20) computed exactly to
     1e-12; control: the roots from the eigenvalues (closed form) alone are
     off by more than ten times that."""
-    from narx.quasistatic import _Frozen, _solve_polynomial
+    from narx.analysis.quasistatic import _Frozen, _solve_polynomial
     u = sine(70.0, 1.0, 1e-3, 2)
     k, exact = eq20_exact(u, MODEL19_THETA)
     assert np.all(np.isfinite(exact))
@@ -293,7 +293,7 @@ def test_numerical_default_range_finds_a_far_repelling_root():
 
 
 def test_diverging_free_run_json_and_figure(tmp_path):
-    from mggp.quasistatic_report import plot_quasistatic, summary_markdown
+    from mggp.report.quasistatic import plot_quasistatic, summary_markdown
     qs = narx.quasistatic(narx.Model(["y[k-1]", "u[k-1]"], [1.5, 1.0]),
                           np.sin(np.linspace(0, 30, 3000)))
     assert qs.diverged
@@ -306,7 +306,7 @@ def test_diverging_free_run_json_and_figure(tmp_path):
 def _F(model, data, k, ylags):
     """ŷ_k of the model evaluated by the regressor code (not the frozen
     polynomial), with output lag j at ``ylags[j]``; inputs from the record."""
-    from narx.regressors import regressor_matrix
+    from narx.records.regressors import regressor_matrix
     y = np.zeros(data.n)
     for j, v in ylags.items():
         y[k - j] = v
@@ -466,7 +466,7 @@ def test_caption_names_only_the_curves_the_figure_draws():
     bounding curves on every figure); control: model (19), whose
     attracting (unloading) and repelling (loading) bounding curves are
     drawn and named."""
-    from mggp.quasistatic_report import caption
+    from mggp.report.quasistatic import caption
     u = sine(70.0, 1.0, 1e-3, 2.0)
     flat = caption(narx.quasistatic(narx.Model(["y[k-1]", "Phi1(u[k-1],u[k-2])"],
                                                [1.0, 0.5]), u))

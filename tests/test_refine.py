@@ -67,7 +67,7 @@ def test_refine_refuses_what_it_cannot_do():
 
 def test_estimator_and_cli_refine(tmp_path, capsys):
     from mggp import MGGPRegressor
-    from mggp.cli import main
+    from mggp.cli.app import main
     u, y, ym = first_order(0.1)
     kw = dict(population=20, generations=2, use_phi=False, max_lag=1, max_degree=1,
               random_state=0)
@@ -88,7 +88,7 @@ def test_estimator_and_cli_refine(tmp_path, capsys):
 
 
 def test_a_cls_model_loaded_from_a_file_keeps_its_constraints(tmp_path, piezo_validation):
-    from narx.steady import steady_state_constraints
+    from narx.analysis.steady import steady_state_constraints
     u, y = piezo_validation
     ym = y + np.random.default_rng(2).normal(0, 0.01 * np.ptp(y), y.size)
     terms = ["y[k-1]", "u[k-1]", "Phi1(u[k-1],u[k-2])",
@@ -108,7 +108,7 @@ def test_a_refit_names_its_own_method(tmp_path, piezo_validation):
     file says so, and refine keeps its constraints after loading); refitted
     by LS again, it is an LS model that refine may change freely. Before,
     the first fit's method stayed in meta['estimation']."""
-    from narx.steady import steady_state_constraints
+    from narx.analysis.steady import steady_state_constraints
     u, y = piezo_validation
     ym = y + np.random.default_rng(2).normal(0, 0.01 * np.ptp(y), y.size)
     terms = ["y[k-1]", "u[k-1]", "Phi1(u[k-1],u[k-2])",
@@ -128,7 +128,7 @@ def test_a_refit_names_its_own_method(tmp_path, piezo_validation):
 
 def test_a_diverging_start_is_refused_and_noise_terms_warned(capsys, tmp_path):
     from mggp import MGGPRegressor
-    from mggp.cli import main
+    from mggp.cli.app import main
     u, y, ym = first_order(0.1)
     with pytest.raises(ValueError, match="freerun simulation diverges"):
         refine(narx.Model(["y[k-1]", "u[k-1]"], [1.5, 0.1]), u, ym, mode="freerun")

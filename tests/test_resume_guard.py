@@ -114,7 +114,7 @@ def test_edited_checkpoint_is_refused(tmp_path, edit, text):
 
 
 def test_fitness_cache_is_packed_and_older_files_still_read(tmp_path):
-    from mggp.checkpoint import _pack_cache, _unpack_cache
+    from mggp.gp.checkpoint import _pack_cache, _unpack_cache
     cache = {("u[k-1]", "y[k-1]"): 0.5, ("y[k-1]",): float("inf"), ("u[k-1]",): 1.0}
     packed = _pack_cache(cache)
     assert packed["terms"] == ["u[k-1]", "y[k-1]"]           # each text once
@@ -128,9 +128,9 @@ def test_fitness_cache_is_packed_and_older_files_still_read(tmp_path):
 def test_checkpoint_written_before_phi_outputs_resumes(tmp_path):
     """A default run's settings are those of the version before phi_outputs
     (no such context key), so its checkpoints still resume."""
-    from mggp.checkpoint import settings_fingerprint
-    from mggp.primitives import make_pset
-    from narx.data import as_data
+    from mggp.gp.checkpoint import settings_fingerprint
+    from mggp.gp.primitives import make_pset
+    from narx.records.data import as_data
     ck = tmp_path / "ck.json"
     MGGPRegressor(random_state=1, checkpoint=ck, **KW).fit(*record(0))
     doc = json.loads(ck.read_text())

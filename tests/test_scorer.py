@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import narx
-import narx.ms_kernel as msk
-from narx.data import Data
-from narx.fitness import StructureScorer
+import narx.simulation.ms_kernel as msk
+from narx.records.data import Data
+from narx.estimation.fitness import StructureScorer
 
 
 def _record(n, seed=0):
@@ -27,7 +27,7 @@ def _record(n, seed=0):
 #: no store, lazy or not, could show its growth (a CI run read 0 bytes)
 _MEASURE = """
 import json
-from narx.fitness import ColumnStore
+from narx.estimation.fitness import ColumnStore
 
 def resident(array):
     # resident bytes of the mappings that hold array, from the page tables

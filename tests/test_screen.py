@@ -1,14 +1,14 @@
-"""Free-run stability screen (mggp.screen) and MGGPRegressor(screen='freerun')."""
+"""Free-run stability screen (mggp.fit.screen) and MGGPRegressor(screen='freerun')."""
 import math
 
 import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from mggp.screen import StabilityScreen
-from narx.data import as_data
+from mggp.fit.screen import StabilityScreen
+from narx.records.data import as_data
 from narx.systems import piezo_bouc_wen, training_input
-from narx.terms import parse_term
+from narx.language.terms import parse_term
 
 
 def _piezo():
@@ -102,7 +102,7 @@ def test_screened_search_result_stays_in_band_where_the_plain_one_diverges():
 def test_screen_control_nothing_to_reject_leaves_the_search_alone():
     # a stable polynomial system: no leader leaves the band, nothing is
     # rejected, and the screened search is the plain one
-    from narx.testsystems import system_by_name
+    from narx.systems.testsystems import system_by_name
     d = system_by_name("S2", n=500, seed=0)
     kw = dict(fitness="ms", window=20, population=60, generations=10, max_terms=6,
               max_height=3, use_phi=False, n_jobs=1, random_state=1)
@@ -125,7 +125,7 @@ def test_screened_search_same_for_one_and_two_workers():
 
 def test_fit_cli_screen(tmp_path, capsys):
     import json
-    from mggp.cli import main
+    from mggp.cli.app import main
     u, y = _piezo()
     csv = tmp_path / "d.csv"
     csv.write_text("u,y\n" + "\n".join(f"{float(a)!r},{float(b)!r}" for a, b in zip(u[:2000], y[:2000])))
@@ -138,7 +138,7 @@ def test_fit_cli_screen(tmp_path, capsys):
 
 
 def test_select_hold_picks_a_structure_whose_cls_refit_holds():
-    from mggp.selection import select_hold
+    from mggp.fit.selection import select_hold
     from benchmarks.casestudy import MODEL19
     u, y = _piezo()
     d = as_data(u, y)
@@ -160,7 +160,7 @@ def test_select_hold_picks_a_structure_whose_cls_refit_holds():
 
 def test_hold_test_on_short_records():
     # stretches shrink with the record; a record too short says so
-    from narx.testsystems import system_by_name
+    from narx.systems.testsystems import system_by_name
     d = system_by_name("S2", n=500, seed=0)
     data = as_data(d.u, d.y)
     sc = StabilityScreen(data, start=4, top=1, hold=True)

@@ -1,4 +1,4 @@
-"""Simulation modes (narx.simulate, narx.kernels, Model.simulate) and metrics.
+"""Simulation modes (narx.simulate, narx.simulation.kernels, Model.simulate) and metrics.
 
 The main reference is a slow, obvious Python simulator written here from
 factor descriptions (not from narx's parsed terms): for a window starting at
@@ -18,11 +18,11 @@ import pytest
 
 import narx
 from narx import Model, PhiRegistry, parse_terms, simulate
-from narx.data import Data, DataError
-from narx.kernels import Plan
-from narx.metrics import mape, mse, nrmse, rmse, rrse
+from narx.records.data import Data, DataError
+from narx.simulation.kernels import Plan
+from narx.simulation.metrics import mape, mse, nrmse, rmse, rrse
 from narx.systems import bouc_wen_discrete, bouc_wen_discrete_narx, training_input
-from narx.testsystems import system_piroddi
+from narx.systems.testsystems import system_piroddi
 
 # --------------------------------------------------------------- reference
 REF_PHI = {"Phi1": lambda a, b: a - b,
@@ -555,8 +555,8 @@ def test_a_horizon_or_window_for_another_mode_is_refused():
 
 # --------------------------------------------------------------- mode names
 def test_one_table_names_each_mode_once_and_its_aliases():
-    from narx.fitness import FITNESS, StructureScorer
-    from narx.simulate import MODE_TABLE, MODES, mode_name
+    from narx.estimation.fitness import FITNESS, StructureScorer
+    from narx.simulation.simulate import MODE_TABLE, MODES, mode_name
     assert MODES == ("osa", "freerun", "ksa", "ms") and FITNESS == MODES
     names = [n for n, _, _ in MODE_TABLE] + [a for _, al, _ in MODE_TABLE for a in al]
     assert len(names) == len(set(names))                 # no name means two modes

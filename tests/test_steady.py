@@ -1,4 +1,4 @@
-"""Steady-state clusters and continuum-of-steady-states constraints (narx.steady),
+"""Steady-state clusters and continuum-of-steady-states constraints (narx.analysis.steady),
 and CLS on the published case study.
 
 The constraints are checked as matrices (rows of S and entries of c, mapped
@@ -218,8 +218,8 @@ def test_cls_model_holds_its_output_when_the_input_is_held(piezo_models):
 def test_constraints_of_term_texts():
     """Term texts are accepted as the rest of the API accepts them (an
     AttributeError before)."""
-    from narx.steady import steady_state_constraints
-    from narx.terms import parse_terms
+    from narx.analysis.steady import steady_state_constraints
+    from narx.language.terms import parse_terms
     texts = ["y[k-1]", "u[k-1]", "u[k-2]", "Phi1(u[k-1],u[k-2])"]
     a = steady_state_constraints(texts)
     b = steady_state_constraints(parse_terms(texts))

@@ -100,7 +100,7 @@ def test_study_rejects_bad_settings_in_one_line(capsys):
 def test_error_groups_keep_small_errors_on_their_own_axis():
     """Errors within ten times of a group's largest share its panel; the
     0.2-sized errors do not share the 20-sized ones'."""
-    from mggp.report import error_groups
+    from mggp.report.summary import error_groups
     y = np.zeros(100)
     sims = {n: np.full(100, v) for n, v in
             (("MS-LS", 0.2), ("PEM", 22.0), ("toolbox", 4.5), ("m19", 1.2), ("MS-CLS", 0.19))}

@@ -1,4 +1,4 @@
-"""Tests of narx.systems (reference hysteretic systems) and narx.testsystems."""
+"""Tests of narx.systems (reference hysteretic systems) and narx.systems.testsystems."""
 import re
 
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 
 from narx.systems import (HeldSine, bouc_wen_discrete, bouc_wen_discrete_narx, held_sine,
                           piezo_bouc_wen, prandtl_ishlinskii, sine_input, training_input)
-from narx.testsystems import (SYSTEMS, TRANSIENT, TestSystemData, hammerstein,
+from narx.systems.testsystems import (SYSTEMS, TRANSIENT, TestSystemData, hammerstein,
                               polynomial_narx, system_by_name, system_piroddi)
 
 

@@ -1,4 +1,4 @@
-"""The term language (narx.terms) and the Φ-function registry (narx.phi).
+"""The term language (narx.language.terms) and the Φ-function registry (narx.language.phi).
 
 Independent checks: canonical text is a function of the term only (order
 of factors, spelling of powers), print -> parse -> print is the identity on
@@ -350,7 +350,7 @@ def test_narx_sources_compile_without_warnings():
     """Invalid escapes in docstrings (e.g. LaTeX without r"...") warn at import."""
     import pathlib
     import warnings
-    files = sorted(pathlib.Path(narx.__file__).parent.glob("*.py"))
+    files = sorted(pathlib.Path(narx.__file__).parent.rglob("*.py"))
     assert len(files) >= 14
     for path in files:
         with warnings.catch_warnings():

@@ -1,7 +1,7 @@
 """Term text <-> neutral structure, and <-> the published toolbox's GP trees.
 
 The peers never import ``narx``; this tiny parser keeps them independent (it
-does not replace ``narx.terms``). The neutral structure of a term is a list
+does not replace ``narx.language.terms``). The neutral structure of a term is a list
 of factors, each ``{"kind": "lag", "signal": "u", "lag": 1}`` or ``{"kind":
 "phi", "name": "Phi2", "args": [{"signal": "u", "lag": 4}, {"signal": "u",
 "lag": 1}]}``; ``[]`` is the constant term ``1``. ``Phi1(a,b) = a - b``,

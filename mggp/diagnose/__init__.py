@@ -2,7 +2,7 @@
 
 Typical use::
 
-    from narx.csvdata import read_csv
+    from narx.records.csvdata import read_csv
     from mggp.diagnose import diagnose, Budget
     dx = diagnose(read_csv("train.csv"), validation=read_csv("val.csv"),
                   budget=Budget(population=100, generations=20), seed=0, jobs=2)
@@ -27,7 +27,7 @@ and output-driven memory for ``hysteresis``; more lags, more degree, CLS
 for the memory-free effects), each fitted on the fitting samples; the
 verdict (:mod:`.verdict`): every candidate against the baseline by a
 paired block-bootstrap test of their free-run losses on the selection
-samples (:mod:`narx.paired`, Holm over the candidates;
+samples (:mod:`narx.analysis.paired`, Holm over the candidates;
 ``hysteresis`` must also beat the best memory-free class), the effect
 named by the class that wins; the gain of the winner measured on the
 measuring samples, which played no part in any choice; report and

@@ -63,9 +63,9 @@ import numpy as np
 from scipy.linalg import solve_triangular
 
 from narx import Model
-from narx.data import Data
-from narx.estimate import EstimationError
-from narx.regressors import regressor_matrix
+from narx.records.data import Data
+from narx.estimation.estimate import EstimationError
+from narx.records.regressors import regressor_matrix
 
 from .findings import Check, number_text as _g
 from .registry import DiagnosticTest, Outcome
@@ -166,8 +166,8 @@ def _placebo(terms, name, v):
 def _operator_texts(data: Data, names, lags) -> List[str]:
     """Terms of the operators ``names`` (command-line names) of each input at
     each lag, one per tuple of the search's grid of that input
-    (:func:`mggp.primitives.operator_grid`)."""
-    from ..primitives import operator_choices, operator_grid
+    (:func:`mggp.gp.primitives.operator_grid`)."""
+    from ..gp.primitives import operator_choices, operator_grid
     choices = operator_choices()
     return [f"{choices[o]}({n}[k-{j}]" + "".join(f",{v:g}" for v in p) + ")"
             for n in data.inputs for j in lags for o in names
@@ -175,26 +175,26 @@ def _operator_texts(data: Data, names, lags) -> List[str]:
 
 
 def operator_terms(data: Data, lags=(1,), scaled_only: bool = False) -> List[str]:
-    """Memory-operator terms of each input (:mod:`narx.memory`) at each lag:
+    """Memory-operator terms of each input (:mod:`narx.language.memory`) at each lag:
     the operators of the class ``operators`` of the automatic choice
-    (:data:`mggp.primitives.AUTO_OPERATORS`: plays of the search's radii,
+    (:data:`mggp.gp.primitives.AUTO_OPERATORS`: plays of the search's radii,
     fractions of the input's range, and Deng–Tan); with ``scaled_only``
     only those with parameters, which the grid sets from the input's range
     (the plays; Deng–Tan's shape depends on the input's units)."""
-    from ..primitives import AUTO_OPERATORS, operator_choices
-    from narx.memory import get_operator
+    from ..gp.primitives import AUTO_OPERATORS, operator_choices
+    from narx.language.memory import get_operator
     names = [o for o in AUTO_OPERATORS
              if not scaled_only or get_operator(operator_choices()[o]).params]
     return _operator_texts(data, names, lags)
 
 
 def bouc_wen_terms(data: Data, lags=(1,)) -> List[str]:
-    """Bouc–Wen operator terms of each input (:func:`narx.memory.bouc_wen`)
+    """Bouc–Wen operator terms of each input (:func:`narx.language.memory.bouc_wen`)
     at each lag, one per shape of the search's grid (the class
-    ``Bouc–Wen`` of :func:`mggp.primitives.auto_classes`; β from the
+    ``Bouc–Wen`` of :func:`mggp.gp.primitives.auto_classes`; β from the
     input's range). The Bouc–Wen gain is the term's coefficient, so a
     weighted sum of them is found by least squares."""
-    from ..primitives import auto_classes
+    from ..gp.primitives import auto_classes
     return _operator_texts(data, auto_classes()["Bouc–Wen"], lags)
 
 

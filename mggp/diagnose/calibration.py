@@ -43,7 +43,7 @@ import numpy as np
 from scipy.stats import beta
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 
 from .context import Context
 from .controls import CONTROL_KINDS, control_record

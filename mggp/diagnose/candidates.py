@@ -62,11 +62,11 @@ from typing import List, Optional, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data
-from narx.estimate import EstimationError
+from narx.records.data import Data
+from narx.estimation.estimate import EstimationError
 from narx.model import ignore_rank_warnings
-from narx.regressors import regressor_matrix
-from narx.terms import Signals, parse_term
+from narx.records.regressors import regressor_matrix
+from narx.language.terms import Signals, parse_term
 
 from .augmentation import direction_terms
 from .simulation import freerun_rmse
@@ -86,7 +86,7 @@ MAX_NEW = 20
 #: play radii of the candidates, as fractions of the signal's range: a grid
 #: dense enough that a weighted sum of neighbours stands in for a play of
 #: any radius up to 0.4 of the range (the search's four radii
-#: :data:`mggp.primitives.PLAY_RADIUS_FRACTIONS` left a play of 0.15 of
+#: :data:`mggp.gp.primitives.PLAY_RADIUS_FRACTIONS` left a play of 0.15 of
 #: the range at 16 times the noise level in free run)
 PLAY_FRACTIONS = tuple(round(0.025 * j, 3) for j in range(1, 17))
 def _plays(signal: str, x, lags) -> List[str]:
@@ -100,11 +100,11 @@ def _plays(signal: str, x, lags) -> List[str]:
 
 def _bouc_wens(signal: str, x, lags) -> List[str]:
     """Bouc–Wen variables of ``signal`` at ``lags`` on the search's grid of
-    shapes (:func:`mggp.primitives.bouc_wen_shapes` of ``x``; the gain is
+    shapes (:func:`mggp.gp.primitives.bouc_wen_shapes` of ``x``; the gain is
     the term's coefficient). A denser grid (9 × 3 shapes) made the
     forward selection pick near-collinear columns: on the piezo record the
     candidate's selection RMSE rose from 0.34 to 1.6."""
-    from ..primitives import bouc_wen_shapes
+    from ..gp.primitives import bouc_wen_shapes
     return [f"BoucWen({t},{beta:g},{gamma:g})" for beta, gamma in bouc_wen_shapes(x)
             for t in _lags(signal, lags)]
 
@@ -199,7 +199,7 @@ def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
 
 
 def _canonical(terms, data: Data, registry) -> list:
-    """``terms`` parsed (:class:`narx.terms.Term`, parsed once: a model built
+    """``terms`` parsed (:class:`narx.language.terms.Term`, parsed once: a model built
     from them does not parse again), each once, in order."""
     sig = Signals(data.output, data.inputs)
     return list(dict.fromkeys(parse_term(t, sig, registry=registry) for t in terms))

@@ -17,7 +17,7 @@ from typing import Dict, List, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 
 from .budget import Budget
 from .holds import HoldResponse, continuum_violations, find_holds, hold_responses

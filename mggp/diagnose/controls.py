@@ -40,7 +40,7 @@ from typing import Tuple
 import numpy as np
 from scipy.signal import butter, lfilter
 
-from narx.data import Data
+from narx.records.data import Data
 
 __all__ = ["CONTROL_KINDS", "APPROXIMATION", "ControlRecord", "control_record"]
 

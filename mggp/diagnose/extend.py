@@ -21,7 +21,7 @@ The extension changes the search the way each cause calls for
 (:data:`mggp.diagnose.findings.EXTENSIONS`):
 
 * ``hysteresis`` — Φ-functions and the memory operators Play, DengTan
-  (:mod:`narx.memory`) in the primitive set (if the baseline already had
+  (:mod:`narx.language.memory`) in the primitive set (if the baseline already had
   Φ-functions: five more terms), the three Bouc–Wen direction terms
   (:func:`~mggp.diagnose.augmentation.direction_terms`) added to the
   baseline's terms, to the search's, and as a discrete Bouc–Wen
@@ -34,7 +34,7 @@ The extension changes the search the way each cause calls for
 * ``prediction-bias`` — multiple-shooting fitness (if the baseline already
   used it: windows four times longer, closer to a free run);
 * ``steady-state-drift`` — CLS under the continuum-of-steady-states
-  constraints derived from the terms (:mod:`narx.steady`), in the search
+  constraints derived from the terms (:mod:`narx.analysis.steady`), in the search
   and in the final fit; with no other cause the baseline's own terms are
   refitted by CLS, and a CLS search is run only if that refit is impossible
   or diverges on the fitting record;
@@ -73,13 +73,13 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data
-from narx.estimate import EstimationError
+from narx.records.data import Data
+from narx.estimation.estimate import EstimationError
 from narx.model import ignore_rank_warnings
-from narx.terms import Signals, parse_term
+from narx.language.terms import Signals, parse_term
 
-from ..primitives import AUTO_OPERATORS
-from ..selection import CLSRejectedWarning
+from ..gp.primitives import AUTO_OPERATORS
+from ..fit.selection import CLSRejectedWarning
 from .augmentation import bouc_wen_terms, direction_terms, operator_terms
 from .budget import Budget
 from .holds import probe_holds
@@ -91,7 +91,7 @@ __all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search",
            "OPERATORS"]
 
 _SPECIFIC = ("hysteresis", "prediction-bias", "steady-state-drift")
-#: memory operators of the hysteresis search (:mod:`narx.memory`)
+#: memory operators of the hysteresis search (:mod:`narx.language.memory`)
 OPERATORS = AUTO_OPERATORS
 
 
@@ -173,8 +173,8 @@ class Extension:
 
 
 def _regressor(setting: Setting, budget: Budget, seed, jobs, data: Data, callbacks=None):
-    from ..choices import AS_SEARCHED
-    from ..estimator import MGGPRegressor
+    from ..fit.choices import AS_SEARCHED
+    from ..fit.estimator import MGGPRegressor
     return MGGPRegressor(fitness=setting.fitness or "ms", window=setting.window,
                          use_phi=setting.use_phi, constraints=setting.constraints,
                          search_constraints=setting.constraints,
@@ -197,7 +197,7 @@ def baseline_search(data: Data, budget: Budget, seed=0, jobs=1,
     """MGGP with MS fitness and no Φ on ``data``; returns the LS model.
 
     ``callbacks(generations)``, if given, returns the search's per-generation
-    callbacks (:class:`~mggp.estimator.MGGPRegressor` ``callbacks``)."""
+    callbacks (:class:`~mggp.fit.estimator.MGGPRegressor` ``callbacks``)."""
     setting = Setting("ms", _fit_window(budget.window, data), False, None, budget.max_degree,
                       budget.max_height, budget.max_terms)
     est = _regressor(setting, budget, seed, jobs, data, callbacks).fit(data)
@@ -381,7 +381,7 @@ def _pruned(terms: List[str], data: Data, constraints, registry) -> List[str]:
     ``data`` and simulated in free run; while dropping one term lowers
     BIC = n ln J + p ln n, with J the free-run mean squared error on the
     n samples and p the number of terms [1]_, the term whose removal lowers
-    it most is dropped (:func:`mggp.pruning.prune_by_criterion`). A term
+    it most is dropped (:func:`mggp.fit.pruning.prune_by_criterion`). A term
     that only fits the noise of the fitting samples, or an input lag an
     added memory operator makes redundant, costs more in the simulation
     beyond them than it gains inside. The criterion is computed on the
@@ -394,7 +394,7 @@ def _pruned(terms: List[str], data: Data, constraints, registry) -> List[str]:
        polynomial NARX models based on simulation error minimization",
        Int. J. Control 76(17), 2003, 1767-1781 (pruning by simulation error).
     """
-    from ..pruning import prune_by_criterion
+    from ..fit.pruning import prune_by_criterion
 
     class _FreeRun:
         @staticmethod

@@ -34,7 +34,7 @@ moves the output by
 .. math:: r(\\bar y, \\bar u) = \\sum_c \\Sigma_c\\, m_c(\\bar y, \\bar u) - \\bar y,
 
 which is 0 for every (ȳ, ū) exactly when Σ_y = 1 and every other cluster
-sum is 0 (a continuum of steady states, :mod:`narx.steady`).
+sum is 0 (a continuum of steady states, :mod:`narx.analysis.steady`).
 
 The hold responses are what the report's holds figure draws
 (:mod:`mggp.diagnose.report`); probe holds (:func:`probe_holds`) rank the
@@ -49,7 +49,7 @@ from typing import List, Optional, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 
 
 __all__ = ["find_holds", "input_noise", "difference_noise", "HoldResponse", "hold_responses",

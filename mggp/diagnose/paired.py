@@ -1,4 +1,4 @@
-"""The paired held-out test of the diagnosis: :mod:`narx.paired`.
+"""The paired held-out test of the diagnosis: :mod:`narx.analysis.paired`.
 
 Typical use::
 
@@ -8,9 +8,9 @@ Typical use::
     t.p_value, t.block, t.mean_difference      # one-sided: the candidate is better
 
 The diagnosis (:mod:`.verdict`) and the automatic choices of ``mggp fit``
-(:mod:`mggp.choices`) use the one test of :mod:`narx.paired`; this module
+(:mod:`mggp.fit.choices`) use the one test of :mod:`narx.analysis.paired`; this module
 names it where the diagnosis's other parts live.
 """
-from narx.paired import BOOTSTRAP_DRAWS, PairedTest, block_length, holm, paired_test
+from narx.analysis.paired import BOOTSTRAP_DRAWS, PairedTest, block_length, holm, paired_test
 
 __all__ = ["PairedTest", "paired_test", "block_length", "holm", "BOOTSTRAP_DRAWS"]

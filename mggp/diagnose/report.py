@@ -21,11 +21,11 @@ from typing import List, Optional
 import numpy as np
 
 from narx.atomic import atomic_write_text
-from narx.outliers import Spike, spikes_text
+from narx.records.outliers import Spike, spikes_text
 
-from ..plotting import figure, save as _save
-from ..quasistatic_report import diagnosis_figure
-from ..report import figure_lines
+from ..report.plotting import figure, save as _save
+from ..report.quasistatic import diagnosis_figure
+from ..report.summary import figure_lines
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
 from .simulation import direction_of_change, simulation_residual

@@ -21,7 +21,7 @@ model recommended is the one the test chose). Each record is simulated
 free from its first L measured samples (L = the largest lag of the
 models compared), and the errors are scored after them, the same samples
 for every model; on a training-record part the models' memory operators
-(:mod:`narx.memory`) carry their state from the inputs before it (they
+(:mod:`narx.language.memory`) carry their state from the inputs before it (they
 are measured), while a validation record starts them at rest. The
 evidence comes from the fitting samples; held-input segments are
 searched in both records; nothing is fitted or chosen on the measuring
@@ -38,9 +38,9 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data, DataError
-from narx.metrics import mape
-from narx.outliers import find_spikes, repaired
+from narx.records.data import Data, DataError
+from narx.simulation.metrics import mape
+from narx.records.outliers import find_spikes, repaired
 
 from .context import Context
 from .candidates import candidate_structures, fit_structure, stays_bounded
@@ -326,15 +326,15 @@ def outside_fit_range(fit: Data, measure: Data, start: int = 0) -> Dict[str, flo
 def _reach_dead_time(fit: Data, budget: Budget):
     """``(budget, said)``: the budget with its tree height raised to the
     least that reaches every input acting on the output only beyond the
-    lags its height reaches (:func:`mggp.choices.dead_time_height`, the
+    lags its height reaches (:func:`mggp.fit.choices.dead_time_height`, the
     rule of ``max_height='auto'``), and what was found in words (None: no
     such input). A baseline that cannot reach a dead time misses dynamics
     that no hysteresis term supplies, and the tests would name the wrong
-    cause. A dead time beyond what :data:`mggp.primitives.MAX_HEIGHT`
+    cause. A dead time beyond what :data:`mggp.gp.primitives.MAX_HEIGHT`
     reaches leaves the height."""
     from dataclasses import replace
-    from narx.deadtime import late_words
-    from ..choices import dead_time_height
+    from narx.records.deadtime import late_words
+    from ..fit.choices import dead_time_height
     h, late, reach = dead_time_height(fit, budget.max_height)
     if not late:
         return budget, None
@@ -394,7 +394,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
         callbacks of each MGGP search (e.g. the progress line of ``mggp fit``).
     outliers : {'auto', 'keep'}
         'auto': isolated glitches of each record's output and inputs are repaired
-        first (:mod:`narx.outliers`, the rule of ``mggp fit``; listed in
+        first (:mod:`narx.records.outliers`, the rule of ``mggp fit``; listed in
         ``settings['outliers']`` and the summary); 'keep': every sample as
         measured.
     """

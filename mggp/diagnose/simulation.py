@@ -15,7 +15,7 @@ from typing import Optional, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data
+from narx.records.data import Data
 
 __all__ = ["direction_of_change", "bounded_mode", "simulation_residual", "freerun_rmse",
            "freerun_after", "fresh_name"]
@@ -85,7 +85,7 @@ def freerun_after(model: Model, data: Data, first: int):
     the measured outputs there, with the input-only parts of its terms
     computed over the whole record.
 
-    A memory operator of an input (:mod:`narx.memory`, e.g. a play
+    A memory operator of an input (:mod:`narx.language.memory`, e.g. a play
     :math:`v_k = \max(\min(x_k + r, v_{k-1}), x_k - r)`) carries a state
     that depends on every earlier input sample; started on a cut record
     it would begin at rest on the cut's first sample and keep that error
@@ -97,11 +97,11 @@ def freerun_after(model: Model, data: Data, first: int):
 
     Returns
     -------
-    narx.simulate.SimulationResult
+    narx.simulation.simulate.SimulationResult
         Over samples ``first..`` (index 0 is sample ``first``).
     """
-    from narx.kernels import Plan
-    from narx.simulate import simulate
+    from narx.simulation.kernels import Plan
+    from narx.simulation.simulate import simulate
     first = int(first)
     if first <= 0:
         return model.simulate(data, mode="freerun")

@@ -52,8 +52,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from narx import Model
-from narx.data import Data
-from narx.paired import PairedTest, holm, paired_test
+from narx.records.data import Data
+from narx.analysis.paired import PairedTest, holm, paired_test
 
 from .candidates import MEMORY, MEMORY_FREE, Structure
 from .findings import json_number, number_text

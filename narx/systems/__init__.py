@@ -493,7 +493,7 @@ def pi_first_order(u, radii=(0.0, 0.2, 0.4, 0.6, 0.8),
         z_k = \sum_j w_j\, P_{r_j}(u)_k, \qquad
         y_k = a\, y_{k-1} + (1 - a)\, z_{k-1}, \quad y_0 = z_0,
 
-    with the plays :math:`P_r` of :func:`narx.memory.play` at rest on
+    with the plays :math:`P_r` of :func:`narx.language.memory.play` at rest on
     :math:`u_0`. It is exactly the NARX model with terms ``y[k-1]`` and
     ``Play(u[k-1],r_j)`` (``r = 0`` is ``u[k-1]``), θ = (a, (1-a) w_j).
 
@@ -511,7 +511,7 @@ def pi_first_order(u, radii=(0.0, 0.2, 0.4, 0.6, 0.8),
     -------
     y : ndarray, shape (N,)
     """
-    from ..memory import play
+    from ..language.memory import play
     u = _signal("u", u)
     r = _signal("radii", np.atleast_1d(radii))
     w = _signal("weights", np.atleast_1d(weights))
@@ -555,7 +555,7 @@ def backlash_second_order(u, r=0.25, motor=0.7, load=0.85):
     -------
     y : ndarray, shape (N,)
     """
-    from ..memory import play
+    from ..language.memory import play
     u = _signal("u", u)
     r = _num("r", r, "nonneg")
     poles = [_num(n, v, "nonneg") for n, v in (("motor", motor), ("load", load))]

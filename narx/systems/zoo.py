@@ -3,8 +3,8 @@ r"""The system zoo: seeded input/output records of named families, with their tr
 A *draw* is one simulated experiment: a system of a named family with
 randomly drawn parameters, a training record and a validation record (other
 inputs), output noise, and the *truth*: the structure of the system in the
-canonical term language (:mod:`narx.terms`), exact where the family is a
-NARX model with the project's memory operators (:mod:`narx.memory`), else
+canonical term language (:mod:`narx.language.terms`), exact where the family is a
+NARX model with the project's memory operators (:mod:`narx.language.memory`), else
 the best expert structure. The zoo is the measuring instrument of
 ``mggp diagnose`` and of the defaults: development seeds calibrate, the
 evaluation seeds report (:func:`tuning` makes the separation a rule).
@@ -41,7 +41,7 @@ as they were):
   weights), ``preisach`` (relays on an M×M grid of thresholds over ±A, M
   in 8–14, density a random Gaussian bump in the half-width/centre plane
   times a random factor per relay), ``bouc-wen`` (unit-gain variable of
-  :func:`narx.memory.bouc_wen`, βA log-uniform in 0.5–10, γ/β in
+  :func:`narx.language.memory.bouc_wen`, βA log-uniform in 0.5–10, γ/β in
   −0.5–1, scaled so its virgin curve reaches A at A), ``dahl`` (Dahl
   friction :math:`dF/dx = \sigma(1 - F/F_c\,\mathrm{sgn}\,\dot x)`, that is
   :math:`F = \sigma\,\mathrm{BoucWen}(x, \sigma/F_c, 0)`, σA/F_c
@@ -101,7 +101,7 @@ of our term language: the hysteretic families except ``preisach`` placed
 ``Phi1(y[k-1],y[k-2])*Phi1(y[k-1],y[k-2])*Phi2(y[k-1],y[k-2])`` is
 :math:`v|v|`) and ``dead-time``. The recursion holds from the truth's
 largest lag on, the memory operators starting at rest on the first sample
-(:mod:`narx.memory`), so least squares on a noise-free record recovers the
+(:mod:`narx.language.memory`), so least squares on a noise-free record recovers the
 output to rounding. Otherwise the truth is the best expert structure
 (``exact=False``, ``description`` says why): hysteresis ``after`` the
 dynamics gets the ``before`` structure (the operator on input lags);
@@ -134,10 +134,10 @@ import numpy as np
 from numba import njit
 from scipy import signal
 
-from ..data import Data
+from ..records.data import Data
 from ..exceptions import SeedLeakError
-from ..memory import bouc_wen, bouc_wen_step, play, play_step
-from ..terms import format_param, parse_term
+from ..language.memory import bouc_wen, bouc_wen_step, play, play_step
+from ..language.terms import format_param, parse_term
 from . import training_input
 
 __all__ = ["Draw", "Truth", "SeedLeak", "SeedLeakError", "draw", "draws", "tuning", "guard",
@@ -210,7 +210,7 @@ class Truth:
     Attributes
     ----------
     terms : tuple of str
-        Canonical term texts (:func:`narx.terms.parse_term`).
+        Canonical term texts (:func:`narx.language.terms.parse_term`).
     exact : bool
         True when the system *is* a NARX model of these terms (least
         squares on a noise-free record recovers it to rounding); False
@@ -530,7 +530,7 @@ class _Hysteresis:
         return self.kind != _PREISACH
 
     def state(self, x0: float) -> np.ndarray:
-        """State at rest on ``x0`` (narx.memory's default initial state)."""
+        """State at rest on ``x0`` (narx.language.memory's default initial state)."""
         if self.kind == _PLAYS:
             return np.full(len(self.p1), float(x0))
         if self.kind == _BOUC_WEN:
