@@ -89,6 +89,9 @@ MAX_NEW = 20
 #: :data:`mggp.primitives.PLAY_RADIUS_FRACTIONS` left a play of 0.15 of
 #: the range at 16 times the noise level in free run)
 PLAY_FRACTIONS = tuple(round(0.025 * j, 3) for j in range(1, 17))
+#: most free-run simulations per parameter when a candidate's θ is refined
+#: by simulation error (:func:`fit_structure`)
+REFINE_NFEV = 20
 def _plays(signal: str, x, lags) -> List[str]:
     """Plays of ``signal`` at ``lags``, radii :data:`PLAY_FRACTIONS` of the range of ``x``."""
     span = float(np.ptp(x))
@@ -114,7 +117,8 @@ class Structure:
     """A candidate: the ``effect`` it fixes, its ``name``, what it changes in
     words, the terms kept as they are (``base``: the baseline's, or none
     when the candidate replaces it), the new terms offered (``new``), and
-    the estimation (``constraints``: None for LS)."""
+    the estimation (``constraints``: None for LS; ``refine``: θ also by
+    free-run simulation error, kept when it scores better on the hold-out)."""
 
     effect: str
     name: str
@@ -122,6 +126,8 @@ class Structure:
     base: Tuple[str, ...]
     new: Tuple[str, ...]
     constraints: Optional[str] = None
+    #: θ also by simulation error (:func:`fit_structure`)
+    refine: bool = False
 
 
 def _lags(name: str, lags) -> List[str]:
@@ -140,6 +146,27 @@ def _output_memory(data: Data) -> List[str]:
     out = [s, f"{s}*{y}[k-1]", f"Phi1({y}[k-1],{y}[k-2])*{s}"]
     out += [f"{s}*{n}[k-1]" for n in data.inputs]
     return out + _plays(y, data.y, (1,))
+
+
+def _output_operators(data: Data) -> List[str]:
+    r"""Plays and Bouc–Wen variables of y[k-1] (radii :data:`PLAY_FRACTIONS`
+    of the output's range, the search's Bouc–Wen shapes of the output):
+    hysteresis inside the feedback of linear dynamics,
+    :math:`y_k = \sum a_i y_{k-i} + \sum b_j u_{k-j} + c\,H(y)_{k-1}`."""
+    y = data.output
+    return _plays(y, data.y, (1,)) + _bouc_wens(y, data.y, (1,))
+
+
+def _rate_terms(data: Data) -> List[str]:
+    r"""Odd powers of the output's rate, :math:`\Delta y\,|\Delta y|` and
+    :math:`\Delta y^3` with :math:`\Delta y = y_{k-1} - y_{k-2}`: a damping
+    force that grows with the velocity (quadratic damping :math:`q\,v|v|`).
+    They vanish as the rate goes to 0 and have no state: a rate-dependent
+    loop that a memory-free model explains, unlike hysteresis, whose loop
+    stays as the rate goes to 0."""
+    y = data.output
+    d = f"Phi1({y}[k-1],{y}[k-2])"
+    return [f"{d}*{d}*Phi2({y}[k-1],{y}[k-2])", f"{d}*{d}*{d}"]
 
 
 def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
@@ -183,6 +210,20 @@ def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
         Structure(M, "Bouc–Wen dynamics", "hysteresis: linear dynamics of order up to 3 driven "
                   "by the inputs and Bouc–Wen variables of them, in place of the baseline",
                   (), tuple(linear + bw)),
+        Structure(M, "output-operator dynamics", "hysteresis: linear dynamics of order up to 3 "
+                  "with plays and Bouc–Wen variables of y[k-1] (hysteresis inside the "
+                  "feedback), θ also by simulation error, in place of the baseline", (),
+                  tuple(linear + _output_operators(data)), refine=True),
+        Structure("unmodelled-nonlinearity", "polynomial dynamics", "unmodelled-nonlinearity: "
+                  "linear dynamics of order up to 3 with products of degree 2 and 3 of "
+                  "y[k-1] and the inputs at lag 1 and odd powers of the output's rate, θ also "
+                  "by simulation error, in place of the baseline", (),
+                  tuple(linear + _monomials([f"{y}[k-1]"] + [f"{n}[k-1]" for n in ins], (2, 3))
+                        + _rate_terms(data)), refine=True),
+        Structure("unmodelled-nonlinearity", "rate nonlinearity", "unmodelled-nonlinearity: "
+                  "odd powers of the output's rate (Δy|Δy|, Δy³: damping that grows with the "
+                  "velocity) added to the baseline's terms", base,
+                  tuple(now + _rate_terms(data))),
         Structure("unmodelled-dynamics", "more lags", "unmodelled-dynamics: lags y[k-1..6] and "
                   "u[k..k-6] added to the baseline's terms", base, tuple(lags)),
         Structure("unmodelled-nonlinearity", "more degree", "unmodelled-nonlinearity: products "
@@ -292,7 +333,31 @@ def fit_structure(s: Structure, data: Data, registry=None) -> Tuple[Optional[Mod
             best, best_rmse = terms, r
     if best is None:
         return None, float("inf")
-    return _estimate(best, data, s.constraints, registry), float(best_rmse)
+    final = _estimate(best, data, s.constraints, registry)
+    if s.refine and s.constraints is None:
+        m = _refined(_estimate(best, head, None, registry), head)
+        r = freerun_rmse(m, data, cut)
+        if r < best_rmse:
+            start = Model(list(best), m.theta, inputs=data.inputs, output=data.output,
+                          registry=registry)
+            final, best_rmse = _refined(start, data) or final, r
+    return final, float(best_rmse)
+
+
+def _refined(model: Optional[Model], data: Data) -> Optional[Model]:
+    """``model`` with θ refined by its free-run simulation error on ``data``
+    (:func:`narx.refine`, at most :data:`REFINE_NFEV` simulations per
+    parameter); None when there is no model or its free run diverges."""
+    from narx.refine import refine
+    if model is None:
+        return None
+    try:
+        with ignore_rank_warnings(), np.errstate(all="ignore"):
+            out = refine(model, data, mode="freerun",
+                         max_nfev=REFINE_NFEV * len(model.terms)).model
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    return out if np.all(np.isfinite(out.theta)) else None
 
 
 def probe_inputs(data: Data) -> List[Data]:
