@@ -72,7 +72,7 @@ from .augmentation import direction_terms
 from .simulation import freerun_rmse
 
 __all__ = ["Structure", "MEMORY", "MEMORY_FREE", "candidate_structures", "fit_structure",
-           "HEAD", "MAX_NEW", "probe_inputs", "stays_bounded"]
+           "late_lags", "HEAD", "MAX_NEW", "probe_inputs", "stays_bounded"]
 
 #: the class of the memory candidates
 MEMORY = "hysteresis"
@@ -89,9 +89,10 @@ MAX_NEW = 20
 #: :data:`mggp.primitives.PLAY_RADIUS_FRACTIONS` left a play of 0.15 of
 #: the range at 16 times the noise level in free run)
 PLAY_FRACTIONS = tuple(round(0.025 * j, 3) for j in range(1, 17))
-#: most free-run simulations per parameter when a candidate's θ is refined
-#: by simulation error (:func:`fit_structure`)
-REFINE_NFEV = 20
+#: most Gauss–Newton steps when a candidate's θ is refined by simulation
+#: error (:func:`fit_structure`; each step simulates once per parameter
+#: for the Jacobian; from the LS θ a few steps take most of the gain)
+REFINE_NFEV = 10
 def _plays(signal: str, x, lags) -> List[str]:
     """Plays of ``signal`` at ``lags``, radii :data:`PLAY_FRACTIONS` of the range of ``x``."""
     span = float(np.ptp(x))
@@ -169,22 +170,38 @@ def _rate_terms(data: Data) -> List[str]:
     return [f"{d}*{d}*Phi2({y}[k-1],{y}[k-2])", f"{d}*{d}*{d}"]
 
 
-def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
+def late_lags(data: Data, scans=None) -> dict:
+    """``{input: onset d}`` of the inputs that act on the output only from a
+    lag beyond the 6 of the "more lags" candidate: the dead time that
+    :func:`narx.deadtime.late_inputs` finds (a linear ARX scan of the onset;
+    the rule that raises the baseline search's tree height). ``scans``:
+    :func:`narx.deadtime.onset_scans` of ``data`` when already computed."""
+    from narx.deadtime import late_inputs
+    return {name: int(scan.best) for name, scan in late_inputs(data, 6, scans)}
+
+
+def candidate_structures(baseline: Model, data: Data, scans=None) -> List[Structure]:
     """The candidate structures of ``baseline`` on the fitting record
-    ``data`` (module doc), memory candidates first."""
+    ``data`` (module doc), memory candidates first. ``scans``:
+    :func:`narx.deadtime.onset_scans` of ``data`` when already computed
+    (:func:`late_lags`)."""
     y, ins = data.output, list(data.inputs)
     base = tuple(baseline.term_texts)
     now = [f"{n}[k]" for n in ins]
     phi = [t for n in ins for t in direction_terms(n, y)
            + [f"Phi1({n}[k-1],{n}[k-2])", f"Phi2({n}[k-1],{n}[k-2])",
               f"{y}[k-1]*Phi2({n}[k-1],{n}[k-2])", f"{n}[k-1]*Phi2({n}[k-1],{n}[k-2])"]]
-    lags = _lags(y, range(1, 7)) + [t for n in ins for t in _lags(n, range(0, 7))]
+    # a dead time d beyond the lags below: every structure with lags of its
+    # own also gets the input's lags d-1 .. d+3 (the system's delay is no
+    # reason to prefer one class over another)
+    late = [t for n, d in late_lags(data, scans).items() for t in _lags(n, range(d - 1, d + 4))]
+    lags = _lags(y, range(1, 7)) + [t for n in ins for t in _lags(n, range(0, 7))] + late
     vars2 = [f"{y}[k-1]", f"{y}[k-2]"] + [t for n in ins for t in _lags(n, (0, 1))]
     degree = _monomials(vars2, (2, 3))
     if max(t.degree for t in baseline.terms) >= 3:
         degree += _monomials([f"{y}[k-1]"] + [f"{n}[k-1]" for n in ins], (4,))
     M = MEMORY
-    linear = _lags(y, (1, 2, 3)) + [t for n in ins for t in _lags(n, (0, 1, 2))]
+    linear = _lags(y, (1, 2, 3)) + [t for n in ins for t in _lags(n, (0, 1, 2))] + late
     plays = [t for n in ins for t in _plays(n, data.input(n), (0, 1))]
     bw = [t for n in ins for t in _bouc_wens(n, data.input(n), (0, 1))]
     out = [
@@ -346,15 +363,15 @@ def fit_structure(s: Structure, data: Data, registry=None) -> Tuple[Optional[Mod
 
 def _refined(model: Optional[Model], data: Data) -> Optional[Model]:
     """``model`` with θ refined by its free-run simulation error on ``data``
-    (:func:`narx.refine`, at most :data:`REFINE_NFEV` simulations per
-    parameter); None when there is no model or its free run diverges."""
+    (:func:`narx.refine`, at most :data:`REFINE_NFEV` steps); None when
+    there is no model or its free run diverges."""
     from narx.refine import refine
     if model is None:
         return None
     try:
         with ignore_rank_warnings(), np.errstate(all="ignore"):
             out = refine(model, data, mode="freerun",
-                         max_nfev=REFINE_NFEV * len(model.terms)).model
+                         max_nfev=REFINE_NFEV).model
     except (ValueError, np.linalg.LinAlgError):
         return None
     return out if np.all(np.isfinite(out.theta)) else None

@@ -334,7 +334,7 @@ def outside_fit_range(fit: Data, measure: Data, start: int = 0) -> Dict[str, flo
     return out
 
 
-def _reach_dead_time(fit: Data, budget: Budget):
+def _reach_dead_time(fit: Data, budget: Budget, scans=None):
     """``(budget, said)``: the budget with its tree height raised to the
     least that reaches every input acting on the output only beyond the
     lags its height reaches (:func:`mggp.choices.dead_time_height`, the
@@ -342,11 +342,12 @@ def _reach_dead_time(fit: Data, budget: Budget):
     such input). A baseline that cannot reach a dead time misses dynamics
     that no hysteresis term supplies, and the tests would name the wrong
     cause. A dead time beyond what :data:`mggp.primitives.MAX_HEIGHT`
-    reaches leaves the height."""
+    reaches leaves the height. ``scans``: :func:`narx.deadtime.onset_scans`
+    of ``fit`` when already computed."""
     from dataclasses import replace
     from narx.deadtime import late_words
     from ..choices import dead_time_height
-    h, late, reach = dead_time_height(fit, budget.max_height)
+    h, late, reach = dead_time_height(fit, budget.max_height, scans=scans)
     if not late:
         return budget, None
     said = "; ".join(late_words(name, scan, reach) for name, scan in late)
@@ -430,7 +431,9 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     fit, measure, n_fit, n_pre, (fit_name, fit_rng), (meas_name, meas_rng) = _split(
         train, validation, holdout, names)
     rec_names = (fit_name, meas_name if validation is not None else f"{fit_name} (tail)")
-    budget, dead_time = _reach_dead_time(fit, budget)
+    from narx.deadtime import onset_scans
+    scans = onset_scans(fit)
+    budget, dead_time = _reach_dead_time(fit, budget, scans)
     timings, t0 = {}, time.perf_counter()
     if model is None:
         say(f"baseline: MGGP search, MS fitness, no Φ (population {budget.population}, "
@@ -452,7 +455,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     evidence_findings = name_findings(checks)
     timings["evidence"] = time.perf_counter() - t1
     t2 = time.perf_counter()
-    structures = candidate_structures(base, fit)
+    structures = candidate_structures(base, fit, scans)
     say("candidates: " + ", ".join(st.name for st in structures))
     fitted = [(st, *fit_structure(st, fit, base.registry)) for st in structures]
     timings["candidates"] = time.perf_counter() - t2
