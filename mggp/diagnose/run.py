@@ -17,12 +17,16 @@ training record (the *selection* samples), and the gain is measured on
 the validation record; without one, the last ``holdout`` of the training
 record measures and the samples before it are cut the same way. The
 models measured are those fitted on the fitting samples (no refit: the
-model recommended is the one the test chose). Each record is simulated
-free from its first L measured samples (L = the largest lag of the
-models compared), and the errors are scored after them, the same samples
-for every model; on a training-record part the models' memory operators
-(:mod:`narx.memory`) carry their state from the inputs before it (they
-are measured), while a validation record starts them at rest. The
+model recommended is the one the test chose). The selection samples are
+scored on a free run of the training record from its first sample (every
+state of a model, the memory operators of the output included, is its
+own when the selection samples begin; :func:`_errors`); the measuring
+samples are simulated free from their first L measured samples (L = the
+largest lag of the models compared), and the errors are scored after
+them, the same samples for every model; on a training-record tail the
+models' memory operators (:mod:`narx.memory`) carry their state from the
+inputs before it (they are measured), while a validation record starts
+them at rest. The
 evidence comes from the fitting samples; held-input segments are
 searched in both records; nothing is fitted or chosen on the measuring
 samples, so the gain there is an out-of-sample measurement of the
