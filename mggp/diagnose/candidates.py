@@ -24,7 +24,8 @@ effect                       candidates
                              (radii :data:`PLAY_FRACTIONS`, the search's
                              Bouc–Wen shapes, at lags 0 and 1), and linear dynamics
                              of order up to 3 with plays and Bouc–Wen variables of
-                             y[k-1] (hysteresis inside the feedback; θ refined)
+                             y[k-1] (hysteresis inside the feedback); the
+                             dynamics forms with θ refined
 ``unmodelled-dynamics``      more lags: y[k-1..6] and every input at lags 0..6
 ``unmodelled-nonlinearity``  more degree: the products of degree 2 and 3 of y[k-1],
                              y[k-2] and every input at lags 0 and 1 (degree 4 of
@@ -56,7 +57,8 @@ scored by their free-run RMSE on the rest; the j with the smallest
 hold-out RMSE is kept and its structure estimated on all the fitting
 samples; that hold-out RMSE is the candidate's *score*, which picks the
 representative of each class (:mod:`.verdict`). A structure marked
-``refine`` (the two forms whose linear part is their own) then also gets
+``refine`` (every form whose linear part is its own, in place of the
+baseline) then also gets
 θ by free-run simulation error (:func:`narx.refine` on the first
 :data:`HEAD`, kept when its hold-out RMSE is smaller, then refined on all
 the fitting samples): the better of LS and simulation-error θ, the rule of
@@ -242,11 +244,13 @@ def candidate_structures(baseline: Model, data: Data, scans=None) -> List[Struct
                   "velocity (Phi2(y[k-1],y[k-2]) terms and plays of y[k-1]) added to the "
                   "baseline's terms", base, tuple(now + _output_memory(data))),
         Structure(M, "operator dynamics", "hysteresis: linear dynamics of order up to 3 driven "
-                  "by the inputs and their plays and Deng–Tan operators, in place of the "
-                  "baseline", (), tuple(linear + plays + [f"DengTan({t})" for n in ins for t in _lags(n, (0, 1))])),
+                  "by the inputs and their plays and Deng–Tan operators, θ also by simulation "
+                  "error, in place of the baseline", (),
+                  tuple(linear + plays + [f"DengTan({t})" for n in ins for t in _lags(n, (0, 1))]),
+                  refine=True),
         Structure(M, "Bouc–Wen dynamics", "hysteresis: linear dynamics of order up to 3 driven "
-                  "by the inputs and Bouc–Wen variables of them, in place of the baseline",
-                  (), tuple(linear + bw)),
+                  "by the inputs and Bouc–Wen variables of them, θ also by simulation error, "
+                  "in place of the baseline", (), tuple(linear + bw), refine=True),
         Structure(M, "output-operator dynamics", "hysteresis: linear dynamics of order up to 3 "
                   "with plays and Bouc–Wen variables of y[k-1] (hysteresis inside the "
                   "feedback), θ also by simulation error, in place of the baseline", (),
