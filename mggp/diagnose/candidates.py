@@ -19,21 +19,33 @@ effect                       candidates
                              (Prandtl–Ishlinskii), Deng–Tan, Bouc–Wen variables of
                              the inputs on a grid of shapes, Φ of the output lags
                              (memory driven by the output's velocity: Phi2(y[k-1],y[k-2])
-                             terms and plays of y[k-1]), and linear dynamics of order
+                             terms and plays of y[k-1]), linear dynamics of order
                              up to 3 driven by plays or by Bouc–Wen variables
                              (radii :data:`PLAY_FRACTIONS`, the search's
-                             Bouc–Wen shapes, at lags 0 and 1)
+                             Bouc–Wen shapes, at lags 0 and 1), and linear dynamics
+                             of order up to 3 with plays and Bouc–Wen variables of
+                             y[k-1] (hysteresis inside the feedback); the
+                             dynamics forms with θ refined
 ``unmodelled-dynamics``      more lags: y[k-1..6] and every input at lags 0..6
 ``unmodelled-nonlinearity``  more degree: the products of degree 2 and 3 of y[k-1],
                              y[k-2] and every input at lags 0 and 1 (degree 4 of
                              y[k-1], u[k-1] when the baseline has degree 3 or more);
-                             and more lags and degree together
+                             more lags and degree together; the rate terms
+                             Δy|Δy|, Δy³ (:func:`_rate_terms`, rate-dependent
+                             damping); and linear dynamics of order up to 3 with
+                             products of degree 2 and 3 of y[k-1], u[k-1] and the
+                             rate terms (the memory-free rival of the feedback
+                             form; θ refined)
 ``steady-state-drift``       the baseline's terms by CLS under the derived
                              continuum-of-steady-states constraints
 ===========================  ============================================================
 
 Every input at lag 0 joins the new terms of every class (a direct
-feedthrough is then no reason to prefer one class over another).
+feedthrough is then no reason to prefer one class over another). An input
+that acts only from a lag d beyond 6 (:func:`late_lags`, the dead-time
+scan of :mod:`narx.records.deadtime`) adds its lags d-1..d+3 to every structure
+with lags of its own (more lags, and the linear part of the dynamics
+forms), for the same reason.
 
 A structure is fitted on the fitting samples only (:func:`fit_structure`):
 its new terms are ordered by forward selection on the one-step error
@@ -44,8 +56,18 @@ estimated by LS on the first :data:`HEAD` of the fitting samples and
 scored by their free-run RMSE on the rest; the j with the smallest
 hold-out RMSE is kept and its structure estimated on all the fitting
 samples; that hold-out RMSE is the candidate's *score*, which picks the
-representative of each class (:mod:`.verdict`). The samples that test and
-measure the candidates play no part.
+representative of each class (:mod:`.verdict`). A structure marked
+``refine`` (every form whose linear part is its own, in place of the
+baseline) then also gets
+θ by free-run simulation error (:func:`narx.refine` on the first
+:data:`HEAD`, kept when its hold-out RMSE is smaller, then refined on all
+the fitting samples): the better of LS and simulation-error θ, the rule of
+the zoo's oracle. Least squares on lagged noisy outputs is biased, and an
+operator inside the feedback amplifies the bias: on the development draw
+zoo seed 69 (a play in the feedback of order-2 dynamics) the true
+structure by LS had 10 times the validation RMSE of the same structure
+with refined θ. The samples that test and measure the candidates play no
+part.
 
 References
 ----------
@@ -72,7 +94,7 @@ from .augmentation import direction_terms
 from .simulation import freerun_rmse
 
 __all__ = ["Structure", "MEMORY", "MEMORY_FREE", "candidate_structures", "fit_structure",
-           "HEAD", "MAX_NEW", "probe_inputs", "stays_bounded"]
+           "late_lags", "HEAD", "MAX_NEW", "probe_inputs", "stays_bounded"]
 
 #: the class of the memory candidates
 MEMORY = "hysteresis"
@@ -89,6 +111,10 @@ MAX_NEW = 20
 #: :data:`mggp.gp.primitives.PLAY_RADIUS_FRACTIONS` left a play of 0.15 of
 #: the range at 16 times the noise level in free run)
 PLAY_FRACTIONS = tuple(round(0.025 * j, 3) for j in range(1, 17))
+#: most Gauss–Newton steps when a candidate's θ is refined by simulation
+#: error (:func:`fit_structure`; each step simulates once per parameter
+#: for the Jacobian; from the LS θ a few steps take most of the gain)
+REFINE_NFEV = 10
 def _plays(signal: str, x, lags) -> List[str]:
     """Plays of ``signal`` at ``lags``, radii :data:`PLAY_FRACTIONS` of the range of ``x``."""
     span = float(np.ptp(x))
@@ -114,7 +140,8 @@ class Structure:
     """A candidate: the ``effect`` it fixes, its ``name``, what it changes in
     words, the terms kept as they are (``base``: the baseline's, or none
     when the candidate replaces it), the new terms offered (``new``), and
-    the estimation (``constraints``: None for LS)."""
+    the estimation (``constraints``: None for LS; ``refine``: θ also by
+    free-run simulation error, kept when it scores better on the hold-out)."""
 
     effect: str
     name: str
@@ -122,6 +149,8 @@ class Structure:
     base: Tuple[str, ...]
     new: Tuple[str, ...]
     constraints: Optional[str] = None
+    #: θ also by simulation error (:func:`fit_structure`)
+    refine: bool = False
 
 
 def _lags(name: str, lags) -> List[str]:
@@ -142,22 +171,59 @@ def _output_memory(data: Data) -> List[str]:
     return out + _plays(y, data.y, (1,))
 
 
-def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
+def _output_operators(data: Data) -> List[str]:
+    r"""Plays and Bouc–Wen variables of y[k-1] (radii :data:`PLAY_FRACTIONS`
+    of the output's range, the search's Bouc–Wen shapes of the output):
+    hysteresis inside the feedback of linear dynamics,
+    :math:`y_k = \sum a_i y_{k-i} + \sum b_j u_{k-j} + c\,H(y)_{k-1}`."""
+    y = data.output
+    return _plays(y, data.y, (1,)) + _bouc_wens(y, data.y, (1,))
+
+
+def _rate_terms(data: Data) -> List[str]:
+    r"""Odd powers of the output's rate, :math:`\Delta y\,|\Delta y|` and
+    :math:`\Delta y^3` with :math:`\Delta y = y_{k-1} - y_{k-2}`: a damping
+    force that grows with the velocity (quadratic damping :math:`q\,v|v|`).
+    They vanish as the rate goes to 0 and have no state: a rate-dependent
+    loop that a memory-free model explains, unlike hysteresis, whose loop
+    stays as the rate goes to 0."""
+    y = data.output
+    d = f"Phi1({y}[k-1],{y}[k-2])"
+    return [f"{d}*{d}*Phi2({y}[k-1],{y}[k-2])", f"{d}*{d}*{d}"]
+
+
+def late_lags(data: Data, scans=None) -> dict:
+    """``{input: onset d}`` of the inputs that act on the output only from a
+    lag beyond the 6 of the "more lags" candidate: the dead time that
+    :func:`narx.records.deadtime.late_inputs` finds (a linear ARX scan of the onset;
+    the rule that raises the baseline search's tree height). ``scans``:
+    :func:`narx.records.deadtime.onset_scans` of ``data`` when already computed."""
+    from narx.records.deadtime import late_inputs
+    return {name: int(scan.best) for name, scan in late_inputs(data, 6, scans)}
+
+
+def candidate_structures(baseline: Model, data: Data, scans=None) -> List[Structure]:
     """The candidate structures of ``baseline`` on the fitting record
-    ``data`` (module doc), memory candidates first."""
+    ``data`` (module doc), memory candidates first. ``scans``:
+    :func:`narx.records.deadtime.onset_scans` of ``data`` when already computed
+    (:func:`late_lags`)."""
     y, ins = data.output, list(data.inputs)
     base = tuple(baseline.term_texts)
     now = [f"{n}[k]" for n in ins]
     phi = [t for n in ins for t in direction_terms(n, y)
            + [f"Phi1({n}[k-1],{n}[k-2])", f"Phi2({n}[k-1],{n}[k-2])",
               f"{y}[k-1]*Phi2({n}[k-1],{n}[k-2])", f"{n}[k-1]*Phi2({n}[k-1],{n}[k-2])"]]
-    lags = _lags(y, range(1, 7)) + [t for n in ins for t in _lags(n, range(0, 7))]
+    # a dead time d beyond the lags below: every structure with lags of its
+    # own also gets the input's lags d-1 .. d+3 (the system's delay is no
+    # reason to prefer one class over another)
+    late = [t for n, d in late_lags(data, scans).items() for t in _lags(n, range(d - 1, d + 4))]
+    lags = _lags(y, range(1, 7)) + [t for n in ins for t in _lags(n, range(0, 7))] + late
     vars2 = [f"{y}[k-1]", f"{y}[k-2]"] + [t for n in ins for t in _lags(n, (0, 1))]
     degree = _monomials(vars2, (2, 3))
     if max(t.degree for t in baseline.terms) >= 3:
         degree += _monomials([f"{y}[k-1]"] + [f"{n}[k-1]" for n in ins], (4,))
     M = MEMORY
-    linear = _lags(y, (1, 2, 3)) + [t for n in ins for t in _lags(n, (0, 1, 2))]
+    linear = _lags(y, (1, 2, 3)) + [t for n in ins for t in _lags(n, (0, 1, 2))] + late
     plays = [t for n in ins for t in _plays(n, data.input(n), (0, 1))]
     bw = [t for n in ins for t in _bouc_wens(n, data.input(n), (0, 1))]
     out = [
@@ -178,11 +244,27 @@ def candidate_structures(baseline: Model, data: Data) -> List[Structure]:
                   "velocity (Phi2(y[k-1],y[k-2]) terms and plays of y[k-1]) added to the "
                   "baseline's terms", base, tuple(now + _output_memory(data))),
         Structure(M, "operator dynamics", "hysteresis: linear dynamics of order up to 3 driven "
-                  "by the inputs and their plays and Deng–Tan operators, in place of the "
-                  "baseline", (), tuple(linear + plays + [f"DengTan({t})" for n in ins for t in _lags(n, (0, 1))])),
+                  "by the inputs and their plays and Deng–Tan operators, θ also by simulation "
+                  "error, in place of the baseline", (),
+                  tuple(linear + plays + [f"DengTan({t})" for n in ins for t in _lags(n, (0, 1))]),
+                  refine=True),
         Structure(M, "Bouc–Wen dynamics", "hysteresis: linear dynamics of order up to 3 driven "
-                  "by the inputs and Bouc–Wen variables of them, in place of the baseline",
-                  (), tuple(linear + bw)),
+                  "by the inputs and Bouc–Wen variables of them, θ also by simulation error, "
+                  "in place of the baseline", (), tuple(linear + bw), refine=True),
+        Structure(M, "output-operator dynamics", "hysteresis: linear dynamics of order up to 3 "
+                  "with plays and Bouc–Wen variables of y[k-1] (hysteresis inside the "
+                  "feedback), θ also by simulation error, in place of the baseline", (),
+                  tuple(linear + _output_operators(data)), refine=True),
+        Structure("unmodelled-nonlinearity", "polynomial dynamics", "unmodelled-nonlinearity: "
+                  "linear dynamics of order up to 3 with products of degree 2 and 3 of "
+                  "y[k-1] and the inputs at lag 1 and odd powers of the output's rate, θ also "
+                  "by simulation error, in place of the baseline", (),
+                  tuple(linear + _monomials([f"{y}[k-1]"] + [f"{n}[k-1]" for n in ins], (2, 3))
+                        + _rate_terms(data)), refine=True),
+        Structure("unmodelled-nonlinearity", "rate nonlinearity", "unmodelled-nonlinearity: "
+                  "odd powers of the output's rate (Δy|Δy|, Δy³: damping that grows with the "
+                  "velocity) added to the baseline's terms", base,
+                  tuple(now + _rate_terms(data))),
         Structure("unmodelled-dynamics", "more lags", "unmodelled-dynamics: lags y[k-1..6] and "
                   "u[k..k-6] added to the baseline's terms", base, tuple(lags)),
         Structure("unmodelled-nonlinearity", "more degree", "unmodelled-nonlinearity: products "
@@ -292,7 +374,31 @@ def fit_structure(s: Structure, data: Data, registry=None) -> Tuple[Optional[Mod
             best, best_rmse = terms, r
     if best is None:
         return None, float("inf")
-    return _estimate(best, data, s.constraints, registry), float(best_rmse)
+    final = _estimate(best, data, s.constraints, registry)
+    if s.refine and s.constraints is None:
+        m = _refined(_estimate(best, head, None, registry), head)
+        r = freerun_rmse(m, data, cut)
+        if r < best_rmse:
+            start = Model(list(best), m.theta, inputs=data.inputs, output=data.output,
+                          registry=registry)
+            final, best_rmse = _refined(start, data) or final, r
+    return final, float(best_rmse)
+
+
+def _refined(model: Optional[Model], data: Data) -> Optional[Model]:
+    """``model`` with θ refined by its free-run simulation error on ``data``
+    (:func:`narx.refine`, at most :data:`REFINE_NFEV` steps); None when
+    there is no model or its free run diverges."""
+    from narx.refine import refine
+    if model is None:
+        return None
+    try:
+        with ignore_rank_warnings(), np.errstate(all="ignore"):
+            out = refine(model, data, mode="freerun",
+                         max_nfev=REFINE_NFEV).model
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    return out if np.all(np.isfinite(out.theta)) else None
 
 
 def probe_inputs(data: Data) -> List[Data]:

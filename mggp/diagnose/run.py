@@ -17,12 +17,16 @@ training record (the *selection* samples), and the gain is measured on
 the validation record; without one, the last ``holdout`` of the training
 record measures and the samples before it are cut the same way. The
 models measured are those fitted on the fitting samples (no refit: the
-model recommended is the one the test chose). Each record is simulated
-free from its first L measured samples (L = the largest lag of the
-models compared), and the errors are scored after them, the same samples
-for every model; on a training-record part the models' memory operators
-(:mod:`narx.language.memory`) carry their state from the inputs before it (they
-are measured), while a validation record starts them at rest. The
+model recommended is the one the test chose). The selection samples are
+scored on a free run of the training record from its first sample (every
+state of a model, the memory operators of the output included, is its
+own when the selection samples begin; :func:`_errors`); the measuring
+samples are simulated free from their first L measured samples (L = the
+largest lag of the models compared), and the errors are scored after
+them, the same samples for every model; on a training-record tail the
+models' memory operators (:mod:`narx.language.memory`) carry their state from the
+inputs before it (they are measured), while a validation record starts
+them at rest. The
 evidence comes from the fitting samples; held-input segments are
 searched in both records; nothing is fitted or chosen on the measuring
 samples, so the gain there is an out-of-sample measurement of the
@@ -283,15 +287,26 @@ def _split(train: Data, validation: Optional[Data], holdout: float, names):
 def _errors(model: Optional[Model], record: Data, first: int, start: int,
             stop: int) -> np.ndarray:
     """Free-run errors y − ŷ of ``model`` on samples ``first + start`` ..
-    ``stop - 1`` of ``record``, the free run started at ``first``
-    (:func:`~mggp.diagnose.simulation.freerun_after`); all ``inf`` when it
-    diverges or there is no model."""
+    ``stop - 1`` of ``record``, the free run started at the record's first
+    sample (its first L measured outputs the initial conditions, L the
+    model's largest lag); all ``inf`` when it diverges or there is no
+    model.
+
+    The free run crosses the samples before ``first`` (the fitting
+    samples) without using their outputs, so every state of the model —
+    the output lags and the memory operators of the output, such as
+    Play(y[k-1], r) — is the model's own at ``first``. Started at ``first``
+    from the measured outputs instead (:func:`~.simulation.freerun_after`),
+    an operator of the output would begin at rest there, and noisy initial
+    lags would set a slow model's velocity: on development draws with
+    hysteresis inside the feedback, the selection RMSE of the true structure
+    was 1.8 to 1.9 times that of the same model run from the start."""
     n = stop - first - start
     if model is None:
         return np.full(n, np.inf)
     with np.errstate(all="ignore"):
-        r = freerun_after(model, record.slice(0, stop), first)
-    e = (r.y - r.y_hat)[start:]
+        r = model.simulate(record.slice(0, stop), mode="freerun")
+    e = (r.y - r.y_hat)[first + start:]
     if r.diverged or not np.all(np.isfinite(e)):
         return np.full(n, np.inf)
     return e
@@ -323,7 +338,7 @@ def outside_fit_range(fit: Data, measure: Data, start: int = 0) -> Dict[str, flo
     return out
 
 
-def _reach_dead_time(fit: Data, budget: Budget):
+def _reach_dead_time(fit: Data, budget: Budget, scans=None):
     """``(budget, said)``: the budget with its tree height raised to the
     least that reaches every input acting on the output only beyond the
     lags its height reaches (:func:`mggp.fit.choices.dead_time_height`, the
@@ -331,11 +346,12 @@ def _reach_dead_time(fit: Data, budget: Budget):
     such input). A baseline that cannot reach a dead time misses dynamics
     that no hysteresis term supplies, and the tests would name the wrong
     cause. A dead time beyond what :data:`mggp.gp.primitives.MAX_HEIGHT`
-    reaches leaves the height."""
+    reaches leaves the height. ``scans``: :func:`narx.records.deadtime.onset_scans`
+    of ``fit`` when already computed."""
     from dataclasses import replace
     from narx.records.deadtime import late_words
     from ..fit.choices import dead_time_height
-    h, late, reach = dead_time_height(fit, budget.max_height)
+    h, late, reach = dead_time_height(fit, budget.max_height, scans=scans)
     if not late:
         return budget, None
     said = "; ".join(late_words(name, scan, reach) for name, scan in late)
@@ -419,7 +435,9 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     fit, measure, n_fit, n_pre, (fit_name, fit_rng), (meas_name, meas_rng) = _split(
         train, validation, holdout, names)
     rec_names = (fit_name, meas_name if validation is not None else f"{fit_name} (tail)")
-    budget, dead_time = _reach_dead_time(fit, budget)
+    from narx.records.deadtime import onset_scans
+    scans = onset_scans(fit)
+    budget, dead_time = _reach_dead_time(fit, budget, scans)
     timings, t0 = {}, time.perf_counter()
     if model is None:
         say(f"baseline: MGGP search, MS fitness, no Φ (population {budget.population}, "
@@ -441,7 +459,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     evidence_findings = name_findings(checks)
     timings["evidence"] = time.perf_counter() - t1
     t2 = time.perf_counter()
-    structures = candidate_structures(base, fit)
+    structures = candidate_structures(base, fit, scans)
     say("candidates: " + ", ".join(st.name for st in structures))
     fitted = [(st, *fit_structure(st, fit, base.registry)) for st in structures]
     timings["candidates"] = time.perf_counter() - t2

@@ -1,0 +1,128 @@
+"""The candidate catalogue of mggp diagnose: hysteresis inside the feedback
+of linear dynamics (operators of y[k-1], θ refined by simulation error,
+free runs scored from the record's start), rate-dependent damping as a
+memory-free nonlinearity, and a dead time beyond the lags searched."""
+import numpy as np
+import pytest
+
+import narx
+from narx.records.data import Data
+from narx.systems import training_input, zoo
+
+from mggp.diagnose import Budget, diagnose
+from mggp.diagnose.candidates import (MEMORY, candidate_structures, fit_structure,
+                                      late_lags)
+from mggp.diagnose.run import _errors
+
+SMALL = Budget(population=60, generations=10, max_height=3)
+FEEDBACK = ["y[k-1]", "y[k-2]", "u[k-1]", "Play(y[k-1],0.4)"]
+THETA = [1.5, -0.6, 0.05, 0.03]
+
+
+def _record(terms, theta, seed, n=3000, noise=0.003, white=False):
+    """A free run of the NARX model ``terms, theta`` on a random input
+    (``white``: white noise), with white output noise of ``noise`` times the
+    output's range."""
+    u = (np.random.default_rng(seed).standard_normal(n) if white
+         else training_input(n, bandwidth=3.0, seed=seed))
+    m = narx.Model(terms, theta=theta)
+    y = m.simulate(Data(u, np.zeros(n)), mode="freerun", y0=np.zeros(m.max_lag)).y_hat
+    rng = np.random.default_rng(seed + 7)
+    return Data(u, y + noise * np.ptp(y) * rng.standard_normal(n))
+
+
+def _structure(data, name, base=None):
+    from narx.linalg import one_blas_thread
+    base = base or narx.Model(["y[k-1]", "u[k-1]"]).fit(data)
+    with one_blas_thread():
+        return next(s for s in candidate_structures(base, data) if s.name == name), base
+
+
+def test_output_operator_dynamics_finds_hysteresis_in_the_feedback_and_not_without():
+    """Development draws of the zoo: seed 69, a play inside the feedback of
+    order-2 dynamics; seed 25, linear dynamics. Fitted on the first 70 % of
+    the training record, scored on the validation record."""
+    from narx.linalg import one_blas_thread
+    with zoo.tuning():
+        draws = ((zoo.draw(69), True), (zoo.draw(25), False))
+    for d, hysteretic in draws:
+        fit = d.train.slice(0, 2800)
+        with one_blas_thread():
+            st, _ = _structure(fit, "output-operator dynamics")
+            assert st.effect == MEMORY and st.refine
+            m, _ = fit_structure(st, fit)
+            free, _ = fit_structure(_structure(fit, "polynomial dynamics")[0], fit)
+        val = d.validation
+        ratio = np.sqrt(np.mean(_errors(free, val, 0, 10, val.n) ** 2)
+                        / np.mean(_errors(m, val, 0, 10, val.n) ** 2))
+        if hysteretic:          # an operator of the output, and far better
+            assert any("(y[k-1]," in t for t in m.term_texts), m.term_texts
+            assert ratio > 2, ratio
+        else:                   # no memory: nothing to gain from it
+            assert ratio < 1.2, ratio
+
+
+def test_the_selection_free_run_starts_at_the_record_start_so_output_operators_are_warm():
+    """Started from the measured outputs at the selection samples, a play of
+    the output would begin at rest there; run from the record's start the
+    true model's error stays at the noise level."""
+    from mggp.diagnose.simulation import freerun_after
+    d = _record(FEEDBACK, THETA, 2, noise=0.001)
+    true = narx.Model(FEEDBACK, theta=THETA)
+    noise = 0.001 * np.ptp(d.y)
+    e = _errors(true, d, 2000, 10, d.n)
+    assert np.sqrt(np.mean(e ** 2)) < 2 * noise
+    r = freerun_after(true, d, 2000)
+    cold = (r.y - r.y_hat)[10:]
+    assert np.sqrt(np.mean(cold ** 2)) > np.sqrt(np.mean(e ** 2))
+
+
+def test_rate_nonlinearity_explains_quadratic_damping_and_not_a_linear_system():
+    damped = ["y[k-1]", "y[k-2]", "u[k-1]",
+              "Phi1(y[k-1],y[k-2])*Phi1(y[k-1],y[k-2])*Phi2(y[k-1],y[k-2])"]
+    theta = [1.8, -0.85, 0.05, -0.2]
+    for terms, th, damping in ((damped, theta, True), (damped[:3], theta[:3], False)):
+        d = _record(terms, th, 3, noise=0.0005)
+        fit = d.slice(0, 2000)
+        base = narx.Model(["y[k-1]", "y[k-2]", "u[k-1]"]).fit(fit)
+        st, _ = _structure(fit, "rate nonlinearity", base)
+        assert st.effect == "unmodelled-nonlinearity"
+        m, _ = fit_structure(st, fit)
+        gain = (np.sqrt(np.mean(_errors(base, d, 2000, 10, d.n) ** 2))
+                / np.sqrt(np.mean(_errors(m, d, 2000, 10, d.n) ** 2)))
+        if damping:
+            assert gain > 1.5, gain
+        else:
+            assert gain < 1.1, gain
+
+
+def test_a_dead_time_beyond_the_searched_lags_gives_the_lags_around_it():
+    from narx.records.deadtime import onset_scans
+    from narx.linalg import one_blas_thread
+    for delay in (15, 1):
+        d = _record(["y[k-1]", f"u[k-{delay}]"], [0.8, 0.2], 4, n=2000, white=True)
+        base = narx.Model(["y[k-1]", "u[k-1]"]).fit(d)
+        with one_blas_thread():
+            scans = onset_scans(d)
+        found = late_lags(d, scans)
+        lags = next(s for s in candidate_structures(base, d, scans)
+                    if s.name == "more lags").new
+        if delay > 6:
+            assert set(found) == {"u"} and delay - 2 <= found["u"] <= delay, found
+            assert f"u[k-{delay}]" in lags
+        else:
+            assert found == {}
+            assert max(int(t[4:-1]) for t in lags if t.startswith("u[k-")) == 6, lags
+
+
+@pytest.mark.slow
+def test_zoo_feedback_draw_is_named_hysteresis_and_a_linear_draw_is_not():
+    """Development draws (zoo seeds 69: a play inside the feedback of order-2
+    dynamics; 25: linear dynamics) at a small budget."""
+    with zoo.tuning():
+        fb, lin = zoo.draw(69), zoo.draw(25)
+    dx = diagnose(fb.train, validation=fb.validation, budget=SMALL, seed=0)
+    assert dx.effects == ["hysteresis"], dx.verdict.lines()
+    assert dx.gain.ratio > 1.5
+    dx = diagnose(lin.train, validation=lin.validation, budget=SMALL, seed=0)
+    assert "hysteresis" not in dx.effects, dx.verdict.lines()
