@@ -78,8 +78,8 @@ from narx.output_error import OE_ESTIMATORS
 from narx.ranges import signal_ranges
 
 from .choices import (Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
-                      heldout_rmse, heldout_samples, local_search_kept, resolve_select,
-                      size_choice, steady)
+                      heldout_rmse, heldout_samples, heldout_theta, local_search_kept,
+                      resolve_select, size_choice, steady, theta_choice, THETA_WORDS)
 from .evaluate import criterion_value
 from .exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -263,8 +263,9 @@ def local_search(terms, data, ctx):
         return terms
     moved = prune(moved, data, ctx)
     unbounded = "" if ctx.stress is None or ctx.stress(terms) else ctx.stress(moved)
-    c = local_search_kept(heldout_rmse(terms, data, ctx.registry),
-                          heldout_rmse(moved, data, ctx.registry),
+    theta = heldout_theta(est)
+    c = local_search_kept(heldout_rmse(terms, data, ctx.registry, theta=theta),
+                          heldout_rmse(moved, data, ctx.registry, theta=theta),
                           heldout_samples(data.n), len(steps), unbounded)
     if not c.value:
         ctx.choices["local_search"] = c
@@ -290,9 +291,11 @@ def size(terms, data, ctx):
         ctx.choices["size"] = Choice("size", len(terms), f"size {len(terms)} terms: "
                                      f"chosen by {by}, not by held-out error", {})
         return terms
-    c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry),
-                    heldout_samples(data.n), ctx.stress)
-    ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
+    theta = heldout_theta(est)
+    c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry,
+                                       theta), heldout_samples(data.n), ctx.stress)
+    why = c.why + THETA_WORDS.get(theta, "").replace(",", ";", 1)
+    ctx.choices["size"] = Choice(c.name, len(c.value), why, c.figures)
     return c.value
 
 
@@ -313,7 +316,8 @@ def constant(terms, data, ctx):
     pilot = ctx.choices.get("constant")
     if pilot is not None and not pilot.value:   # searched without it (the pilots' choice)
         return terms
-    c, terms = constant_choice(terms, data, ctx.registry, ctx.seed or 0)
+    c, terms = constant_choice(terms, data, ctx.registry, ctx.seed or 0,
+                               heldout_theta(ctx.est))
     if pilot is not None:
         c = replace(c, why=f"{pilot.why}; then {c.why}", figures={**pilot.figures,
                                                                    **c.figures})
@@ -453,13 +457,26 @@ def cls_refit(terms, data, ctx):
 
 def refine(terms, data, ctx):
     """θ of ``model_`` and ``model_cls_`` by least simulation error
-    (``refine``; ``refinement_`` holds the errors before and after)."""
+    (``refine``; ``refinement_`` holds the errors before and after).
+    'auto': by free-run simulation error when that refit of the structure
+    simulates the held-out part significantly better than its LS θ
+    (:func:`mggp.choices.theta_choice`), never with the steady-state
+    constraints (the hold selection judged the CLS refit of the LS θ)."""
     est = ctx.est
     est.refinement_ = None
-    if est.refine:
+    how = est.refine
+    if how == "auto":
+        how = None
+        if heldout_theta(est) == "best" and not any(t.has_noise for t in terms):
+            c = theta_choice(terms, data, ctx.registry, ctx.seed or 0)
+            ctx.choices["refine"] = c
+            how = c.value
+            est.model_.meta.setdefault("choices", {})["refine"] = c.to_dict()
+            est.model_.meta["refine"] = c.value
+    if how and how != "none":
         from narx.refine import refine_both
         est.refinement_, est.model_, est.model_cls_, why = refine_both(
-            est.model_, est.model_cls_, data, est.refine, est.refine_window or est.window)
+            est.model_, est.model_cls_, data, how, est.refine_window or est.window)
         if why:
             warnings.warn(f"refine={est.refine!r} is not applied: {why}", UserWarning,
                           stacklevel=_CALLER)
