@@ -15,7 +15,7 @@ the validation record, and compares that RMSE with the oracle's
 LS and free-run θ). One JSON line per draw is appended as it finishes (a
 killed run keeps its records; a new run skips the seeds already there).
 Fields: ``seed, split, family, hysteretic, placement, snr_db, fit_rmse,
-oracle_rmse, ratio, exploded, choices, terms, equation, seconds`` (``error``
+oracle_rmse, ratio, exploded, choices, model_class, terms, truth, seconds`` (``error``
 when the fit failed). ``exploded``: the free run is not finite or leaves the
 band of three times the validation output's range
 (:func:`benchmarks.measured.explodes`). ``ratio`` = fit / oracle validation
@@ -85,6 +85,7 @@ def fit_one(seed: int, jobs: int = 1) -> dict:
                ratio=_num(rmse / orc) if orc and math.isfinite(orc) else None,
                exploded=bool(diverged or explodes(y_hat[ok], np.asarray(d.validation.y)[ok])),
                choices={k: v["value"] for k, v in est.choices_.items()},
+               model_class=est.choices_.get("use_phi", {}).get("figures", {}).get("class"),
                terms=list(model.term_texts), truth=list(d.truth.terms),
                seconds=time.perf_counter() - t0)
     return rec
