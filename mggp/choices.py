@@ -826,8 +826,6 @@ class SearchClass:
     in_search: bool = False
     #: how much lower its held-out error must be than the class kept before it
     gain: float = CLASS_GAIN
-    #: Φ-terms of output lags too (``phi_outputs``)
-    phi_outputs: bool = False
 
     @property
     def key(self) -> str:
@@ -843,9 +841,7 @@ def _explicit_operators(v) -> tuple:
 
 def search_classes(est) -> list:
     """The model classes searched, simplest first. ``use_phi='auto'``: no Φ,
-    Φ, Φ of the output lags too (friction or hysteresis driven by the
-    output's rate, as Coulomb friction's sign of the velocity) and, with
-    ``operators='auto'``, the memory operators
+    Φ and, with ``operators='auto'``, the memory operators
     :data:`mggp.primitives.AUTO_OPERATORS` (play, Deng–Tan) without Φ in the
     primitive set, then the Bouc–Wen variables without Φ (each class with
     the operators ``operators`` names, which enter as ``operator_entry``
@@ -857,8 +853,7 @@ def search_classes(est) -> list:
     if est.use_phi != "auto" or est.phi_outputs:
         phi = est.use_phi is not False
         return [SearchClass("Φ" if phi else "no Φ", phi, ops, entry)]
-    out = [SearchClass("no Φ", False, ops, entry), SearchClass("Φ", True, ops, entry),
-           SearchClass("Φ of outputs", True, ops, entry, phi_outputs=True)]
+    out = [SearchClass("no Φ", False, ops, entry), SearchClass("Φ", True, ops, entry)]
     if est.operators == "auto":
         out += _operator_classes()
     return out
@@ -882,7 +877,6 @@ def pilot_generations(generations: int) -> int:
 
 #: class label -> (its words in a choice line, its key in the figures)
 _LABELS = {"no Φ": ("without Φ", "no_phi"), "Φ": ("with Φ", "phi"),
-           "Φ of outputs": ("with Φ of outputs too", "phi_outputs"),
            "operators": ("with operators", "operators"),
            "Bouc–Wen": ("with Bouc–Wen variables", "bouc_wen")}
 
@@ -978,9 +972,7 @@ def class_margins(classes=None) -> str:
     every class ``use_phi='auto'`` can compare)."""
     if classes is None:
         classes = [SearchClass("no Φ", False, (), gain=CLASS_GAIN),
-                   SearchClass("Φ", True, (), gain=CLASS_GAIN),
-                   SearchClass("Φ of outputs", True, (), phi_outputs=True)
-                   ] + _operator_classes()
+                   SearchClass("Φ", True, (), gain=CLASS_GAIN)] + _operator_classes()
     return (f"a richer class only when its error is over {percent(CLASS_GAIN)} lower"
             + "".join(f", {_with(cl.label).removeprefix('with ')} over {percent(cl.gain)}"
                       for cl in classes[1:] if cl.gain != CLASS_GAIN))
@@ -1019,8 +1011,7 @@ def class_choice(classes, errors, holds=None, pilot: str = "", unbounded=None,
                 np.isinf(errors[best]) and np.isfinite(errors[i])):
             best = i
     c = classes[best]
-    figs = {"class": c.label, "operators": list(c.operators), "holdout": HOLDOUT,
-            "phi_outputs": c.phi_outputs}
+    figs = {"class": c.label, "operators": list(c.operators), "holdout": HOLDOUT}
     for cl, e in zip(classes, errors):
         figs[f"heldout_rmse_{_key(cl.label)}"] = e
     others = ", ".join(f"{rmse_text(errors[i])} {_with(classes[i].label)}"

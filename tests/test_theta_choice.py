@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 from mggp import MGGPRegressor
-from mggp.choices import (THETA_WORDS, heldout_rmse, heldout_theta, search_classes,
-                          theta_choice)
+from mggp.choices import THETA_WORDS, heldout_rmse, heldout_theta, theta_choice
 from narx.data import Data
 
 TRUTH = ("y[k-1]", "y[k-2]", "u[k-1]")
@@ -66,11 +65,3 @@ def test_the_fit_says_and_applies_the_choice():
     steady = MGGPRegressor(constraints="steady-state", **kw)
     assert heldout_theta(steady) == "ls"
 
-
-def test_phi_of_outputs_is_a_class_of_the_pilots():
-    labels = [c.label for c in search_classes(MGGPRegressor())]
-    assert labels[:3] == ["no Φ", "Φ", "Φ of outputs"]
-    assert [c.phi_outputs for c in search_classes(MGGPRegressor())][:3] == [False, False,
-                                                                            True]
-    # control: an explicit class is the one searched
-    assert [c.label for c in search_classes(MGGPRegressor(use_phi=True))] == ["Φ"]
