@@ -261,7 +261,8 @@ def test_no_constant_under_the_steady_state_constraints():
 def test_explicit_values_disable_the_choices():
     d = system_by_name("S1", n=500, seed=0)
     est = MGGPRegressor(use_phi=False, select="fitness", screen="freerun", size="search",
-                        constant=False, outliers="keep", max_power=3, **_KW).fit(d.u, d.y)
+                        constant=False, outliers="keep", max_power=3, refine="none",
+                        **_KW).fit(d.u, d.y)
     assert est.choices_ == {} and "choices" not in est.model_.meta
 
 

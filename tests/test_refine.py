@@ -71,9 +71,12 @@ def test_estimator_and_cli_refine(tmp_path, capsys):
     u, y, ym = first_order(0.1)
     kw = dict(population=20, generations=2, use_phi=False, max_lag=1, max_degree=1,
               random_state=0)
-    plain = MGGPRegressor(**kw).fit(u, ym)
+    plain = MGGPRegressor(refine="none", **kw).fit(u, ym)
     est = MGGPRegressor(refine="freerun", **kw).fit(u, ym)
     assert plain.refinement_ is None and est.refinement_.improved
+    # refine='auto' finds the held-out gain under 10 % output noise
+    auto = MGGPRegressor(refine="auto", **kw).fit(u, ym)
+    assert auto.choices_["refine"]["value"] == "freerun" and auto.refinement_.improved
     err = lambda mm: np.mean((mm.simulate(u, y).y_hat - y)[1:] ** 2)   # noqa: E731
     assert err(est.model_) < err(plain.model_)
     assert est.model_.meta["refine"] == "freerun"

@@ -83,7 +83,8 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "holdout_message", "holdout_words", "local_search_kept", "percent", "rmse_text",
            "terms_text", "pilot_generations", "resolve_screen", "resolve_select",
            "search_classes", "size_choice", "steady", "stress_said", "STAGE_CHOICES",
-           "stage_choice"]
+           "stage_choice", "THETAS", "REFIT_NFEV", "THETA_WORDS", "heldout_theta", "paired_gain",
+           "theta_choice"]
 
 #: share of the record (its tail) on which the held-out free-run error is measured
 HOLDOUT = 0.3
@@ -133,11 +134,11 @@ PILOT = 0.2
 CONSTANT = Term(())
 
 #: ``MGGPRegressor`` keywords that keep the structure as the search built it:
-#: no size choice, no local search, no constant term, no power cap and no
-#: stress test (the published studies' setting, and the diagnosis's
-#: searches, whose fitness modes are compared)
+#: no size choice, no local search, no constant term, no power cap, no
+#: stress test and θ by least squares (the published studies' setting, and
+#: the diagnosis's searches, whose fitness modes are compared)
 AS_SEARCHED = dict(size="search", local_search=False, constant=False, max_power="none",
-                   stress=False)
+                   stress=False, refine="none")
 
 
 @dataclass(frozen=True)
@@ -185,14 +186,82 @@ def error_floor(data: Data) -> float:
     return RESOLUTION * float(np.ptp(data.y))
 
 
+#: θ of the structures that the automatic choices compare
+#: (:func:`heldout_errors`): 'ls', least squares on the part of the record
+#: not held out; 'freerun', those θ refined by free-run simulation error on
+#: the same part (:func:`narx.refine.refine`); 'best', of the two the one
+#: whose held-out free run is better (``refine='auto'``: :func:`heldout_theta`)
+THETAS = ("ls", "freerun", "best")
+
+#: evaluations of the simulation error (each followed by a finite-difference
+#: Jacobian) that the refit of a compared structure may spend
+#: (:func:`heldout_errors` with 'freerun' or 'best'); the final model's
+#: refinement is not capped so. Under output noise the LS θ are biased, and
+#: the Gauss–Newton steps from them reach the refit in a few iterations (9
+#: evaluations on the zoo's bilinear and play draws, development seeds 9 and 12)
+REFIT_NFEV = 10
+
+
+#: how a choice line says the θ of the structures compared (:func:`heldout_theta`)
+THETA_WORDS = {"best": ", θ of each structure by LS or its free-run refit, whichever "
+                       "simulates the held-out part better"}
+
+
+def heldout_theta(est) -> str:
+    """The θ of the structures the automatic choices compare
+    (:data:`THETAS`): 'best' with ``refine='auto'`` (least squares or its
+    free-run refit, whichever simulates the held-out part better) unless the
+    steady-state constraints are imposed (the hold selection then judges
+    the CLS refit of the LS θ); else 'ls'."""
+    return "best" if est.refine == "auto" and not steady(est) else "ls"
+
+
+def _sim_errors(model, data: Data, lo: int, hi: int):
+    """The free-run errors of ``model`` over ``data`` on the samples
+    ``lo:hi`` (NaN before the free run starts), None when it diverges."""
+    try:
+        with np.errstate(all="ignore"):
+            sim = model.simulate(data, mode="freerun")
+    except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+        return None
+    start = max(lo, sim.start)              # not the measured initial conditions
+    err = np.asarray(sim.y_hat[start:hi], dtype=float) - data.y[start:hi]
+    if sim.diverged or not np.all(np.isfinite(err)):
+        return None
+    return np.concatenate([np.full(start - lo, np.nan), err])
+
+
+def _refit(model, fit: Data):
+    """``model`` with θ refined by free-run simulation error on ``fit``
+    (:data:`REFIT_NFEV`), or None when the refit finds no lower error or
+    cannot run (a free run that diverges, noise terms)."""
+    import warnings
+    from narx.refine import refine
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            r = refine(model, fit, mode="freerun", max_nfev=REFIT_NFEV)
+    except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+        return None
+    return r.model if r.improved else None
+
+
+def _rms(e) -> float:
+    return float(np.sqrt(np.nanmean(e ** 2)))
+
+
 def heldout_errors(terms, data: Data, registry=None, holdout: float = HOLDOUT,
-                   ends=None) -> Optional[list]:
+                   ends=None, theta: str = "ls") -> Optional[list]:
     """The free-run errors :math:`\\hat y_k - y_k` of the structure ``terms``
     on the held-out ``holdout`` of ``data`` at each of ``ends`` ('tail',
-    'head'; default :data:`HOLDOUT_ENDS`), θ by least squares on the rest
-    of the record for each end: one array per end, over the whole held-out span, NaN on the samples
-    before the free run starts (its measured initial conditions). None when
-    the structure cannot be fitted or its free run diverges."""
+    'head'; default :data:`HOLDOUT_ENDS`), θ on the rest of the record for
+    each end by ``theta`` (:data:`THETAS`: least squares, its free-run
+    refit, or the better of the two on the held-out part): one array per
+    end, over the whole held-out span, NaN on the samples before the free
+    run starts (its measured initial conditions). None when the structure
+    cannot be fitted or its free run diverges."""
+    if theta not in THETAS:
+        raise ValueError(f"theta must be one of {THETAS}, got {theta!r}")
     if not tuple(terms):
         return None
     errs = []
@@ -203,14 +272,18 @@ def heldout_errors(terms, data: Data, registry=None, holdout: float = HOLDOUT,
             with ignore_rank_warnings():
                 model = Model(tuple(terms), inputs=data.inputs, output=data.output,
                               registry=registry).fit(fit)
-            sim = model.simulate(data, mode="freerun")
         except (ValueError, np.linalg.LinAlgError, FloatingPointError):
             return None
-        start = max(lo, sim.start)              # not the measured initial conditions
-        err = np.asarray(sim.y_hat[start:hi], dtype=float) - data.y[start:hi]
-        if sim.diverged or not np.all(np.isfinite(err)):
+        err = _sim_errors(model, data, lo, hi)
+        if theta != "ls":
+            refit = _refit(model, fit)
+            other = None if refit is None else _sim_errors(refit, data, lo, hi)
+            if other is not None and (theta == "freerun" or err is None
+                                      or _rms(other) < _rms(err)):
+                err = other
+        if err is None:
             return None
-        errs.append(np.concatenate([np.full(start - lo, np.nan), err]))
+        errs.append(err)
     return errs
 
 
@@ -224,12 +297,13 @@ def _rmse_of(errs, data: Data) -> float:
 
 
 def heldout_rmse(terms, data: Data, registry=None, holdout: float = HOLDOUT,
-                 ends=None) -> float:
+                 ends=None, theta: str = "ls") -> float:
     """Free-run RMSE on the held-out ``holdout`` of ``data`` at each of
     ``ends`` (default :data:`HOLDOUT_ENDS`) of the structure ``terms``, θ by
-    least squares on the rest of the record for each end (``inf``: diverges
-    or cannot be fitted), at least :func:`error_floor` (below it: rounding)."""
-    return _rmse_of(heldout_errors(terms, data, registry, holdout, ends), data)
+    ``theta`` on the rest of the record for each end (:func:`heldout_errors`;
+    ``inf``: diverges or cannot be fitted), at least :func:`error_floor`
+    (below it: rounding)."""
+    return _rmse_of(heldout_errors(terms, data, registry, holdout, ends, theta), data)
 
 
 #: significance level of the constant term's choices: it is taken only
@@ -285,7 +359,7 @@ class Gain:
 
 
 def heldout_gain(simple, rich, data: Data, registry=None, seed=0, margin: float = 0.0,
-                 ends=None) -> Gain:
+                 ends=None, theta: str = "ls", rich_theta: Optional[str] = None) -> Gain:
     """Whether the structure ``rich`` simulates the held-out part of ``data``
     better than ``simple`` beyond chance (:func:`heldout_errors` at ``ends``).
 
@@ -304,10 +378,20 @@ def heldout_gain(simple, rich, data: Data, registry=None, seed=0, margin: float 
     held-out part is a few hundred samples of one record whose errors are
     serially dependent: a gain smaller than their spread is noise, and the
     simpler option stays (Politis and Romano 1992, 1994; Politis and
-    White, *Econometric Reviews* 23, 2004: :mod:`narx.analysis.paired`)."""
+    White, *Econometric Reviews* 23, 2004: :mod:`narx.analysis.paired`). θ of ``simple`` by ``theta``,
+    of ``rich`` by ``rich_theta`` (default ``theta``; :data:`THETAS`)."""
+    ends = tuple(HOLDOUT_ENDS if ends is None else ends)
+    es = heldout_errors(simple, data, registry, ends=ends, theta=theta)
+    er = heldout_errors(rich, data, registry, ends=ends, theta=rich_theta or theta)
+    return paired_gain(es, er, data, seed, margin, ends)
+
+
+def paired_gain(es, er, data: Data, seed=0, margin: float = 0.0, ends=None) -> Gain:
+    """The :class:`Gain` of the held-out errors ``er`` over ``es``
+    (:func:`heldout_errors`' arrays at ``ends``, None: diverged), by the
+    rule of :func:`heldout_gain`."""
     from narx.analysis.paired import paired_test
     ends = tuple(HOLDOUT_ENDS if ends is None else ends)
-    es, er = (heldout_errors(t, data, registry, ends=ends) for t in (simple, rich))
     rs, rr = _rmse_of(es, data), _rmse_of(er, data)
     if es is None or er is None:
         return Gain(rs, rr, float("nan"), 0.0 if er is not None else 1.0, 0,
@@ -405,18 +489,20 @@ def size_tolerance(n_heldout: int) -> float:
     return max(SIZE_TOLERANCE, 2.0 / np.sqrt(max(int(n_heldout), 1)))
 
 
-def front_rows_heldout(terms, result, shape, data: Data, registry=None) -> list:
+def front_rows_heldout(terms, result, shape, data: Data, registry=None,
+                       theta: str = "ls") -> list:
     """``(n_terms, held-out RMSE, terms)`` of the structure ``terms`` and of
     the distinct smaller structures of ``result``'s Pareto front (each
-    through ``shape``), ``terms`` first."""
+    through ``shape``), ``terms`` first; θ of each by ``theta``
+    (:func:`heldout_errors`)."""
     terms = tuple(terms)
-    rows = [(len(terms), heldout_rmse(terms, data, registry), terms)]
+    rows = [(len(terms), heldout_rmse(terms, data, registry, theta=theta), terms)]
     seen = {frozenset(terms)}
     for r in result.pareto:
         ts = tuple(shape(r.terms))
         if ts and len(ts) < len(terms) and frozenset(ts) not in seen:
             seen.add(frozenset(ts))
-            rows.append((len(ts), heldout_rmse(ts, data, registry), ts))
+            rows.append((len(ts), heldout_rmse(ts, data, registry, theta=theta), ts))
     return rows
 
 
@@ -568,27 +654,28 @@ def constant_searched(est) -> bool:
     return bool(est.constant)
 
 
-def without_constant(terms, data: Data, registry=None):
+def without_constant(terms, data: Data, registry=None, theta: str = "ls"):
     """``(plain, error)``: the structure ``terms`` without the constant term
-    and its held-out free-run error (:func:`heldout_rmse`; ``inf`` when
-    nothing is left)."""
+    and its held-out free-run error (:func:`heldout_rmse`, θ by ``theta``;
+    ``inf`` when nothing is left)."""
     plain = tuple(t for t in terms if t != CONSTANT)
-    return plain, (heldout_rmse(plain, data, registry) if plain else float("inf"))
+    return plain, (heldout_rmse(plain, data, registry, theta=theta) if plain
+                   else float("inf"))
 
 
-def constant_choice(terms, data: Data, registry=None, seed=0):
+def constant_choice(terms, data: Data, registry=None, seed=0, theta: str = "ls"):
     """``constant='auto'``: ``(Choice, terms)``. The constant term of the
     chosen structure is kept only when its held-out free-run error is more
     than :data:`GAIN` below that of the same structure without it and the
     gain is significant at :data:`LEVEL` (:func:`heldout_gain`), each end
-    of :data:`CONSTANT_ENDS` held out in turn (θ of each by LS on the rest
-    of the record; ``seed`` seeds the bootstrap)."""
+    of :data:`CONSTANT_ENDS` held out in turn (θ of each by ``theta`` on the
+    rest of the record, :func:`heldout_errors`; ``seed`` seeds the bootstrap)."""
     terms = tuple(terms)
     if CONSTANT not in terms:
         return Choice("constant", False, "no constant term: the chosen structure has "
                       "none", {}), terms
     plain = tuple(t for t in terms if t != CONSTANT)
-    g = heldout_gain(plain, terms, data, registry, seed, GAIN, CONSTANT_ENDS)
+    g = heldout_gain(plain, terms, data, registry, seed, GAIN, CONSTANT_ENDS, theta)
     keep = g.significant
     figs = {"heldout_rmse_constant": g.rich, "heldout_rmse_no_constant": g.simple,
             "holdout": HOLDOUT, **g.figures()}
@@ -607,7 +694,7 @@ def _ends_words() -> str:
 
 
 def fewest_terms(rows_constant, rows_plain, data: Data, registry=None,
-                 seed=0) -> Optional[dict]:
+                 seed=0, theta: str = "ls") -> Optional[dict]:
     """Parsimony between two pilots that their held-out errors cannot tell
     apart: among the rows ``(n_terms, held-out error, terms)`` of the pilot
     with the constant term and of the one without, those within
@@ -618,8 +705,8 @@ def fewest_terms(rows_constant, rows_plain, data: Data, registry=None,
     side, whether the one with the constant is simpler (``simpler``), and
     ``own``, the :class:`Gain` of that structure over itself without its
     constant (:func:`heldout_gain` at :data:`CONSTANT_ENDS`, margin the
-    tolerance; when ``simpler``). None when no row with the constant is
-    within the tolerance."""
+    tolerance; when ``simpler``; θ by ``theta``). None when no row with the
+    constant is within the tolerance."""
     finite = [r for r in (*rows_constant, *rows_plain) if np.isfinite(r[1])]
     if not finite:
         return None
@@ -636,7 +723,8 @@ def fewest_terms(rows_constant, rows_plain, data: Data, registry=None,
     n_p, deg_p, err_p, _ = simplest(near_p)
     simpler = (n_c, deg_c) < (n_p, deg_p)
     own = (heldout_gain(without_constant(terms_c, data, registry)[0], terms_c, data,
-                        registry, seed, tol / (1.0 + tol), CONSTANT_ENDS) if simpler else None)
+                        registry, seed, tol / (1.0 + tol), CONSTANT_ENDS, theta)
+           if simpler else None)
     return {"terms_constant": n_c, "terms_no_constant": n_p, "degree_constant": deg_c,
             "degree_no_constant": deg_p, "tolerance": tol, "simpler": simpler,
             "heldout_rmse_constant": err_c, "heldout_rmse_no_constant": err_p,
@@ -713,6 +801,29 @@ def constant_pilot_choice(over_plain: Gain, over_own: Gain, pilot: str,
                f"not the constant, makes the gain (kept only when over {percent(GAIN)} "
                f"lower than both at p < {LEVEL:g}; {ends}; {pilot})")
     return Choice("constant", keep, why, figs)
+
+
+def theta_choice(terms, data: Data, registry=None, seed=0) -> Choice:
+    """``refine='auto'``: θ of the final structure ``terms`` by free-run
+    simulation error (value 'freerun') when its refit on the part of the
+    record not held out (:func:`heldout_errors` with 'freerun') simulates
+    the held-out part better than its LS θ by over :data:`GAIN`,
+    significantly at :data:`LEVEL` (:func:`heldout_gain`); else by least
+    squares (value None). Under output noise the LS θ are biased (the
+    regressors hold the noise) and simulate worse than the structure allows
+    (Ljung, *System Identification*, 2nd ed., 1999, §7.3); the refit is the
+    output-error estimate from them (:func:`narx.refine.refine`)."""
+    g = heldout_gain(terms, terms, data, registry, seed, GAIN, theta="ls",
+                     rich_theta="freerun")
+    figs = {"heldout_rmse_ls": g.simple, "heldout_rmse_freerun": g.rich,
+            "holdout": HOLDOUT, **g.figures()}
+    if g.significant:
+        return Choice("refine", "freerun", f"θ by free-run simulation error: {g.text()} "
+                      f"with LS θ{g.verdict()} ({holdout_words()}; then refined on the "
+                      f"whole record from its LS θ)", figs)
+    return Choice("refine", None, f"θ by least squares: their free-run refit's "
+                  f"{g.text()} with them{g.verdict()} (the refit kept only when over "
+                  f"{percent(GAIN)} lower at p < {LEVEL:g}; {holdout_words()})", figs)
 
 
 def constant_off() -> Choice:

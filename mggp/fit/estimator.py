@@ -59,7 +59,8 @@ from .choices import (CONSTANT, CONSTANT_ENDS, GAIN, HEIGHT, Choice, class_choic
                       constant_pilot_choice, constant_searched, fewest_terms,
                       front_rows_heldout, heldout_gain, heldout_rmse,
                       height_choice, holdout_message, outliers_choice, pilot_generations,
-                      heldout_samples, resolve_screen, resolve_select, search_classes,
+                      heldout_samples, heldout_theta, THETA_WORDS, resolve_screen,
+                      resolve_select, search_classes,
                       search_part_choice, size_tolerance, without_constant)
 from .extrapolation import POWER_CAP, StressCheck, bounded_first, signal_power
 from .selection import run_candidates, select_hold
@@ -291,7 +292,7 @@ class MGGPRegressor:
                  max_power="auto", select="auto", size="auto", stress=True, local_search=True,
                  select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
-                 t_threshold=None, estimator="ls", refine=None, refine_window=None,
+                 t_threshold=None, estimator="ls", refine="none", refine_window=None,
                  backend="loky", scheduler=None, outliers="auto", checkpoint=None,
                  resume=False, callbacks=None, registry=None):
         self.fitness = fitness
@@ -605,7 +606,7 @@ class MGGPRegressor:
             if all(r.result is None for r in runs):
                 raise ValueError(NO_FINITE)
             words = (f"pilots of {pilot} of {self.generations} generations at full "
-                     f"population")
+                     f"population" + THETA_WORDS.get(heldout_theta(self), ""))
             hold = None if all(r.holds is None for r in runs) else [bool(r.holds) for r in runs]
             choice = class_choice(classes, [r.error for r in runs], hold,
                                   words + ("" if hold else ", least error over each "
@@ -624,14 +625,15 @@ class MGGPRegressor:
                                         f"pilot {n}/{n} {classes[win].label}, no constant",
                                         plain, None, f"{classes[win].label}, no constant")
                 runs.append(run)
-                with_c = runs[win].terms
+                with_c, theta = runs[win].terms, heldout_theta(self)
                 kept = constant_pilot_choice(
                     heldout_gain(run.terms, with_c, ctx.data, ctx.registry, seed, GAIN,
-                                 CONSTANT_ENDS),
+                                 CONSTANT_ENDS, theta),
                     heldout_gain(without_constant(with_c, ctx.data, ctx.registry)[0], with_c,
-                                 ctx.data, ctx.registry, seed, GAIN, CONSTANT_ENDS),
+                                 ctx.data, ctx.registry, seed, GAIN, CONSTANT_ENDS, theta),
                     f"{words}, class {classes[win].label}",
-                    fewest_terms(runs[win].rows, run.rows, ctx.data, ctx.registry, seed))
+                    fewest_terms(runs[win].rows, run.rows, ctx.data, ctx.registry, seed,
+                                 theta))
                 ctx.choices["constant"] = kept
                 if not kept.value and run.result is not None:
                     go, ctx.shape, plain_kw = len(runs) - 1, plain, {"constant": False}
@@ -695,7 +697,8 @@ class MGGPRegressor:
         if holds is not None:
             rows = [(len(terms), heldout_rmse(terms, ctx.data, ctx.registry), tuple(terms))]
         else:
-            rows = front_rows_heldout(terms, res, shape, ctx.data, ctx.registry)
+            rows = front_rows_heldout(terms, res, shape, ctx.data, ctx.registry,
+                                      heldout_theta(self))
         order = sorted(range(len(rows)), key=lambda i: rows[i][1])
         _, refused, all_fail = bounded_first(rows, order, self._tolerance(ctx), ctx.stress)
         out = {i for i, _ in refused}

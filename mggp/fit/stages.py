@@ -83,9 +83,10 @@ from narx.language.phi import PhiRegistry
 from narx.records.ranges import signal_ranges
 from narx.language.terms import Term
 
-from .choices import (STAGE_CHOICES, Choice, constant_choice, constant_off, error_floor, front_rows_heldout,
-                      heldout_rmse, heldout_samples, local_search_kept, resolve_select,
-                      size_choice, steady)
+from .choices import (STAGE_CHOICES, THETA_WORDS, Choice, constant_choice, constant_off,
+                      error_floor, front_rows_heldout, heldout_rmse, heldout_samples,
+                      heldout_theta, local_search_kept, resolve_select, size_choice, steady,
+                      theta_choice)
 from ..gp.evaluate import criterion_value
 from ..exceptions import CLSRejectedWarning
 from .noise import full_ma, prune_process, select_noise
@@ -416,8 +417,9 @@ def local_search(terms, data, ctx):
         return LocalSearched(terms)
     moved = prune(moved, data, ctx).terms
     unbounded = "" if ctx.stress is None or ctx.stress(terms) else ctx.stress(moved)
-    c = local_search_kept(heldout_rmse(terms, data, ctx.registry),
-                          heldout_rmse(moved, data, ctx.registry),
+    theta = heldout_theta(est)
+    c = local_search_kept(heldout_rmse(terms, data, ctx.registry, theta=theta),
+                          heldout_rmse(moved, data, ctx.registry, theta=theta),
                           heldout_samples(data.n), len(steps), unbounded)
     if not c.value:
         ctx.choices["local_search"] = c
@@ -442,9 +444,11 @@ def size(terms, data, ctx):
         ctx.choices["size"] = Choice("size", len(terms), f"size {len(terms)} terms: "
                                      f"chosen by {by}, not by held-out error", {})
         return Decision(terms)
-    c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry),
-                    heldout_samples(data.n), ctx.stress)
-    ctx.choices["size"] = Choice(c.name, len(c.value), c.why, c.figures)
+    theta = heldout_theta(ctx.est)
+    c = size_choice(front_rows_heldout(terms, ctx.result, ctx.shape, data, ctx.registry,
+                                       theta), heldout_samples(data.n), ctx.stress)
+    why = c.why + THETA_WORDS.get(theta, "").replace(",", ";", 1)
+    ctx.choices["size"] = Choice(c.name, len(c.value), why, c.figures)
     return Decision(c.value)
 
 
@@ -465,7 +469,8 @@ def constant(terms, data, ctx):
     pilot = ctx.choices.get("constant")
     if pilot is not None and not pilot.value:   # searched without it (the pilots' choice)
         return Decision(terms)
-    c, terms = constant_choice(terms, data, ctx.registry, ctx.seed or 0)
+    c, terms = constant_choice(terms, data, ctx.registry, ctx.seed or 0,
+                               heldout_theta(ctx.est))
     if pilot is not None:
         c = replace(c, why=f"{pilot.why}; then {c.why}", figures={**pilot.figures,
                                                                    **c.figures})
@@ -602,13 +607,26 @@ def cls_refit(terms, data, ctx):
 
 def refine(terms, data, ctx):
     """θ of ``model_`` and ``model_cls_`` by least simulation error
-    (``refine``; ``refinement_`` holds the errors before and after)."""
+    (``refine``; ``refinement_`` holds the errors before and after).
+    'auto': by free-run simulation error when that refit of the structure
+    simulates the held-out part significantly better than its LS θ
+    (:func:`mggp.fit.choices.theta_choice`), never with the steady-state
+    constraints (the hold selection judged the CLS refit of the LS θ)."""
     est = ctx.est
     refinement, model, model_cls = None, ctx.latest("model"), ctx.latest("model_cls")
-    if est.refine:
+    how = est.refine
+    if how == "auto":
+        how = None
+        if heldout_theta(est) == "best" and not any(t.has_noise for t in terms):
+            c = theta_choice(terms, data, ctx.registry, ctx.seed or 0)
+            ctx.choices["refine"] = c
+            how = c.value
+            model.meta.setdefault("choices", {})["refine"] = c.to_dict()
+            model.meta["refine"] = c.value
+    if how and how != "none":
         from narx.refine import refine_both
         refinement, model, model_cls, why = refine_both(
-            model, model_cls, data, est.refine, est.refine_window or est.window)
+            model, model_cls, data, how, est.refine_window or est.window)
         if why:
             warnings.warn(f"refine={est.refine!r} is not applied: {why}", UserWarning,
                           stacklevel=_CALLER)

@@ -1,0 +1,67 @@
+"""θ by simulation error in the automatic choices (``refine='auto'``,
+mggp.fit.choices.heldout_errors with theta, theta_choice): under output noise
+the LS θ of the true structure are biased and its free-run refit simulates
+the held-out part better; under equation noise LS is the right estimate
+and is kept."""
+import numpy as np
+import pytest
+
+from mggp import MGGPRegressor
+from mggp.fit.choices import THETA_WORDS, heldout_rmse, heldout_theta, theta_choice
+from narx.records.data import Data
+
+TRUTH = ("y[k-1]", "y[k-2]", "u[k-1]")
+
+
+def record(kind: str, n=1500, seed=0):
+    """y = 1.5 y[k-1] - 0.7 y[k-2] + u[k-1] (a lightly damped pole pair),
+    with white 'output' noise on the measured y (LS biased) or the same
+    noise entering the 'equation' (LS consistent)."""
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal(n)
+    e = 0.8 * rng.standard_normal(n)
+    x = np.zeros(n)
+    for k in range(2, n):
+        x[k] = 1.5 * x[k - 1] - 0.7 * x[k - 2] + u[k - 1] + (e[k] if kind == "equation"
+                                                            else 0.0)
+    y = x + (e if kind == "output" else 0.0)
+    return Data(u, y)
+
+
+def test_output_noise_takes_the_free_run_refit():
+    d = record("output")
+    ls, best = (heldout_rmse(TRUTH, d, theta=t) for t in ("ls", "best"))
+    assert best < 0.9 * ls
+    c = theta_choice(TRUTH, d, seed=0)
+    assert c.value == "freerun" and c.why.startswith("θ by free-run simulation error")
+    assert c.figures["heldout_rmse_freerun"] < c.figures["heldout_rmse_ls"]
+
+
+def test_equation_noise_keeps_least_squares():
+    """Control: the noise enters the equation, LS is unbiased; the refit gains nothing
+    beyond chance."""
+    d = record("equation")
+    c = theta_choice(TRUTH, d, seed=0)
+    assert c.value is None and c.why.startswith("θ by least squares")
+    assert heldout_rmse(TRUTH, d, theta="best") <= heldout_rmse(TRUTH, d, theta="ls")
+
+
+def test_theta_must_be_known():
+    with pytest.raises(ValueError, match="theta must be one of"):
+        heldout_rmse(TRUTH, record("output"), theta="oe")
+
+
+def test_the_fit_says_and_applies_the_choice():
+    d = record("output")
+    kw = dict(fitness="pem", population=16, generations=2, max_height=2, max_terms=4,
+              random_state=1, use_phi=False, operators="none", constant=False)
+    est = MGGPRegressor(refine="auto", **kw).fit(d)
+    c = est.choices_["refine"]
+    assert THETA_WORDS["best"].replace(",", ";", 1) in est.choices_["size"]["why"]
+    assert (c["value"] == "freerun") == ("refined" in est.model_.meta
+                                         and est.model_.meta["refined"]["improved"])
+    # control: refine='none' (the default) and the steady-state constraints make no such choice
+    assert "refine" not in MGGPRegressor(**kw).fit(d).choices_
+    steady = MGGPRegressor(constraints="steady-state", refine="auto", **kw)
+    assert heldout_theta(steady) == "ls"
+
