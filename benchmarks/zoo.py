@@ -261,6 +261,18 @@ def records(path) -> List[dict]:
 def evaluate(seeds, path, population=STUDY_BUDGET["population"],
              generations=STUDY_BUDGET["generations"], jobs=1, say=print) -> List[dict]:
     """Evaluate each seed not yet in ``path``, appending its record there."""
+    return resume(seeds, path, lambda seed: evaluate_one(seed, population, generations, jobs),
+                  lambda rec: say(f"seed {rec['seed']}: {rec['family']} ({rec['placement']}), "
+                                  f"named {rec.get('named', rec.get('error'))}, gain "
+                                  f"{rec.get('gain')}, oracle gain {rec.get('oracle_gain')}, "
+                                  f"{rec['seconds']:.0f} s"))
+
+
+def resume(seeds, path, one, report) -> List[dict]:
+    """The records of ``path`` plus ``one(seed)`` for each seed not yet
+    there, each appended to ``path`` (flushed and synced) as it finishes and
+    passed to ``report``; a torn last line of ``path`` is dropped first, so
+    a killed run resumes where it stopped."""
     from narx.atomic import atomic_write_text
     done = records(path)
     have = {r["seed"] for r in done}
@@ -270,15 +282,13 @@ def evaluate(seeds, path, population=STUDY_BUDGET["population"],
     for seed in seeds:
         if seed in have:
             continue
-        rec = evaluate_one(seed, population, generations, jobs)
+        rec = one(seed)
         with open(path, "a", encoding="utf-8") as fh:
             fh.write(json.dumps(rec) + "\n")
             fh.flush()
             os.fsync(fh.fileno())
         out.append(rec)
-        say(f"seed {seed}: {rec['family']} ({rec['placement']}), named "
-            f"{rec.get('named', rec.get('error'))}, gain {rec.get('gain')}, oracle gain "
-            f"{rec.get('oracle_gain')}, {rec['seconds']:.0f} s")
+        report(rec)
     return out
 
 

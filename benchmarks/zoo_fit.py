@@ -29,9 +29,7 @@ controls, the explosions, and the same by family.
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import os
 import sys
 import time
 import warnings
@@ -39,7 +37,7 @@ from typing import List, Optional
 
 import numpy as np
 
-from .zoo import IDENTIFIABLE, STUDY_N, oracle, parse_seeds, records
+from .zoo import IDENTIFIABLE, STUDY_N, oracle, parse_seeds, records, resume
 
 __all__ = ["GOAL", "fit_one", "fit_study", "fit_table", "main"]
 
@@ -93,25 +91,12 @@ def fit_one(seed: int, jobs: int = 1) -> dict:
 
 def fit_study(seeds, path, jobs: int = 1, say=print) -> List[dict]:
     """:func:`fit_one` for each seed not yet in ``path``, appending its record there."""
-    from narx.atomic import atomic_write_text
-    done = records(path)
-    have = {r["seed"] for r in done}
-    if os.path.exists(path):              # drop a torn last line before appending
-        atomic_write_text(path, "".join(json.dumps(r) + "\n" for r in done))
-    out = list(done)
-    for seed in seeds:
-        if seed in have:
-            continue
-        rec = fit_one(seed, jobs)
-        with open(path, "a", encoding="utf-8") as fh:
-            fh.write(json.dumps(rec) + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
-        out.append(rec)
-        say(f"seed {seed}: {rec['family']}, fit {rec.get('fit_rmse')}, oracle "
-            f"{rec.get('oracle_rmse')}, ratio {rec.get('ratio')}, "
-            f"{'EXPLODED, ' if rec.get('exploded') else ''}{rec['seconds']:.0f} s")
-    return out
+    return resume(seeds, path, lambda seed: fit_one(seed, jobs),
+                  lambda rec: say(f"seed {rec['seed']}: {rec['family']}, fit "
+                                  f"{rec.get('fit_rmse')}, oracle {rec.get('oracle_rmse')}, "
+                                  f"ratio {rec.get('ratio')}, "
+                                  f"{'EXPLODED, ' if rec.get('exploded') else ''}"
+                                  f"{rec['seconds']:.0f} s"))
 
 
 def _holds(r) -> bool:
