@@ -26,7 +26,8 @@ def test_the_choices_and_the_diagnosis_call_the_one_test():
     import mggp.diagnose.verdict
     assert mggp.diagnose.paired.paired_test is paired_test
     assert mggp.diagnose.verdict.paired_test is paired_test
-    assert "paired_test" in mggp.fit.choices.heldout_gain.__code__.co_names
+    assert "paired_gain" in mggp.fit.choices.heldout_gain.__code__.co_names
+    assert "paired_test" in mggp.fit.choices.paired_gain.__code__.co_names
 
 
 # ------------------------------------------------------------ calibration
