@@ -363,22 +363,27 @@ def fit_structure(s: Structure, data: Data, registry=None) -> Tuple[Optional[Mod
     order = _forward_order(base, new, data, registry)
     if not order:
         return None, float("inf")
-    best, best_rmse = None, np.inf
+    # the key (leaves the probes' range, hold-out RMSE): a size whose free
+    # run stays bounded on the probe inputs beats any that does not
+    best, best_key = None, (True, np.inf)
     for j in range(1, len(order) + 1):
         terms = base + order[:j]
         m = _estimate(terms, head, s.constraints, registry)
         if m is None:
             continue
         r = freerun_rmse(m, data, cut)
-        if r < best_rmse:
-            best, best_rmse = terms, r
+        if (False, r) < best_key:           # worth a probe: it may become the best
+            key = (not stays_bounded(m, data), r)
+            if key < best_key:
+                best, best_key = terms, key
     if best is None:
         return None, float("inf")
+    best_rmse = best_key[1]
     final = _estimate(best, data, s.constraints, registry)
     if s.refine and s.constraints is None:
         m = _refined(_estimate(best, head, None, registry), head)
         r = freerun_rmse(m, data, cut)
-        if r < best_rmse:
+        if r < best_rmse and (best_key[0] or stays_bounded(m, data)):
             start = Model(list(best), m.theta, inputs=data.inputs, output=data.output,
                           registry=registry)
             final, best_rmse = _refined(start, data) or final, r
