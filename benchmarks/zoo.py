@@ -35,19 +35,14 @@ from the diagnosis, or :func:`baseline_rmse` standalone) / the oracle's.
 A hysteretic draw is *identifiable* when ``oracle_gain >= 1.5``: knowing
 the structure buys at least that much, so a diagnosis could.
 
-**Study budget.** Measured on 4,000-sample development draws, CPU time
-of one process (``jobs=1``; the machine was shared, load about 18 on 2
-cores, so wall times were 5-9 times longer): with the default budget
-(population 500, 100 generations) one diagnosis took 91 s (seed 1,
-quadratic damping, nothing named, so no extension search); with
-population 100 and 20 generations 60 s (seed 1) and 67 s (seed 2,
-Wiener-Hammerstein), of which the baseline search about 10 s and the
-evidence about 50 s, 48 s of it the operator-augmentation test, which runs
-in one process and does not depend on the search budget. No search budget
-therefore brings a diagnosis under 30 s on 2 cores; population 100 and 20
-generations makes the search a small share (about 5 s with ``jobs=2``)
-and the diagnosis about 55 s on 2 idle cores, plus an extension search
-when a cause is named.
+**Study budget.** Population 100 and 20 generations make the baseline
+search a small share of a diagnosis: on the 150 evaluation draws 1150-1299
+(4,000 samples, ``--jobs 2`` on 2 cores) one diagnosis took 3.8 s in
+median, 6.2 s at the 90th percentile and at most 9.3 s, besides the run's
+first draw (61 s, the numba kernels compiling). The default budget
+(population 500, 100 generations) spends most of its time in the search:
+47 s of the 57 s that the measured piezo record's diagnosis takes
+on one job.
 """
 from __future__ import annotations
 
