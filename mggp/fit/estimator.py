@@ -290,7 +290,7 @@ class MGGPRegressor:
                  max_height="auto", phi_names=None, phi_outputs=False, operators="auto",
                  operator_entry="stage", constant="auto", max_lag=None, max_degree=None,
                  max_power="auto", select="auto", size="auto", stress=True, local_search=True,
-                 select_candidates=50,
+                 extend="auto", select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, estimator="ls", refine="none", refine_window=None,
                  backend="loky", scheduler=None, outliers="auto", checkpoint=None,
@@ -329,6 +329,7 @@ class MGGPRegressor:
         self.size = size
         self.stress = stress
         self.local_search = local_search
+        self.extend = extend
         self.select_candidates = select_candidates
         self.screen = screen
         self.screen_top = screen_top
@@ -535,6 +536,7 @@ class MGGPRegressor:
         if pruned.t_threshold is not None:
             self.t_threshold_ = pruned.t_threshold
         self.local_search_ = decided["local_search"].steps
+        self.extension_ = decided["extend"].extension
         self.terms_ = decided["record"].terms
         self.fitness_ = decided["record"].fitness
         self.rank_ = decided["qr_refit"].rank
