@@ -499,7 +499,7 @@ class MGGPRegressor:
         self.max_power_ = {"auto": POWER_CAP, "none": None}.get(self.max_power, self.max_power)
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
                          stress=StressCheck(data, registry) if self.stress else None,
-                         allowed=self._allowed)
+                         allowed=self._allowed, scans=scans)
         if self.outliers == "auto":
             ctx.choices["outliers"] = outliers_choice(spikes, data.output, data.inputs)
         if height is not None:

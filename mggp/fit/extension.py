@@ -97,7 +97,8 @@ def _allowed_structure(s, room: int, allowed, sig, registry):
 
 def extension_choice(terms, data: Data, registry=None, seed=0, level: float = 0.05,
                      resolution: float = 0.005, theta: str = "ls", max_terms: int = 15,
-                     allowed: Optional[Callable] = None, check=None) -> Extension:
+                     allowed: Optional[Callable] = None, check=None,
+                     scans=None) -> Extension:
     """Try the catalogue's extensions of the structure ``terms`` on ``data``
     and take the one the paired held-out test picks (module doc).
 
@@ -124,21 +125,35 @@ def extension_choice(terms, data: Data, registry=None, seed=0, level: float = 0.
         ``allowed(term)``: whether the fit may use a new term.
     check : StressCheck, optional
         The fit's stress test; a winner that fails it is barred.
+    scans : dict, optional
+        :func:`narx.records.deadtime.onset_scans` of the record, when the
+        fit has them (the dead times the catalogue's lags reach; computed on
+        the fitting samples otherwise).
+
+    The solves and simulations run with the BLAS on one thread
+    (:func:`narx.linalg.one_blas_thread`; tall, narrow matrices, as in the
+    diagnosis).
     """
+    from narx.linalg import one_blas_thread
+    with one_blas_thread():
+        return _extension(tuple(terms), data, registry, seed, level, resolution, theta,
+                          max_terms, allowed or (lambda t: True), check, scans)
+
+
+def _extension(terms, data, registry, seed, level, resolution, theta, max_terms, allowed,
+               check, scans) -> Extension:
     from ..diagnose.candidates import candidate_structures, fit_structure, stays_bounded
     from ..diagnose.verdict import decide
     t0 = time.perf_counter()
-    terms = tuple(terms)
     lo, hi = _held_span(data.n, "tail")
     if lo < MIN_FIT or hi - lo < MIN_HELD:
         return _kept(f"kept: no extension tried ({data.n} samples are too few: the catalogue "
                      f"needs {MIN_FIT} to fit and {MIN_HELD} held out)", terms)
     fit = data.slice(0, lo)
-    allowed = allowed or (lambda t: True)
     sig = Signals(data.output, data.inputs)
     base = Model(terms, inputs=data.inputs, output=data.output, registry=registry)
     fitted = []
-    for s in candidate_structures(base, fit):
+    for s in candidate_structures(base, fit, scans):
         s, room = _allowed_structure(s, max_terms, allowed, sig, registry)
         model = None
         if s.new and room > 0 or not s.new:

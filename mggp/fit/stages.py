@@ -307,6 +307,9 @@ class FitContext:
         local search's moves keep to it).
     decided : dict
         The decisions of the stages run so far, by stage name.
+    scans : dict or None
+        :func:`narx.records.deadtime.onset_scans` of the record (the dead
+        times; ``extend`` reads them).
     """
 
     est: Settings
@@ -324,6 +327,7 @@ class FitContext:
     stress: Optional["StressCheck"] = None
     allowed: Callable[[Term], bool] = lambda term: True
     decided: Dict[str, Decision] = field(default_factory=dict)
+    scans: Optional[dict] = None
     _scorers: Dict[Tuple, StructureScorer] = field(default_factory=dict)
 
     def latest(self, name: str, default=None):
@@ -565,7 +569,7 @@ def extend(terms, data, ctx):
     ext = extension_choice(terms, data, ctx.registry, ctx.seed or 0,
                            DIAGNOSE_PARAMS["level"].default,
                            DIAGNOSE_PARAMS["resolution"].default, heldout_theta(est),
-                           est.max_terms, ctx.allowed, ctx.stress)
+                           est.max_terms, ctx.allowed, ctx.stress, ctx.scans)
     ctx.choices["extend"] = ext.choice
     return Extended(ext.terms, ext.to_dict(), ext.theta)
 
