@@ -192,7 +192,10 @@ class MGGPRegressor:
     free-run RMSE by over 5 % at p < 0.05; ``size`` takes the fewest terms
     of the run's Pareto front within 5 % of the least held-out free-run
     RMSE (2/√n on n held-out samples when larger:
-    :func:`mggp.fit.choices.size_tolerance`). An
+    :func:`mggp.fit.choices.size_tolerance`); ``extend`` tries the candidate
+    extensions of ``mggp diagnose`` on the chosen structure and takes the
+    one that wins the diagnosis's paired held-out test and stays bounded on
+    probe and stress inputs (:mod:`mggp.fit.extension`; ``extension_``). An
     explicit value of a parameter disables its choice; the level is
     :data:`mggp.fit.choices.LEVEL`.
 
