@@ -87,11 +87,12 @@ def _kept(why: str, terms, figures=None, seconds: float = 0.0, verdict=None) -> 
                      tuple(terms), "ls", verdict, seconds)
 
 
-def _allowed_structure(s, room: int, allowed, sig, registry):
-    """The candidate ``s`` with the new terms the fit allows, and how many
-    it may keep (``room`` for a form that replaces the baseline, less the
-    baseline's terms for one that adds to it)."""
-    new = tuple(t for t in s.new if allowed(parse_term(t, sig, registry=registry)))
+def _allowed_structure(s, room: int, allowed, parse):
+    """The candidate ``s`` with the new terms the fit allows (parsed by
+    ``parse``, text -> Term), and how many it may keep (``room`` for a form
+    that replaces the baseline, less the baseline's terms for one that adds
+    to it)."""
+    new = tuple(t for t in map(parse, s.new) if allowed(t))
     return replace(s, new=new), room - len(s.base)
 
 
@@ -150,11 +151,16 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
         return _kept(f"kept: no extension tried ({data.n} samples are too few: the catalogue "
                      f"needs {MIN_FIT} to fit and {MIN_HELD} held out)", terms)
     fit = data.slice(0, lo)
-    sig = Signals(data.output, data.inputs)
+    sig, parsed = Signals(data.output, data.inputs), {}
+
+    def parse(text):                # each text once: the catalogue's forms share terms
+        if text not in parsed:
+            parsed[text] = parse_term(text, sig, registry=registry)
+        return parsed[text]
     base = Model(terms, inputs=data.inputs, output=data.output, registry=registry)
     fitted = []
     for s in candidate_structures(base, fit, scans):
-        s, room = _allowed_structure(s, max_terms, allowed, sig, registry)
+        s, room = _allowed_structure(s, max_terms, allowed, parse)
         model = None
         if s.new and room > 0 or not s.new:
             model = fit_structure(s, fit, registry, max_new=room)[0]
