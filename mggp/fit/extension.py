@@ -49,7 +49,8 @@ from narx import Model
 from narx.records.data import Data
 from narx.language.terms import Signals, parse_term
 
-from .choices import Choice, _held_span, _sim_errors, heldout_errors, rmse_text, terms_text
+from .choices import (HOLDOUT, Choice, _held_span, _sim_errors, heldout_errors, percent,
+                      rmse_text, terms_text)
 
 __all__ = ["Extension", "extension_choice", "MIN_FIT", "MIN_HELD"]
 
@@ -198,8 +199,10 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
                            for t in vd.tested if t.model is not None}}
     if refused:
         figs["stress_refused"] = refused
-    said = (f"{len(tried)} catalogue extensions tried, θ on the first part of the record, "
-            f"free-run error on its last part; paired block bootstrap of the log-loss "
+    said = (f"{len(tried)} catalogue extensions tried, θ on the first "
+            f"{percent(1 - HOLDOUT)}, error on the last {percent(HOLDOUT)} of the record; "
+            f"paired block "
+            f"bootstrap of the log-loss "
             f"differences, Holm, level {level:g}, a memory extension also against the best "
             f"memory-free one")
     bar = "".join(f"; {n} refused on the stress inputs (its free run {r})"
