@@ -543,7 +543,8 @@ _ROWS = (
           "output noise; auto: the structures the automatic choices compare take their "
           "free-run refit where it simulates the held-out part better, and the final "
           "model's θ are refined in free run when that is significantly better held out "
-          "(never with --constraints steady-state); none: least squares",
+          "(never with --constraints steady-state); none: least squares (auto and none: "
+          "also in free run when the extension --extend took won so)",
           "selection", "--refine", meta=True),
     Param("refine_window", None, Int(1, none=True), "multiple-shooting window in samples "
           "of --refine ms", "selection", "--refine-window", metavar="W",

@@ -677,21 +677,32 @@ def refine(terms, data, ctx):
     'auto': by free-run simulation error when that refit of the structure
     simulates the held-out part significantly better than its LS θ
     (:func:`mggp.fit.choices.theta_choice`), never with the steady-state
-    constraints (the hold selection judged the CLS refit of the LS θ)."""
+    constraints (the hold selection judged the CLS refit of the LS θ).
+    With ``refine`` 'auto' or 'none', an extension taken with θ by free-run
+    simulation error (:class:`Extended`) is refined so (without noise
+    terms, whose θ come from extended least squares)."""
     est = ctx.est
     refinement, model, model_cls = None, ctx.latest("model"), ctx.latest("model_cls")
     how = est.refine
+    noisy = any(t.has_noise for t in terms)
     extended = ctx.decided.get("extend")
-    if extended is not None and extended.theta == "freerun" and how in ("auto", "none", None):
+    c = None
+    if (extended is not None and extended.theta == "freerun" and how in ("auto", "none", None)
+            and not noisy):
         how = "freerun"                 # the extension won with θ by simulation error
-    if how == "auto":
+        if est.refine == "auto":
+            c = Choice("refine", how, f"θ by free-run simulation error: the extension taken "
+                       f"({extended.extension['winner']}) won the held-out test with them "
+                       f"(refined on the whole record from its LS θ)", {})
+    elif how == "auto":
         how = None
-        if heldout_theta(est) == "best" and not any(t.has_noise for t in terms):
+        if heldout_theta(est) == "best" and not noisy:
             c = theta_choice(terms, data, ctx.registry, ctx.seed or 0)
-            ctx.choices["refine"] = c
             how = c.value
-            model.meta.setdefault("choices", {})["refine"] = c.to_dict()
-            model.meta["refine"] = c.value
+    if c is not None:
+        ctx.choices["refine"] = c
+        model.meta.setdefault("choices", {})["refine"] = c.to_dict()
+        model.meta["refine"] = c.value
     if how and how != "none":
         from narx.refine import refine_both
         refinement, model, model_cls, why = refine_both(
