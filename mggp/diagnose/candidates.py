@@ -94,12 +94,16 @@ from .augmentation import direction_terms
 from .simulation import freerun_rmse
 
 __all__ = ["Structure", "MEMORY", "MEMORY_FREE", "candidate_structures", "fit_structure",
-           "late_lags", "HEAD", "MAX_NEW", "probe_inputs", "stays_bounded"]
+           "late_lags", "HEAD", "MAX_NEW", "MIN_FIT", "MIN_SELECT", "probe_inputs",
+           "stays_bounded"]
 
 #: the class of the memory candidates
 MEMORY = "hysteresis"
 #: the classes of the memory-free candidates
 MEMORY_FREE = ("unmodelled-dynamics", "unmodelled-nonlinearity", "steady-state-drift")
+#: fewest samples that fit the candidates, and fewest that test them (or
+#: measure a diagnosis's gain)
+MIN_FIT, MIN_SELECT = 100, 50
 #: share of the fitting samples that estimates each nested structure while
 #: its number of new terms is chosen (the rest scores it in free run)
 HEAD = 0.7

@@ -52,11 +52,7 @@ from narx.language.terms import Signals, parse_term
 from .choices import (HOLDOUT, Choice, _held_span, _sim_errors, heldout_errors, percent,
                       rmse_text, terms_text)
 
-__all__ = ["Extension", "extension_choice", "MIN_FIT", "MIN_HELD"]
-
-#: fewest samples that fit the candidates, and fewest held-out samples
-#: that test them (the diagnosis's minimums, :func:`mggp.diagnose.run.diagnose`)
-MIN_FIT, MIN_HELD = 100, 50
+__all__ = ["Extension", "extension_choice"]
 
 
 @dataclass(frozen=True)
@@ -144,13 +140,14 @@ def extension_choice(terms, data: Data, registry=None, seed=0, level: float = 0.
 
 def _extension(terms, data, registry, seed, level, resolution, theta, max_terms, allowed,
                check, scans) -> Extension:
-    from ..diagnose.candidates import candidate_structures, fit_structure, stays_bounded
+    from ..diagnose.candidates import (MIN_FIT, MIN_SELECT, candidate_structures, fit_structure,
+                                       stays_bounded)
     from ..diagnose.verdict import decide
     t0 = time.perf_counter()
     lo, hi = _held_span(data.n, "tail")
-    if lo < MIN_FIT or hi - lo < MIN_HELD:
+    if lo < MIN_FIT or hi - lo < MIN_SELECT:
         return _kept(f"kept: no extension tried ({data.n} samples are too few: the catalogue "
-                     f"needs {MIN_FIT} to fit and {MIN_HELD} held out)", terms)
+                     f"needs {MIN_FIT} to fit and {MIN_SELECT} held out)", terms)
     fit = data.slice(0, lo)
     sig, parsed = Signals(data.output, data.inputs), {}
 
