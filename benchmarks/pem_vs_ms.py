@@ -53,8 +53,9 @@ def _search(fitness, cs, args, seed, constraints=None):
               random_state=seed, n_jobs=args.jobs, constraints=constraints,
               screen=None if args.no_screen else "freerun",
               # the published setup: primitives with Φ and the structure the search
-              # finds (no automatic Φ, size or constant choice, no local search),
-              # so the fitness modes compare
+              # finds (no automatic Φ, size or constant choice, no local search, no
+              # catalogue extension: AS_SEARCHED has extend='none'), so the fitness
+              # modes compare and the published method is reproduced
               use_phi=True, **AS_SEARCHED)
     if fitness == "ms":
         kw["window"] = args.window

@@ -15,8 +15,10 @@ the validation record, and compares that RMSE with the oracle's
 LS and free-run θ). One JSON line per draw is appended as it finishes (a
 killed run keeps its records; a new run skips the seeds already there).
 Fields: ``seed, split, family, hysteretic, placement, snr_db, fit_rmse,
-oracle_rmse, ratio, exploded, choices, model_class, terms, truth, seconds`` (``error``
-when the fit failed). ``exploded``: the free run is not finite or leaves the
+oracle_rmse, ratio, exploded, choices, model_class, terms, truth, extension,
+extend_seconds, seconds`` (``error`` when the fit failed; ``extension``: the
+catalogue extension the ``extend`` stage took, None for none; ``extend``
+when ``--extend`` set the parameter). ``exploded``: the free run is not finite or leaves the
 band of three times the validation output's range
 (:func:`benchmarks.measured.explodes`). ``ratio`` = fit / oracle validation
 RMSE; a draw *holds* when ``ratio <= GOAL`` (issue 35, must-show 6).
@@ -49,8 +51,9 @@ def _num(x) -> Optional[float]:
     return None if x is None or not math.isfinite(x) else float(x)
 
 
-def fit_one(seed: int, jobs: int = 1) -> dict:
-    """Fit the draw of ``seed`` by default and score it against the oracle (one record)."""
+def fit_one(seed: int, jobs: int = 1, extend: Optional[str] = None) -> dict:
+    """Fit the draw of ``seed`` by default (``extend``: that parameter
+    instead of its default) and score it against the oracle (one record)."""
     from mggp import MGGPRegressor
     from narx.systems import zoo
 
@@ -59,6 +62,9 @@ def fit_one(seed: int, jobs: int = 1) -> dict:
     d = zoo.draw(seed, n=STUDY_N)
     rec = {"seed": seed, "split": d.split, "family": d.family, "hysteretic": d.hysteretic,
            "placement": d.placement, "snr_db": d.noise["snr_db"]}
+    kw = {} if extend is None else {"extend": extend}
+    if extend is not None:
+        rec["extend"] = extend
     try:
         orc = oracle(d).rmse
     except Exception as exc:               # recorded: the draw still measures the fit
@@ -67,7 +73,7 @@ def fit_one(seed: int, jobs: int = 1) -> dict:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            est = MGGPRegressor(random_state=seed, n_jobs=jobs).fit(d.train)
+            est = MGGPRegressor(random_state=seed, n_jobs=jobs, **kw).fit(d.train)
             model = est.get_best()
             with np.errstate(all="ignore"):
                 sim = model.simulate(d.validation, mode="freerun")
@@ -85,13 +91,15 @@ def fit_one(seed: int, jobs: int = 1) -> dict:
                choices={k: v["value"] for k, v in est.choices_.items()},
                model_class=est.choices_.get("use_phi", {}).get("figures", {}).get("class"),
                terms=list(model.term_texts), truth=list(d.truth.terms),
+               extension=(est.extension_ or {}).get("winner"),
+               extend_seconds=(est.extension_ or {}).get("seconds"),
                seconds=time.perf_counter() - t0)
     return rec
 
 
-def fit_study(seeds, path, jobs: int = 1, say=print) -> List[dict]:
+def fit_study(seeds, path, jobs: int = 1, say=print, extend: Optional[str] = None) -> List[dict]:
     """:func:`fit_one` for each seed not yet in ``path``, appending its record there."""
-    return resume(seeds, path, lambda seed: fit_one(seed, jobs),
+    return resume(seeds, path, lambda seed: fit_one(seed, jobs, extend),
                   lambda rec: say(f"seed {rec['seed']}: {rec['family']}, fit "
                                   f"{rec.get('fit_rmse')}, oracle {rec.get('oracle_rmse')}, "
                                   f"ratio {rec.get('ratio')}, "
@@ -154,6 +162,8 @@ def _parser():
         e.add_argument("--seeds", nargs="+", required=True, help="seeds or ranges A-B")
         e.add_argument("--json", required=True, help="JSON-lines file (appended, resumed)")
         e.add_argument("--jobs", type=int, default=1)
+        e.add_argument("--extend", choices=("auto", "none"),
+                       help="the fit's extend parameter (default: its default)")
     t = sub.add_parser("table", help="Markdown table of a records file")
     t.add_argument("file")
     t.add_argument("--zoo", help="the diagnosis study's records (identifiable draws)")
@@ -172,9 +182,9 @@ def main(argv=None) -> int:
                 with zoo.tuning():
                     for s in seeds:
                         zoo.guard(s)
-                    fit_study(seeds, args.json, args.jobs)
+                    fit_study(seeds, args.json, args.jobs, extend=args.extend)
             else:
-                fit_study(seeds, args.json, args.jobs)
+                fit_study(seeds, args.json, args.jobs, extend=args.extend)
         else:
             recs = records(args.file)
             if not recs:

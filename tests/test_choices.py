@@ -262,7 +262,7 @@ def test_explicit_values_disable_the_choices():
     d = system_by_name("S1", n=500, seed=0)
     est = MGGPRegressor(use_phi=False, select="fitness", screen="freerun", size="search",
                         constant=False, outliers="keep", max_power=3, refine="none",
-                        **_KW).fit(d.u, d.y)
+                        extend="none", **_KW).fit(d.u, d.y)
     assert est.choices_ == {} and "choices" not in est.model_.meta
 
 

@@ -60,7 +60,7 @@ def test_estimator_keeps_the_scored_theta_when_the_refit_is_worse(record, monkey
     monkeypatch.setattr(E, "evolve", fake)
     est = MGGPRegressor(population=4, generations=0, random_state=0, use_phi=True,
                         screen=None, select="fitness", size="search",
-                        local_search=False).fit(u, y)
+                        local_search=False, extend="none").fit(u, y)
     assert est.model_.term_texts == COLLINEAR
     assert est.model_.meta["estimation"] == "ls-search"
     assert np.isfinite(est.model_.simulate(u, y).mape)

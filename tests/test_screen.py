@@ -81,7 +81,7 @@ def test_estimator_rejects_unknown_screen():
 
 _KW = dict(fitness="ms", window=50, population=60, generations=10, max_terms=8, n_jobs=1,
            use_phi=True, size="search", local_search=False,   # the search result as it is
-           constant=False)
+           constant=False, extend="none")
 
 
 def test_screened_search_result_stays_in_band_where_the_plain_one_diverges():

@@ -100,12 +100,16 @@ from .augmentation import direction_terms
 from .simulation import freerun_rmse
 
 __all__ = ["Structure", "MEMORY", "MEMORY_FREE", "candidate_structures", "fit_structure",
-           "late_lags", "HEAD", "MAX_NEW", "probe_inputs", "stays_bounded"]
+           "late_lags", "HEAD", "MAX_NEW", "MIN_FIT", "MIN_SELECT", "probe_inputs",
+           "stays_bounded"]
 
 #: the class of the memory candidates
 MEMORY = "hysteresis"
 #: the classes of the memory-free candidates
 MEMORY_FREE = ("unmodelled-dynamics", "unmodelled-nonlinearity", "steady-state-drift")
+#: fewest samples that fit the candidates, and fewest that test them (or
+#: measure a diagnosis's gain)
+MIN_FIT, MIN_SELECT = 100, 50
 #: share of the fitting samples that estimates each nested structure while
 #: its number of new terms is chosen (the rest scores it in free run)
 HEAD = 0.7
@@ -305,10 +309,10 @@ def _estimate(terms, data: Data, constraints, registry) -> Optional[Model]:
     return m if m.theta is not None and np.all(np.isfinite(m.theta)) else None
 
 
-def _forward_order(base, new, data: Data, registry) -> list:
+def _forward_order(base, new, data: Data, registry, most: int = MAX_NEW) -> list:
     """``new`` ordered by orthogonal forward selection after ``base``, at
-    most :data:`MAX_NEW` of them (columns in the span of those already in
-    are left out)."""
+    most ``most`` of them (columns in the span of those already in are left
+    out)."""
     sig = dict(inputs=data.inputs, output=data.output, registry=registry)
     start = Model(list(base) + list(new), **sig).max_lag
     if start >= data.n - 10:
@@ -331,7 +335,7 @@ def _forward_order(base, new, data: Data, registry) -> list:
     C = C - Q @ (Q.T @ C)
     order = []
     left = list(np.flatnonzero(keep))
-    while left and len(order) < MAX_NEW:
+    while left and len(order) < most:
         X = C[:, left]
         norms = np.einsum("ij,ij->j", X, X)
         gain = np.where(norms > 1e-16, (X.T @ r) ** 2 / np.where(norms > 0, norms, 1.0), -1.0)
@@ -346,8 +350,12 @@ def _forward_order(base, new, data: Data, registry) -> list:
     return order
 
 
-def fit_structure(s: Structure, data: Data, registry=None) -> Tuple[Optional[Model], float]:
-    """Fit the candidate ``s`` on the fitting record ``data`` (module doc).
+def fit_structure(s: Structure, data: Data, registry=None,
+                  max_new: int = MAX_NEW) -> Tuple[Optional[Model], float]:
+    """Fit the candidate ``s`` on the fitting record ``data`` (module doc),
+    keeping at most ``max_new`` new terms (default :data:`MAX_NEW`; the
+    ``extend`` stage of ``mggp fit`` keeps the model within its
+    ``max_terms``).
 
     Returns
     -------
@@ -366,7 +374,7 @@ def fit_structure(s: Structure, data: Data, registry=None) -> Tuple[Optional[Mod
         m = _estimate(base, head, s.constraints, registry)
         return _estimate(base, data, s.constraints, registry), freerun_rmse(m, data, cut)
     new = [t for t in _canonical(s.new, data, registry) if t not in set(base)]
-    order = _forward_order(base, new, data, registry)
+    order = _forward_order(base, new, data, registry, max_new) if max_new > 0 else []
     if not order:
         return None, float("inf")
     # the key (leaves the probes' range, hold-out RMSE): a size whose free

@@ -47,7 +47,7 @@ from narx.simulation.metrics import mape
 from narx.records.outliers import find_spikes, repaired
 
 from .context import Context
-from .candidates import candidate_structures, fit_structure, stays_bounded
+from .candidates import MIN_FIT, MIN_SELECT, candidate_structures, fit_structure, stays_bounded
 from .extend import Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
@@ -272,9 +272,10 @@ def _split(train: Data, validation: Optional[Data], holdout: float, names):
         raise ValueError(f"holdout must be a fraction in (0, 1), got {holdout!r}")
     n_pre = train.n if validation is not None else int(round(train.n * (1.0 - holdout)))
     n_fit = int(round(n_pre * (1.0 - SELECT)))
-    if n_fit < 100 or n_pre - n_fit < 50 or (validation is None and train.n - n_pre < 50):
-        need = "100 to fit, 50 to select" + ("" if validation is not None else
-                                              " and 50 to measure")
+    if n_fit < MIN_FIT or n_pre - n_fit < MIN_SELECT or (validation is None
+                                                         and train.n - n_pre < MIN_SELECT):
+        need = f"{MIN_FIT} to fit, {MIN_SELECT} to select" + (
+            "" if validation is not None else f" and {MIN_SELECT} to measure")
         raise DataError(f"{names[0]}: {train.n} samples are too few to split (need at least "
                         f"{need})" + ("" if validation is not None else "; give --validation"))
     fit = slice_data(train, 0, n_fit)

@@ -192,7 +192,10 @@ class MGGPRegressor:
     free-run RMSE by over 5 % at p < 0.05; ``size`` takes the fewest terms
     of the run's Pareto front within 5 % of the least held-out free-run
     RMSE (2/√n on n held-out samples when larger:
-    :func:`mggp.fit.choices.size_tolerance`). An
+    :func:`mggp.fit.choices.size_tolerance`); ``extend`` tries the candidate
+    extensions of ``mggp diagnose`` on the chosen structure and takes the
+    one that wins the diagnosis's paired held-out test and stays bounded on
+    probe and stress inputs (:mod:`mggp.fit.extension`; ``extension_``). An
     explicit value of a parameter disables its choice; the level is
     :data:`mggp.fit.choices.LEVEL`.
 
@@ -290,7 +293,7 @@ class MGGPRegressor:
                  max_height="auto", phi_names=None, phi_outputs=False, operators="auto",
                  operator_entry="stage", constant="auto", max_lag=None, max_degree=None,
                  max_power="auto", select="auto", size="auto", stress=True, local_search=True,
-                 select_candidates=50,
+                 extend="auto", select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, estimator="ls", refine="none", refine_window=None,
                  backend="loky", scheduler=None, outliers="auto", checkpoint=None,
@@ -329,6 +332,7 @@ class MGGPRegressor:
         self.size = size
         self.stress = stress
         self.local_search = local_search
+        self.extend = extend
         self.select_candidates = select_candidates
         self.screen = screen
         self.screen_top = screen_top
@@ -498,7 +502,7 @@ class MGGPRegressor:
         self.max_power_ = {"auto": POWER_CAP, "none": None}.get(self.max_power, self.max_power)
         ctx = FitContext(self, data, registry, start, scorer, shape=self._structure,
                          stress=StressCheck(data, registry) if self.stress else None,
-                         allowed=self._allowed)
+                         allowed=self._allowed, scans=scans)
         if self.outliers == "auto":
             ctx.choices["outliers"] = outliers_choice(spikes, data.output, data.inputs)
         if height is not None:
@@ -535,6 +539,7 @@ class MGGPRegressor:
         if pruned.t_threshold is not None:
             self.t_threshold_ = pruned.t_threshold
         self.local_search_ = decided["local_search"].steps
+        self.extension_ = decided["extend"].extension
         self.terms_ = decided["record"].terms
         self.fitness_ = decided["record"].fitness
         self.rank_ = decided["qr_refit"].rank

@@ -493,6 +493,19 @@ _ROWS = (
           "selection", "--no-local-search",
           meta=True, const=False, flag_help="keep the structure the search chose, without "
           "the one-term improvements", default_text="on"),
+    Param("extend", "auto", OneOf(("auto", "none")), "after the structure is chosen, "
+          "try the extensions that mggp diagnose tries (plays and Prandtl–Ishlinskii "
+          "operators, Bouc–Wen variables, Φ of the inputs and of the output lags, linear "
+          "dynamics driven by operators or with operators of y[k-1] in the feedback, and "
+          "memory-free rivals: more lags, more degree, rate terms), each fitted on the part "
+          f"of the record the other choices fit on; auto: one is taken when its free-run "
+          f"error on the held-out part ({_HELD_OUT}) beats the chosen structure's by "
+          "mggp diagnose's paired block-bootstrap test at its --level (Holm over the "
+          "extensions; a memory extension must also beat the best memory-free one) and its "
+          "free run stays bounded on probe and stress inputs, then refitted on the whole "
+          "record (θ by free-run simulation error when it won so); none: the structure as "
+          "chosen; never with --constraints steady-state", "selection", "--extend",
+          meta=True, default_text="auto (an extension taken when it wins the test)"),
     Param("select_candidates", 50, Int(1), "structures compared by --select freerun and "
           "hold", "selection"),
     Param("screen", "auto", OneOf(("auto", "freerun", "hold", "none", None)),
@@ -530,7 +543,8 @@ _ROWS = (
           "output noise; auto: the structures the automatic choices compare take their "
           "free-run refit where it simulates the held-out part better, and the final "
           "model's θ are refined in free run when that is significantly better held out "
-          "(never with --constraints steady-state); none: least squares",
+          "(never with --constraints steady-state); none: least squares (auto and none: "
+          "also in free run when the extension --extend took won so)",
           "selection", "--refine", meta=True),
     Param("refine_window", None, Int(1, none=True), "multiple-shooting window in samples "
           "of --refine ms", "selection", "--refine-window", metavar="W",

@@ -40,6 +40,17 @@ order (:data:`STAGES`, decision in brackets):
     One-term moves from the chosen structure while they lower the search's
     fitness (``local_search``; :mod:`mggp.fit.local_search`), then the same
     pruning again; sets ``local_search_``.
+``extend`` (:class:`Extended`)
+    'auto': the catalogue of ``mggp diagnose``'s extensions of the chosen
+    structure (plays, Bouc–Wen variables, Φ of the inputs and of the
+    output lags, operator dynamics, operators in the feedback, and the
+    memory-free rivals), each fitted where the other choices fit and
+    tested against it on their held-out part by the diagnosis's paired
+    block-bootstrap test; the winner is taken when it also stays bounded
+    on the probe and stress inputs (``extend``;
+    :mod:`mggp.fit.extension`); sets ``extension_``. After the choices of
+    the structure and before the noise terms, the record and every refit,
+    so that those apply to the final structure.
 ``noise``
     Moving-average noise terms by extended least squares (``noise_lags``;
     :mod:`mggp.fit.noise`).
@@ -56,7 +67,8 @@ order (:data:`STAGES`, decision in brackets):
     ``model_cls_``: θ by constrained least squares under the
     continuum-of-steady-states equalities of the terms (``constraints``).
 ``refine`` (:class:`Refined`)
-    θ of both models by minimising the simulation error (``refine``).
+    θ of both models by minimising the simulation error (``refine``;
+    also when the extension taken won with θ refined so).
 ``cls_verdict`` (:class:`ClsVerdict`)
     ``cls_rejected_``: why the CLS refit is not the default model
     (:func:`cls_rejection`), with a :class:`CLSRejectedWarning`.
@@ -103,7 +115,8 @@ if TYPE_CHECKING:
     from .screen import StabilityScreen
 
 __all__ = ["FitContext", "Settings", "STAGES", "run_stages", "cls_rejection", "CLS_WORSE",
-           "Decision", "Selected", "OperatorsAdded", "Pruned", "LocalSearched", "Recorded",
+           "Decision", "Selected", "OperatorsAdded", "Pruned", "LocalSearched", "Extended",
+           "Recorded",
            "Refitted", "PrecisionChecked", "ClsRefitted", "Refined", "ClsVerdict", "Front"]
 
 #: a CLS refit whose free-run RMSE on the training record is more than this
@@ -134,6 +147,7 @@ class Settings(Protocol):
     prune: Any
     t_threshold: Optional[float]
     local_search: bool
+    extend: str
     max_height_: int
     max_lag: Optional[int]
     max_degree: Optional[int]
@@ -184,6 +198,17 @@ class LocalSearched(Decision):
     """``local_search``: ``steps`` is ``local_search_`` (the moves kept)."""
 
     steps: list = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Extended(Decision):
+    """``extend``: ``extension`` is ``extension_`` (None: no catalogue was
+    tried); ``theta`` is 'freerun' when the extension taken had its θ
+    refined by free-run simulation error (the ``refine`` stage then refines
+    the final model so), else 'ls'."""
+
+    extension: Optional[dict] = None
+    theta: str = "ls"
 
 
 @dataclass(frozen=True)
@@ -282,6 +307,9 @@ class FitContext:
         local search's moves keep to it).
     decided : dict
         The decisions of the stages run so far, by stage name.
+    scans : dict or None
+        :func:`narx.records.deadtime.onset_scans` of the record (the dead
+        times; ``extend`` reads them).
     """
 
     est: Settings
@@ -299,6 +327,7 @@ class FitContext:
     stress: Optional["StressCheck"] = None
     allowed: Callable[[Term], bool] = lambda term: True
     decided: Dict[str, Decision] = field(default_factory=dict)
+    scans: Optional[dict] = None
     _scorers: Dict[Tuple, StructureScorer] = field(default_factory=dict)
 
     def latest(self, name: str, default=None):
@@ -508,6 +537,43 @@ def prune(terms, data, ctx):
     return Pruned(terms)
 
 
+def extend(terms, data, ctx):
+    """``extend='auto'``: the catalogue of ``mggp diagnose``'s extensions
+    of the structure chosen so far, each fitted on the part of the record
+    the other choices fit on and tested against it on their held-out part
+    by the diagnosis's paired test at its ``level`` (``mggp diagnose``'s
+    default, :data:`mggp.fit.params.DIAGNOSE_PARAMS`); the winner is taken
+    when it also stays bounded on the probe and stress inputs
+    (:func:`mggp.fit.extension.extension_choice`).
+
+    It runs after every choice of the structure (select, size, constant,
+    operators, prune, local search), so it extends the structure the fit
+    would otherwise return; before ``noise``, so that moving-average noise
+    terms are selected around the final process terms; and before
+    ``record``, ``qr_refit``, ``precision``, ``cls_refit`` and ``refine``,
+    so that ``terms_``, the meta and θ on the whole record are those of the
+    final structure (a winner whose θ was refined by free-run simulation
+    error is refined so on the whole record by ``refine``). Not with the
+    steady-state constraints: the hold selection chose the structure for
+    its CLS refit, which an extension would not keep."""
+    est = ctx.est
+    if est.extend == "none":
+        return Extended(terms)
+    if steady(est):
+        ctx.choices["extend"] = Choice(
+            "extend", "none", "kept: no extension tried with constraints='steady-state' "
+            "(the structure was chosen for its CLS refit)", {"winner": None})
+        return Extended(terms)
+    from .extension import extension_choice
+    from .params import DIAGNOSE_PARAMS
+    ext = extension_choice(terms, data, ctx.registry, ctx.seed or 0,
+                           DIAGNOSE_PARAMS["level"].default,
+                           DIAGNOSE_PARAMS["resolution"].default, heldout_theta(est),
+                           est.max_terms, ctx.allowed, ctx.stress, ctx.scans)
+    ctx.choices["extend"] = ext.choice
+    return Extended(ext.terms, ext.to_dict(), ext.theta)
+
+
 def noise(terms, data, ctx):
     """Moving-average noise terms (``noise_lags`` > 0), as many as
     ``max_terms`` leaves room for beside the process terms; with
@@ -611,18 +677,32 @@ def refine(terms, data, ctx):
     'auto': by free-run simulation error when that refit of the structure
     simulates the held-out part significantly better than its LS θ
     (:func:`mggp.fit.choices.theta_choice`), never with the steady-state
-    constraints (the hold selection judged the CLS refit of the LS θ)."""
+    constraints (the hold selection judged the CLS refit of the LS θ).
+    With ``refine`` 'auto' or 'none', an extension taken with θ by free-run
+    simulation error (:class:`Extended`) is refined so (without noise
+    terms, whose θ come from extended least squares)."""
     est = ctx.est
     refinement, model, model_cls = None, ctx.latest("model"), ctx.latest("model_cls")
     how = est.refine
-    if how == "auto":
+    noisy = any(t.has_noise for t in terms)
+    extended = ctx.decided.get("extend")
+    c = None
+    if (extended is not None and extended.theta == "freerun" and how in ("auto", "none", None)
+            and not noisy):
+        how = "freerun"                 # the extension won with θ by simulation error
+        if est.refine == "auto":
+            c = Choice("refine", how, f"θ by free-run simulation error: the extension taken "
+                       f"({extended.extension['winner']}) won the held-out test with them "
+                       f"(refined on the whole record from its LS θ)", {})
+    elif how == "auto":
         how = None
-        if heldout_theta(est) == "best" and not any(t.has_noise for t in terms):
+        if heldout_theta(est) == "best" and not noisy:
             c = theta_choice(terms, data, ctx.registry, ctx.seed or 0)
-            ctx.choices["refine"] = c
             how = c.value
-            model.meta.setdefault("choices", {})["refine"] = c.to_dict()
-            model.meta["refine"] = c.value
+    if c is not None:
+        ctx.choices["refine"] = c
+        model.meta.setdefault("choices", {})["refine"] = c.to_dict()
+        model.meta["refine"] = c.value
     if how and how != "none":
         from narx.refine import refine_both
         refinement, model, model_cls, why = refine_both(
@@ -675,7 +755,7 @@ def pareto(terms, data, ctx):
 #: the stages of ``fit`` after the search, in order
 STAGES = (("select", select), ("size", size), ("constant", constant),
           ("operators", operators), ("prune", prune), ("local_search", local_search),
-          ("noise", noise), ("record", record), ("qr_refit", qr_refit),
+          ("extend", extend), ("noise", noise), ("record", record), ("qr_refit", qr_refit),
           ("precision", precision), ("cls_refit", cls_refit), ("refine", refine),
           ("cls_verdict", cls_verdict), ("pareto", pareto))
 
