@@ -52,7 +52,7 @@ from .extend import Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
 from .simulation import freerun_after
-from .verdict import Verdict, decide, separation_note
+from .verdict import Verdict, decide, loss_floor, separation_note
 
 __all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data",
            "outside_fit_range"]
@@ -475,9 +475,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     # a candidate whose free run leaves the output's range on probe inputs
     # (:func:`~.candidates.stays_bounded`) cannot win
     eligible = [stays_bounded(m, fit) for _, m, _ in fitted]
-    # the log loss of the tests, floored at the resolution (errors below it
-    # are equal); a zero resolution leaves a floor of 1e-9 of the range
-    floor = max(ctx.floor, 1e-9 * (float(np.ptp(fit.y)) or 1.0))
+    floor = loss_floor(fit.y, resolution)
     vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]), floor,
                 eligible)
     timings["test"] = time.perf_counter() - t3

@@ -58,7 +58,7 @@ from narx.analysis.paired import PairedTest, holm, paired_test
 from .candidates import MEMORY, MEMORY_FREE, Structure
 from .findings import json_number, number_text
 
-__all__ = ["Tested", "Verdict", "decide", "separation_note", "reversal_levels"]
+__all__ = ["Tested", "Verdict", "decide", "loss_floor", "separation_note", "reversal_levels"]
 
 
 def _rmse(e) -> float:
@@ -148,6 +148,15 @@ class Verdict:
             out.append(f"{mark} {t.effect:<24s} {t.structure.name:<28s} RMSE "
                        f"{number_text(t.selection_rmse):>9s}  {p}{bar}")
         return out
+
+
+def loss_floor(y, resolution: float) -> float:
+    """The floor δ of the tests' log loss (:func:`narx.analysis.paired.paired_test`):
+    ``resolution`` of the output's range (errors below it count as equal),
+    at least 1e-9 of it (a zero resolution); a constant output counts its
+    range as 1."""
+    span = float(np.ptp(y)) or 1.0
+    return max(resolution, 1e-9) * span
 
 
 def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.ndarray, float]],

@@ -142,7 +142,7 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
                check, scans) -> Extension:
     from ..diagnose.candidates import (MIN_FIT, MIN_SELECT, candidate_structures, fit_structure,
                                        stays_bounded)
-    from ..diagnose.verdict import decide
+    from ..diagnose.verdict import decide, loss_floor
     t0 = time.perf_counter()
     lo, hi = _held_span(data.n, "tail")
     if lo < MIN_FIT or hi - lo < MIN_SELECT:
@@ -178,7 +178,7 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
     cands = [(s, m, e, float("nan")) for (s, m), e in zip(fitted, errs)]
     eligible = [s.constraints is None and m is not None and stays_bounded(m, fit)
                 for s, m in fitted]
-    floor = max(resolution * float(np.ptp(fit.y)), 1e-9 * (float(np.ptp(fit.y)) or 1.0))
+    floor = loss_floor(fit.y, resolution)
     refused = {}
     while True:
         vd = decide(e_base, cands, level, np.random.default_rng(seed), floor, eligible)
@@ -198,10 +198,8 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
         figs["stress_refused"] = refused
     said = (f"{len(tried)} catalogue extensions tried, θ on the first "
             f"{percent(1 - HOLDOUT)}, error on the last {percent(HOLDOUT)} of the record; "
-            f"paired block "
-            f"bootstrap of the log-loss "
-            f"differences, Holm, level {level:g}, a memory extension also against the best "
-            f"memory-free one")
+            f"paired block bootstrap of the log-loss differences, Holm, level {level:g}, "
+            f"a memory extension also against the best memory-free one")
     bar = "".join(f"; {n} refused on the stress inputs (its free run {r})"
                   for n, r in refused.items())
     if w is None:
