@@ -71,8 +71,8 @@ whenever the LS size did, then refined on all the fitting samples): the
 better of LS and simulation-error θ, the rule of the zoo's oracle. Least
 squares on lagged noisy outputs is biased, and an operator inside the
 feedback amplifies the bias: on the development draw zoo seed 69 (a
-play in the feedback of order-2 dynamics) the true structure by LS had 10 times the validation RMSE of the same structure
-with refined θ. The samples that test and measure the candidates play no
+play in the feedback of order-2 dynamics) the true structure by LS had
+10 times the validation RMSE of the same structure with refined θ. The samples that test and measure the candidates play no
 part.
 
 References
