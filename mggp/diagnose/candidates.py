@@ -72,8 +72,8 @@ better of LS and simulation-error θ, the rule of the zoo's oracle. Least
 squares on lagged noisy outputs is biased, and an operator inside the
 feedback amplifies the bias: on the development draw zoo seed 69 (a
 play in the feedback of order-2 dynamics) the true structure by LS had
-10 times the validation RMSE of the same structure with refined θ. The samples that test and measure the candidates play no
-part.
+10 times the validation RMSE of the same structure with refined θ. The
+samples that test and measure the candidates play no part.
 
 References
 ----------
