@@ -197,6 +197,17 @@ def _num(x):
     return None if x is None or not math.isfinite(x) else float(x)
 
 
+def _winner(dx) -> Optional[dict]:
+    """The winning candidate: its name, effect and selection-sample gain
+    (baseline / candidate free-run RMSE there; None when the baseline diverges)."""
+    w = dx.verdict.winner
+    if w is None:
+        return None
+    b, e = float(dx.verdict.baseline_rmse), float(w.selection_rmse)
+    return {"name": w.structure.name, "effect": w.effect, "p_value": _num(w.p_value),
+            "selection_gain": _num(b / e) if e > 0 else None}
+
+
 def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dict:
     """Diagnose the draw of ``seed`` at the budget and score it (one record)."""
     from mggp.diagnose import Budget, diagnose
@@ -234,6 +245,7 @@ def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dic
                named=list(dx.effects), gain=_num(dx.gain.ratio),
                recommended=dx.gain.recommended,
                p_values=doc.get("verdict", {}).get("p_values", {}),
+               separates=dx.separation is None, winner=_winner(dx),
                diagnose_seconds=float(dx.timings.get("total", math.nan)),
                seconds=time.perf_counter() - t0)
     return rec
