@@ -42,10 +42,13 @@ def test_memory_must_beat_the_best_memory_free_candidate_not_only_the_baseline()
     assert v.p_values["hysteresis"] <= ALPHA
 
 
-def test_a_barred_winner_is_named_in_the_nothing_line():
+def test_a_barred_rival_leaves_the_memory_extension_unnamed():
     """A memory-free candidate that wins but leaves the range on the probe
-    inputs cannot win; the line says so, and the memory candidate that only
-    ties it is not named. Control: eligible, it is named."""
+    inputs cannot win; the memory candidate that only ties it is not named
+    but is the extension (the best model that may be recommended), and the
+    line says why. Controls: with the rival eligible, the rival is named;
+    with no memory candidate beating the baseline, the barred winner is
+    named in the nothing line and nothing is changed."""
     from mggp.diagnose.report import _nothing_why
     rng = np.random.default_rng(6)
     n = 1500
@@ -55,10 +58,18 @@ def test_a_barred_winner_is_named_in_the_nothing_line():
              (_s("unmodelled-nonlinearity", "more degree"), M, _ar1(rng, n), 1.0)]
     v = decide(base, cands, ALPHA, rng, eligible=[True, False])
     assert v.named == () and v.barred == ("more degree",)
-    assert "(more degree) leave the output's range on the probe inputs" in _nothing_why(v)
+    assert v.winner.structure.name == "plays"
+    assert v.unnamed_rival().structure.name == "more degree"
+    why = _nothing_why(v)
+    assert "plays beats the baseline" in why and "memory-free more degree" in why
     assert "cannot win" in "".join(v.lines())
-    v = decide(base, cands, ALPHA, rng)                      # control
+    v = decide(base, cands, ALPHA, rng)                      # control: rival eligible
     assert v.named == ("unmodelled-nonlinearity",) and v.barred == ()
+    assert v.unnamed_rival() is None
+    worse = [(_s(MEMORY, "plays"), M, _ar1(rng, n, scale=2.0), 1.0), cands[1]]
+    v = decide(base, worse, ALPHA, rng, eligible=[True, False])  # control: no memory win
+    assert v.named == () and v.winner is None
+    assert "(more degree) leave the output's range on the probe inputs" in _nothing_why(v)
 
 
 def test_nothing_is_named_when_no_candidate_beats_the_baseline():

@@ -35,6 +35,15 @@ __all__ = ["terminal_summary", "write_report", "verdict"]
 
 def _nothing_why(v) -> str:
     """Why the verdict named nothing, in words."""
+    rival = v.unnamed_rival()
+    if rival is not None:
+        w = v.winner
+        return (f"{w.structure.name} beats the baseline (RMSE {_g(w.selection_rmse)} against "
+                f"{_g(v.baseline_rmse)}, p {_g(w.p_adjusted)}) and is the extension, but the "
+                f"memory-free {rival.structure.name} fits the selection samples as well or "
+                f"better (RMSE {_g(rival.selection_rmse)}) and is ruled out only because its "
+                f"free run leaves the output's range on the probe inputs: memory is not told "
+                f"from a memoryless nonlinearity")
     barred = v.barred_winners()
     if not barred:
         return (f"no candidate extension beat the baseline at level {v.level:g}, "
@@ -123,7 +132,7 @@ def terminal_summary(dx) -> str:
         if not dx.evidence_findings:
             lines += [f"{'closest' if k == 0 else 'also below'}: {t}"
                       for k, t in enumerate(closest_misses(dx))]
-    if dx.findings:
+    if v.winner is not None:
         lines.append(f"extension ({v.winner.structure.name}, {e.model.n_terms} terms):")
         lines += [f"  {c}" for c in dx.changes]
     if not np.isfinite(g.baseline):
@@ -374,7 +383,8 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
         L += _table([[f"`{f.effect}`", _g(f.statistic), _g(f.threshold), f.evidence]
                      for f in dx.findings], ["effect", "p-value", "level", "why"])
     else:
-        L.append(f"Nothing: {_nothing_why(dx.verdict)}, so nothing was changed.")
+        L.append(f"Nothing: {_nothing_why(dx.verdict)}"
+                 + ("." if dx.verdict.winner is not None else ", so nothing was changed."))
     if dx.separation:
         L += ["", f"Note: {dx.separation}."]
     if dx.evidence.outcomes:                # registered residual tests (none by default)

@@ -482,7 +482,8 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     winner = vd.winner
     ext_model = winner.model if winner is not None else base
     if winner is not None:
-        say(f"verdict: {winner.effect} ({winner.structure.name})")
+        say(f"verdict: {winner.effect if vd.named else 'effect not named'} "
+            f"({winner.structure.name})")
         ext_model.meta.update({"source": "mggp diagnose extension",
                                "estimation": "cls" if winner.structure.constraints else "ls",
                                "changes": [winner.structure.changes]})
@@ -505,7 +506,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                         f"-> {number_text(t.selection_rmse)}, one-sided p-value "
                         f"{number_text(t.p_value)} (paired block bootstrap of the log-loss differences, "
                         f"Holm) <= level "
-                        f"{level:g}", t.p_value, level) for t in ([winner] if winner else [])]
+                        f"{level:g}", t.p_value, level) for t in ([winner] if vd.named else [])]
     separation = separation_note(pre)
     settings = {"seed": int(seed), "jobs": int(jobs), "alpha": alpha, "level": level,
                 "user_model": model is not None,

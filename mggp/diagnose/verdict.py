@@ -39,6 +39,16 @@ tested and compared like the others but cannot win (the comparator of
 the memory candidates stays the best memory-free fit: a probe that rules
 out the polynomial must not hand the memory candidates a weaker rival —
 on a development Hammerstein draw it did, and hysteresis was named).
+When nothing is named so and the best memory-free candidate cannot win
+(its free run leaves the range on the probes), the memory candidate that
+beats the baseline (adjusted p-value at most α, RMSE below the
+baseline's) with the smallest RMSE is still the extension, *unnamed*: it
+is the best model that may be recommended, but whether the baseline lacks
+memory or a memoryless nonlinearity is not decided (``named`` is empty,
+:meth:`Verdict.unnamed_rival` gives the rival). On development draws a
+Bouc–Wen record whose polynomial rival fitted the selection samples
+best but left the range on the probes kept a baseline 50 times worse
+than the truth, though three memory candidates beat it by p < 1e-14.
 The tests use the log loss with the
 diagnosis's resolution floor (:mod:`.paired`), robust to a few large
 excursions; the RMSE conditions make the winner better in the measured
@@ -122,6 +132,13 @@ class Verdict:
     #: names of the candidates that could not win: their free run leaves
     #: the output's range on the probe inputs
     barred: Tuple[str, ...] = ()
+
+    def unnamed_rival(self) -> Optional[Tested]:
+        """The barred memory-free candidate that kept an extension from
+        naming its effect (module doc), or None."""
+        if self.winner is None or self.named:
+            return None
+        return self.best_free
 
     def barred_winners(self) -> List[Tested]:
         """The barred candidates that beat the baseline at the level."""
@@ -214,8 +231,13 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
         ok = [tested[i] for i in free if ok_to_win[i] and tested[i].p_value <= alpha
               and rm[i] < base_rmse]
     winner = min(ok, key=lambda t: t.selection_rmse) if ok else None
+    named = (winner.effect,) if winner else ()
+    if winner is None and best_free is not None and not ok_to_win[best_free]:
+        beat = [tested[i] for i in mem if tested[i].model is not None and ok_to_win[i]
+                and tested[i].p_adjusted <= alpha and rm[i] < base_rmse]
+        winner = min(beat, key=lambda t: t.selection_rmse) if beat else None
     barred = tuple(t.structure.name for t, ok_ in zip(tested, ok_to_win) if not ok_)
-    return Verdict(float(alpha), tuple(tested), (winner.effect,) if winner else (), winner,
+    return Verdict(float(alpha), tuple(tested), named, winner,
                    tested[best_free] if best_free is not None else None, base_rmse,
                    p_values, barred)
 
