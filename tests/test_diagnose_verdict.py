@@ -3,6 +3,7 @@ test (narx.analysis.paired, tested in test_paired.py), its false-alarm rate on
 controls, and the line that says a record cannot separate memory from
 dynamics."""
 import numpy as np
+from scipy import signal
 import pytest
 from scipy.signal import lfilter
 
@@ -98,12 +99,33 @@ def _one_sine(n=3000, amplitude=40.0, seed=0):
 
 def test_one_sine_cannot_separate_memory_from_dynamics_a_multi_amplitude_record_can():
     note = separation_note(_one_sine())
-    assert note and "several amplitudes, or holds, would" in note
+    assert note and "several amplitudes, rates or holds would" in note
     t = np.arange(3000) * 1e-3
     u = 40 * np.sin(2 * np.pi * 2.0 * t) * (0.4 + 0.6 * np.abs(np.sin(2 * np.pi * 0.3 * t)))
     assert separation_note(Data(u, piezo_bouc_wen(u))) is None          # control
     assert separation_note(Data(training_input(3000, bandwidth=4.0, seed=1),
                                 np.zeros(3000))) is None
+
+
+def test_a_chirp_or_holds_after_both_moves_separate_one_amplitude():
+    """One amplitude at several rates (a chirp) or with holds reached
+    rising and falling separates memory from dynamics; controls: one sine
+    at one rate, and holds reached only while rising, do not."""
+    k = np.arange(6000, dtype=float)
+    chirp = signal.chirp(k, 0.001, 5999, 0.01, method="logarithmic")
+    assert separation_note(Data(chirp, np.zeros(k.size))) is None
+    sine = np.sin(2 * np.pi * 0.004 * k)
+    assert separation_note(Data(sine, np.zeros(k.size))) is not None       # control
+    phase = 2 * np.pi * 0.004 * k
+    for stops, separates in (((0.1, 0.6), True), ((0.1, 0.15), False)):
+        idx = []
+        for j in range(24):                 # 24 periods of 250 samples
+            cyc = list(range(250 * j, 250 * (j + 1)))
+            at = 250 * j + int(250 * stops[j % 2])
+            idx += [i for i in cyc if i <= at] + [at] * 60 + [i for i in cyc if i > at]
+        u = np.sin(phase[np.asarray(idx)])
+        note = separation_note(Data(u, np.zeros(u.size)))
+        assert (note is None) == separates, stops
 
 
 def test_a_sine_switched_on_mid_phase_is_still_one_amplitude():

@@ -68,7 +68,8 @@ from narx.analysis.paired import PairedTest, holm, paired_test
 from .candidates import MEMORY, MEMORY_FREE, Structure
 from .findings import json_number, number_text
 
-__all__ = ["Tested", "Verdict", "decide", "loss_floor", "separation_note", "reversal_levels"]
+__all__ = ["Tested", "Verdict", "decide", "loss_floor", "separation_note", "reversals",
+           "reversal_levels"]
 
 
 def _rmse(e) -> float:
@@ -242,68 +243,113 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
                    p_values, barred)
 
 
-def reversal_levels(u, tol: float) -> Tuple[np.ndarray, np.ndarray]:
-    """The input's values at its reversals, ``(peaks, troughs)``, a reversal
-    counted when the input has moved back by more than ``tol`` from its
-    running extreme (small wiggles and noise are not reversals). The first
-    reversal is left out: the extreme of the record's first move is where
-    the record happened to start its excitation (a sine switched on at some
-    phase, a record cut mid-cycle), not an amplitude the input reached."""
+def reversals(u, tol: float) -> List[Tuple[int, float, bool]]:
+    """The input's reversals ``(sample, value, is_peak)``, a reversal counted
+    when the input has moved back by more than ``tol`` from its running
+    extreme (small wiggles and noise are not reversals). The first reversal
+    is left out: the extreme of the record's first move is where the record
+    happened to start its excitation (a sine switched on at some phase, a
+    record cut mid-cycle), not an amplitude the input reached."""
     u = np.asarray(u, dtype=float)
-    peaks, troughs = [], []
+    out: List[Tuple[int, float, bool]] = []
     hi = lo = ext = float(u[0])
-    direction, first_peak = 0, True
-    for x in map(float, u[1:]):
+    at, direction = 0, 0
+    for k, x in enumerate(map(float, u[1:]), start=1):
         if direction == 0:                  # the first move past tol sets the direction
             hi, lo = max(hi, x), min(lo, x)
             if x - lo > tol:
-                direction, ext = 1, x
-                first_peak = True           # the first reversal will be a peak
+                direction, ext, at = 1, x, k
             elif hi - x > tol:
-                direction, ext = -1, x
-                first_peak = False
+                direction, ext, at = -1, x, k
         elif direction > 0:
             if x > ext:
-                ext = x
+                ext, at = x, k
             elif ext - x > tol:
-                peaks.append(ext)
-                direction, ext = -1, x
+                out.append((at, ext, True))
+                direction, ext, at = -1, x, k
         else:
             if x < ext:
-                ext = x
+                ext, at = x, k
             elif x - ext > tol:
-                troughs.append(ext)
-                direction, ext = 1, x
-    first = peaks if first_peak else troughs
-    if first:
-        first.pop(0)
-    return np.asarray(peaks), np.asarray(troughs)
+                out.append((at, ext, False))
+                direction, ext, at = 1, x, k
+    return out[1:]
+
+
+def reversal_levels(u, tol: float) -> Tuple[np.ndarray, np.ndarray]:
+    """The input's values at its reversals, ``(peaks, troughs)``
+    (:func:`reversals`)."""
+    rev = reversals(u, tol)
+    return (np.asarray([v for _, v, peak in rev if peak]),
+            np.asarray([v for _, v, peak in rev if not peak]))
 
 
 #: share of an input's range: reversals past it count, and peaks (troughs)
 #: that all lie within twice it of each other count as one level
 LEVEL_TOLERANCE = 0.05
+#: the times between reversals differ by this factor: the loop is traced at
+#: several rates
+RATE_RATIO = 2.0
+#: shortest hold that shows where the output settles (samples)
+HOLD_SAMPLES = 20
+
+
+def _rates(rev) -> bool:
+    """True when the half-periods between the reversals differ by
+    :data:`RATE_RATIO` or more."""
+    gaps = np.diff([k for k, _, _ in rev])
+    return gaps.size >= 2 and gaps.max() >= RATE_RATIO * gaps.min()
+
+
+def _held_both_ways(u, y, lo: float, hi: float, tol: float) -> bool:
+    """True when the input holds inside its reversal band (more than ``tol``
+    from ``lo`` and ``hi``) after a rise and after a fall
+    (:func:`~.holds.find_holds`, at least :data:`HOLD_SAMPLES` samples)."""
+    from .holds import find_holds
+    ways = set()
+    for a, b in find_holds(Data(u, y), min_len=HOLD_SAMPLES):
+        level = float(np.median(u[a:b]))
+        if not lo + tol < level < hi - tol:
+            continue
+        before = np.flatnonzero(np.abs(u[:a] - level) > tol)
+        if before.size:
+            ways.add(bool(u[before[-1]] < level))
+    return len(ways) == 2
 
 
 def separation_note(data: Data) -> Optional[str]:
     """One line when the record cannot tell memory from dynamics: for some
-    input, its reversal points (:func:`reversal_levels`, a reversal counted
-    past :data:`LEVEL_TOLERANCE` of its range) take essentially one value
-    at the peaks and one at the troughs (each set spans at most twice that
-    tolerance): the loop is traced at one amplitude only, and a lag or a
-    memoryless term can mimic it; None otherwise."""
+    input, its reversal points (:func:`reversals`, a reversal counted past
+    :data:`LEVEL_TOLERANCE` of its range) take essentially one value at the
+    peaks and one at the troughs (each set spans at most twice that
+    tolerance), at one rate (the times between reversals differ by less
+    than :data:`RATE_RATIO`), and the input never holds inside that band
+    after both a rise and a fall: the loop is traced at one amplitude and
+    one rate only, and a lag or a memoryless term can mimic it; None
+    otherwise. Several amplitudes show minor loops; several rates tell a
+    rate-independent loop from the phase lag of dynamics, whose loop
+    changes with the rate; a hold shows where the output settles, which
+    depends on the direction of approach only with memory."""
     for name in data.inputs:
         u = data.input(name)
         span = float(np.ptp(u))
         if not span > 0:
             continue
         tol = LEVEL_TOLERANCE * span
-        peaks, troughs = reversal_levels(u, tol)
+        rev = reversals(u, tol)
+        peaks = np.asarray([v for _, v, p in rev if p])
+        troughs = np.asarray([v for _, v, p in rev if not p])
         if peaks.size + troughs.size < 2:
             continue
-        if all(v.size == 0 or np.ptp(v) <= 2 * tol for v in (peaks, troughs)):
-            lv = [f"{np.median(v):.3g}" for v in (troughs, peaks) if v.size]
-            return (f"this record cannot separate memory from dynamics: the input {name} "
-                    f"reverses only at {' and '.join(lv)} (one amplitude), so a lag can "
-                    f"mimic the loop; a record with several amplitudes, or holds, would")
+        if not all(v.size == 0 or np.ptp(v) <= 2 * tol for v in (peaks, troughs)):
+            continue
+        lo = float(np.median(troughs)) if troughs.size else float(np.min(u))
+        hi = float(np.median(peaks)) if peaks.size else float(np.max(u))
+        if _rates(rev) or _held_both_ways(u, data.y, lo, hi, tol):
+            continue
+        lv = [f"{np.median(v):.3g}" for v in (troughs, peaks) if v.size]
+        return (f"this record cannot separate memory from dynamics: the input {name} "
+                f"reverses only at {' and '.join(lv)} (one amplitude), at one rate and "
+                f"without holds, so a lag can mimic the loop; a record with several "
+                f"amplitudes, rates or holds would")
     return None
