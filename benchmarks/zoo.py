@@ -373,6 +373,23 @@ def table(recs: List[dict], figure: Optional[str] = None) -> str:
               f"- recommended gain ≥ 1.5 on identifiable hysteretic draws: "
               f"{_rate(good, len(ident))}",
               f"- any gain < 0.95 (all draws): {_rate(worse, len(ok))}", ""]
+    if all("separates" in r for r in ok):
+        lines += ["**By what the training record can show** (the summary's separation line, "
+                  "`mggp.diagnose.verdict.separation_note`):", ""]
+        for label, want in (("records that separate memory from dynamics", True),
+                            ("records that cannot (one amplitude, one rate, no holds)", False)):
+            part = [r for r in ok if r["separates"] == want]
+            pi = [r for r in part if r["hysteretic"] and r["identifiable"]]
+            pc = [r for r in part if not r["hysteretic"]]
+            lines.append(f"- {label}: {len(part)} draws; hysteresis named on "
+                         f"{_rate(sum(map(named_h, pi)), len(pi))} identifiable hysteretic "
+                         f"draws and on {_rate(sum(map(named_h, pc)), len(pc))} controls; gain "
+                         f"≥ 1.5 on {_rate(sum(_gain(r) >= 1.5 for r in pi), len(pi))}; gain "
+                         f"< 0.95 on {_rate(sum(_gain(r) < 0.95 for r in part), len(part))}")
+        unnamed = sum(1 for r in ok if r.get("winner") and not r["named"])
+        lines += [f"- an extension recommended with its cause not named (a memory candidate "
+                  f"whose memory-free rival leaves the range on the probes): {unnamed} draws",
+                  ""]
     non = [r for r in hy if not r["identifiable"]]
     lines += [f"**Non-identifiable hysteretic draws** (oracle gain < {IDENTIFIABLE}): "
               f"{len(non)}; hysteresis named on {_rate(sum(map(named_h, non)), len(non))}.", ""]
