@@ -259,9 +259,9 @@ def _sim_errors(model, data: Data, lo: int, hi: int):
     validated at 0.22 µm, 0.080 µm when its validation run continued the
     training run: the operators' state at the start of a record in motion
     is unknown, and a model whose accuracy hangs on it is chosen only when
-    it also holds up started afresh. Pooled, the error judges both ways a
-    next record can start: with the state the model has built up, or anew
-    from measured outputs alone."""
+    it also holds up started afresh. A record that starts at rest scores the
+    continuation, so the pooled error judges both ways a next record can
+    start."""
     cont = _run_errors(model, data, lo, hi)
     if lo == 0 or cont is None:
         return cont
