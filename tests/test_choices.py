@@ -626,39 +626,3 @@ def test_constant_parsimony_rule_by_hand():
     # control: the rows' errors differ by more than the tolerance: plain is better
     worse = fewest_terms([row(["1", "y[k-1]", "u[k-1]"], 0.0200)], plain, data)
     assert worse is None
-
-
-def _play_record(n=1000, period=200, radius=0.4):
-    """u = sin(2πk/period) from rest and y[k] = 0.5 y[k-1] + Play(u[k-1], radius),
-    simulated by the model itself (the play at rest on the first input)."""
-    from narx import Model
-    k = np.arange(n)
-    u = np.sin(2 * np.pi * k / period)
-    terms = ["y[k-1]", f"Play(u[k-1],{radius:g})"]
-    m = Model(terms, theta=[0.5, 1.0])
-    y = m.simulate(Data(u, np.zeros(n)), mode="freerun", y0=[0.0]).y_hat
-    return Data(u, np.asarray(y, float)), terms
-
-
-def test_heldout_error_counts_a_record_that_starts_in_motion():
-    """The held-out tail of a record (θ on the rest) is also run as a new
-    record from its own first samples: a play whose state the fitted part
-    built up starts at rest there and misses until the input wipes its
-    state out, so the exact structure's held-out error is far above its
-    continued free run's (rounding). Control: an ARX structure, which has
-    no state beyond its measured initial outputs, scores the same both
-    ways (rounding)."""
-    from narx import Model
-    from mggp.fit import choices
-    data, terms = _play_record()
-    lo, hi = choices._held_span(data.n, "tail")
-    fitted = Model(terms).fit(data.slice(0, lo))
-    cont = choices._run_errors(fitted, data, lo, hi)
-    assert np.nanmax(np.abs(cont)) < 1e-9
-    pooled = heldout_rmse(terms, data)
-    assert pooled > 1e-2                        # the play's unknown state on the new record
-    fresh = choices._run_errors(fitted, data.slice(lo, hi), 0, hi - lo)
-    assert pooled == pytest.approx(np.sqrt(np.nanmean(fresh ** 2) / 2), rel=0.05)
-    u, y = first_order_record(n=1000)
-    arx = Data(u, y)
-    assert heldout_rmse(["y[k-1]", "u[k-1]"], arx) == choices.error_floor(arx)

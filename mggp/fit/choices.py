@@ -218,10 +218,9 @@ def heldout_theta(est) -> str:
     return "best" if est.refine == "auto" and not steady(est) else "ls"
 
 
-def _run_errors(model, data: Data, lo: int, hi: int):
-    """The errors of ``model``'s free run over ``data`` (from its first
-    samples) on the samples ``lo:hi``, NaN before the free run starts;
-    None when it diverges."""
+def _sim_errors(model, data: Data, lo: int, hi: int):
+    """The free-run errors of ``model`` over ``data`` on the samples
+    ``lo:hi`` (NaN before the free run starts), None when it diverges."""
     try:
         with np.errstate(all="ignore"):
             sim = model.simulate(data, mode="freerun")
@@ -232,44 +231,6 @@ def _run_errors(model, data: Data, lo: int, hi: int):
     if sim.diverged or not np.all(np.isfinite(err)):
         return None
     return np.concatenate([np.full(start - lo, np.nan), err])
-
-
-def _sim_errors(model, data: Data, lo: int, hi: int):
-    """The held-out free-run errors of ``model`` on the samples ``lo:hi``
-    of ``data`` (NaN before any free run predicts), None when a free run
-    diverges.
-
-    A held-out span inside the record (``lo > 0``) is run twice: as the
-    continuation of the free run over the whole record, and as a *new
-    record* that starts at ``lo`` from its own first samples (measured
-    initial outputs, memory operators at rest on its first input, as
-    ``mggp simulate`` runs a validation record). The error returned at
-    sample k pools the two,
-
-    .. math:: e_k = \\sqrt{\\tfrac12\\big(c_k^2 + f_k^2\\big)},
-
-    :math:`c_k` the continued and :math:`f_k` the new record's error
-    (:math:`e_k = |c_k|` on the new record's initial samples), so the
-    held-out RMSE is the root of the two runs' mean squared errors. The
-    continuation alone credits a structure with a state that the fitted
-    part built up: memory operators, Bouc–Wen variables and slow modes
-    whose state a record that starts in motion does not give. On the
-    measured piezo record (validated on a record that starts mid-sine) the
-    operator class won the continued held-out test at 0.063 µm and
-    validated at 0.22 µm, 0.080 µm when its validation run continued the
-    training run: the operators' state at the start of a record in motion
-    is unknown, and a model whose accuracy hangs on it is chosen only when
-    it also holds up started afresh. A record that starts at rest scores the
-    continuation, so the pooled error judges both ways a next record can
-    start."""
-    cont = _run_errors(model, data, lo, hi)
-    if lo == 0 or cont is None:
-        return cont
-    fresh = _run_errors(model, data.slice(lo, hi), 0, hi - lo)
-    if fresh is None:
-        return None
-    sq = np.where(np.isnan(fresh), cont ** 2, 0.5 * (cont ** 2 + fresh ** 2))
-    return np.sqrt(sq)
 
 
 def _refit(model, fit: Data):
