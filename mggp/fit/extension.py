@@ -27,7 +27,8 @@ their errors on the held-out tail are compared by the diagnosis's rule
 bootstrap of the log-loss differences (:func:`narx.analysis.paired.paired_test`,
 losses floored at ``resolution`` of the output's range), Holm's adjustment
 over the candidates, a memory candidate also beating the best memory-free
-one, at ``level``. The winner is taken only when its free run stays
+one unless that one is barred (then the memory candidate that beats the
+chosen structure wins, its cause unnamed), at ``level``. The winner is taken only when its free run stays
 bounded on the diagnosis's probe inputs
 (:func:`~mggp.diagnose.candidates.stays_bounded`) and, with ``check``, on
 the fit's stress inputs (:class:`mggp.fit.extrapolation.StressCheck`);
