@@ -133,7 +133,8 @@ def terminal_summary(dx) -> str:
             lines += [f"{'closest' if k == 0 else 'also below'}: {t}"
                       for k, t in enumerate(closest_misses(dx))]
     if v.winner is not None:
-        lines.append(f"extension ({v.winner.structure.name}, {e.model.n_terms} terms):")
+        lines.append(f"extension ({v.winner.structure.name}, {e.model.n_terms} terms"
+                     + ("" if v.named else "; its cause not named") + "):")
         lines += [f"  {c}" for c in dx.changes]
     if not np.isfinite(g.baseline):
         lines.append("warning: the baseline's free run diverges on the measuring samples, "
