@@ -66,7 +66,6 @@ def test_the_fit_says_and_applies_the_choice():
     assert heldout_theta(steady) == "ls"
 
 
-
 def test_the_final_theta_choice_compares_the_converged_refit(monkeypatch):
     """theta_choice judges the refit the refine stage delivers, run to
     convergence, not the capped refit of the structures the other choices

@@ -276,12 +276,16 @@ def reversals(u, tol: float) -> List[Tuple[int, float, bool]]:
     return out[1:]
 
 
+def _levels(rev) -> Tuple[np.ndarray, np.ndarray]:
+    """The values of the reversals ``rev`` (:func:`reversals`), ``(peaks, troughs)``."""
+    return (np.asarray([v for _, v, peak in rev if peak]),
+            np.asarray([v for _, v, peak in rev if not peak]))
+
+
 def reversal_levels(u, tol: float) -> Tuple[np.ndarray, np.ndarray]:
     """The input's values at its reversals, ``(peaks, troughs)``
     (:func:`reversals`)."""
-    rev = reversals(u, tol)
-    return (np.asarray([v for _, v, peak in rev if peak]),
-            np.asarray([v for _, v, peak in rev if not peak]))
+    return _levels(reversals(u, tol))
 
 
 #: share of an input's range: reversals past it count, and peaks (troughs)
@@ -337,8 +341,7 @@ def separation_note(data: Data) -> Optional[str]:
             continue
         tol = LEVEL_TOLERANCE * span
         rev = reversals(u, tol)
-        peaks = np.asarray([v for _, v, p in rev if p])
-        troughs = np.asarray([v for _, v, p in rev if not p])
+        peaks, troughs = _levels(rev)
         if peaks.size + troughs.size < 2:
             continue
         if not all(v.size == 0 or np.ptp(v) <= 2 * tol for v in (peaks, troughs)):

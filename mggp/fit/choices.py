@@ -198,8 +198,8 @@ THETAS = ("ls", "freerun", "best")
 #: evaluations of the simulation error (each followed by a finite-difference
 #: Jacobian) that the refit of a compared structure may spend
 #: (:func:`heldout_errors` with 'freerun' or 'best'); the final structure's
-#: θ choice (:func:`theta_choice`) and refinement are not capped so. Under output noise the LS θ are biased, and
-#: the Gauss–Newton steps from them reach the refit in a few iterations (9
+#: θ choice (:func:`theta_choice`) and refinement are not capped so. Under
+#: output noise the LS θ are biased, and the Gauss–Newton steps from them reach the refit in a few iterations (9
 #: evaluations on the zoo's bilinear and play draws, development seeds 9 and 12)
 REFIT_NFEV = 10
 

@@ -1,4 +1,5 @@
-r"""The ``extend`` stage's choice: the diagnosis's catalogue of extensions tried on the fit's structure.
+r"""The ``extend`` stage's choice: the diagnosis's catalogue of extensions
+tried on the fit's structure.
 
 Typical use (the ``extend`` stage of :mod:`mggp.fit.stages` does this)::
 
@@ -28,8 +29,8 @@ bootstrap of the log-loss differences (:func:`narx.analysis.paired.paired_test`,
 losses floored at ``resolution`` of the output's range), Holm's adjustment
 over the candidates, a memory candidate also beating the best memory-free
 one unless that one is barred (then the memory candidate that beats the
-chosen structure wins, its cause unnamed), at ``level``. The winner is taken only when its free run stays
-bounded on the diagnosis's probe inputs
+chosen structure wins, its cause unnamed), at ``level``. The winner is
+taken only when its free run stays bounded on the diagnosis's probe inputs
 (:func:`~mggp.diagnose.candidates.stays_bounded`) and, with ``check``, on
 the fit's stress inputs (:class:`mggp.fit.extrapolation.StressCheck`);
 a winner refused there is barred and the test decided again. New terms

@@ -501,7 +501,8 @@ _ROWS = (
           f"of the record the other choices fit on; auto: one is taken when its free-run "
           f"error on the held-out part ({_HELD_OUT}) beats the chosen structure's by "
           "mggp diagnose's paired block-bootstrap test at its --level (Holm over the "
-          "extensions; a memory extension must also beat the best memory-free one) and its "
+          "extensions; a memory extension must also beat the best memory-free one, unless "
+          "that one's free run leaves the range on the probe inputs) and its "
           "free run stays bounded on probe and stress inputs, then refitted on the whole "
           "record (θ by free-run simulation error when it won so); none: the structure as "
           "chosen; never with --constraints steady-state", "selection", "--extend",
