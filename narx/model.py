@@ -199,12 +199,14 @@ class Model(HasSignals):
 
     # ------------------------------------------------------------ simulation
     def simulate(self, u, y=None, mode: str = "freerun", *, k=None, window=None,
-                 y0=None) -> SimulationResult:
-        """Simulate in ``mode`` ('osa', 'freerun', 'ksa', 'ms'); see
+                 y0=None, history=None) -> SimulationResult:
+        """Simulate in ``mode`` ('osa', 'freerun', 'ksa', 'ms'), the memory
+        operators started from ``history`` ('rest', 'rising', 'falling' or
+        'estimate'; default the record's own); see
         :func:`narx.simulation.simulate.simulate`."""
         d = self._data(u, y)
         return simulate(self.terms, self._need_theta(), d, mode, k=k, window=window,
-                        y0=y0, registry=self.registry)
+                        y0=y0, registry=self.registry, history=history)
 
     def predict(self, u, y=None, mode: str = "freerun", **kw) -> np.ndarray:
         return self.simulate(u, y, mode, **kw).y_hat

@@ -27,6 +27,7 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from narx.linalg import DIVERGENCE_FACTOR
+from narx.language.memory import HISTORIES
 
 from ..exceptions import CLIError
 
@@ -304,7 +305,7 @@ def _cmd_simulate(args) -> int:
     outside = range_warning(model, d)
     if outside:
         print(f"warning: {outside}", file=sys.stderr)
-    res = model.simulate(d, mode=args.mode, **kw)
+    res = model.simulate(d, mode=args.mode, history=args.history, **kw)
     if res.diverged:
         raise CLIError(f"the model is unstable on {args.data}: its {args.mode} simulation "
                        f"diverged (output {BEYOND} the data's magnitude)")
@@ -316,6 +317,10 @@ def _cmd_simulate(args) -> int:
            f"initial conditions and the first {kw['k']}-step horizon")
     print(f"{args.mode}: RMSE {fmt(res.rmse)}  MAPE {fmt(res.mape)} %  "
           f"({scored} samples scored; the first {d.n - scored} are not: {why})")
+    if res.history != "rest":
+        how = "estimated on the first samples" if args.history == "estimate" else "--history"
+        print(f"memory operators started as if the signals arrived {res.history} "
+              f"({how})")
     if args.out:
         print(f"prediction written to {args.out}")
     return 0
@@ -380,6 +385,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--k", type=int, default=None, help="horizon K for --mode ksa (default 10)")
     s.add_argument("--window", type=int, default=None, metavar="W",
                    help="window Δm for --mode ms (default 100, as for fit)")
+    s.add_argument("--history", choices=["estimate", *HISTORIES], default="estimate",
+                   help="the path the record's signals arrived by, which starts the model's "
+                        "memory operators (plays, Bouc-Wen variables): rest, rising (from "
+                        "the record's minimum after its maximum), falling, or estimate: the "
+                        "one whose free run fits the record's first samples best (default "
+                        "estimate; a record that starts in motion leaves the state unknown)")
     s.add_argument("--out", metavar="PRED.csv",
                    help="copy DATA.csv here with one more column, the prediction, named "
                         "after the model's output (y_hat for output y, f_hat for f; empty "

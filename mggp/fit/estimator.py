@@ -874,12 +874,18 @@ class MGGPRegressor:
             raise ValueError("no CLS refit: fit with constraints='steady-state'")
         return self.model_cls_ if constrained else self.model_
 
-    def simulate(self, u, y=None, mode="freerun", constrained=None, **kw):
+    def simulate(self, u, y=None, mode="freerun", constrained=None, *,
+                 history="estimate", **kw):
         """The simulation (:class:`narx.simulation.simulate.SimulationResult`) of the best
         model (:meth:`get_best`) on the inputs ``u`` (as ``fit`` takes them,
         the same number of inputs) in ``mode`` ('freerun', 'osa', 'ksa' with
         ``k``, 'ms' with ``window``), from the measured output ``y`` (free
-        run: its first samples, or ``y0=`` initial outputs). An
+        run: its first samples, or ``y0=`` initial outputs). A record may
+        start in motion: with its measured output, the memory operators
+        start from the history ('rest', 'rising' or 'falling') whose free
+        run fits its first samples best (``history='estimate'``,
+        :func:`narx.simulation.simulate.estimate_history`; the result's
+        ``history`` says which), else at rest. An
         :class:`narx.records.ranges.ExtrapolationWarning` names the inputs that leave
         the training record's range (:func:`narx.records.ranges.range_warning`), here
         and in :meth:`predict`."""
@@ -887,9 +893,10 @@ class MGGPRegressor:
         model = self.get_best(constrained)
         u = predict_inputs(self, u)
         _warn_outside(model, u)
-        return model.simulate(u, y, mode, **kw)
+        return model.simulate(u, y, mode, history=history, **kw)
 
-    def predict(self, u, y0=None, *, y=None, mode="freerun", constrained=None, **kw):
+    def predict(self, u, y0=None, *, y=None, mode="freerun", constrained=None,
+                history="estimate", **kw):
         """The predicted output of the best model (:meth:`get_best`).
 
         Parameters
@@ -913,6 +920,10 @@ class MGGPRegressor:
         constrained : bool, optional
             The CLS refit (True) or the LS model (False); default as
             :meth:`get_best`.
+        history : str
+            The path that starts the memory operators: 'rest', 'rising',
+            'falling', or 'estimate' (from the measured output ``y`` when
+            given, else 'rest'), as in :meth:`simulate`.
 
         Returns
         -------
@@ -930,7 +941,7 @@ class MGGPRegressor:
             y0 = np.zeros(model.max_lag)        # from rest
         u = predict_inputs(self, u)
         _warn_outside(model, u)
-        return model.simulate(u, y, mode, y0=y0, **kw).y_hat
+        return model.simulate(u, y, mode, y0=y0, history=history, **kw).y_hat
 
     def score(self, u, y, sample_weight=None, *, mode="freerun", **kw):
         """R² of the free-run simulation of ``u`` from the measured initial

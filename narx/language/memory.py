@@ -81,6 +81,29 @@ variable of gain :math:`A` is :math:`A` times this one, so a model is
 linear in :math:`A` and only :math:`\beta, \gamma` are operator
 parameters. :math:`|h|` stays below :math:`1/(\beta + \gamma)`.
 
+Histories
+---------
+A record that starts in motion leaves its operators' states unknown: the
+input arrived at its first value along a path the record does not hold.
+The *history* of a record names that path, and the operators are run over
+it before the first sample (:func:`history_prefix`, one row each of
+:data:`HISTORIES`):
+
+- ``'rest'``: no path; each operator starts from its initial state on the
+  first sample (the default).
+- ``'rising'``: the signal came down from its record maximum to its record
+  minimum and then rose to its first value, as after the last trough of a
+  periodic input.
+- ``'falling'``: up from the minimum to the maximum, then down to the
+  first value.
+
+Each leg is a ramp in steps of the record's median nonzero increment (at
+most :data:`HISTORY_RAMP_MAX` samples), so rate-dependent steps see
+increments of the record's size. A play of radius :math:`r \le (\max -
+\min)/2` then starts at :math:`\max(x_0 - r, \min x + r)` when rising,
+its state after the trough. :func:`narx.simulation.simulate.estimate_history`
+picks the history that simulates a record's first samples best.
+
 Plug-ins
 --------
 :func:`register_operator` adds a named operator with an initial state, a
@@ -150,7 +173,8 @@ __all__ = ["MemoryOperator", "OperatorRegistry", "register_operator",
            "play", "deng_tan", "bouc_wen", "play_step", "deng_tan_step", "bouc_wen_step",
            "deng_tan_state", "play_reference", "deng_tan_reference", "bouc_wen_reference",
            "DENG_TAN_DEPTH", "OPERATOR_BUILTINS", "BUILTIN_OPERATOR_CODES",
-           "operator_step", "PLAY_RADIUS_FRACTIONS", "BOUC_WEN_SHAPES", "operator_table"]
+           "operator_step", "PLAY_RADIUS_FRACTIONS", "BOUC_WEN_SHAPES", "operator_table",
+           "HISTORIES", "HISTORY_RAMP_MAX", "history_prefix", "check_history"]
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
@@ -401,6 +425,49 @@ def _as_sequence(x):
     return arr
 
 
+#: the histories a record's operators may be started from (module doc)
+HISTORIES = ("rest", "rising", "falling")
+#: samples of each leg of a history's ramp at most
+HISTORY_RAMP_MAX = 4096
+
+
+def check_history(history) -> str:
+    """``history`` if it is a row of :data:`HISTORIES`, else ``ValueError``."""
+    if history not in HISTORIES:
+        raise ValueError(f"history must be one of {', '.join(HISTORIES)}, got {history!r}")
+    return history
+
+
+def history_prefix(x, history: str = "rest") -> np.ndarray:
+    """The samples an operator runs over before ``x[0]`` under ``history``.
+
+    ``'rest'`` gives none; ``'rising'`` a ramp from ``max(x)`` down to
+    ``min(x)`` and up to ``x[0]``; ``'falling'`` from ``min(x)`` up to
+    ``max(x)`` and down to ``x[0]`` (the module doc, *Histories*). The
+    ramps step by the median nonzero ``|x[k] - x[k-1]|``, each leg at most
+    :data:`HISTORY_RAMP_MAX` samples; a constant ``x`` has no path.
+
+    Examples
+    --------
+    >>> history_prefix(np.array([0.0, 1.0, 2.0, 1.0]), "rising").tolist()
+    [2.0, 1.0, 0.0]
+    """
+    check_history(history)
+    x = _as_sequence(x)
+    steps = np.abs(np.diff(x))
+    steps = steps[steps > 0]
+    if history == "rest" or steps.size == 0:
+        return np.empty(0)
+    lo, hi = float(x.min()), float(x.max())
+    a, b = (hi, lo) if history == "rising" else (lo, hi)
+    step = float(np.median(steps))
+
+    def leg(p, q):                      # from p towards q, q excluded
+        m = int(min(HISTORY_RAMP_MAX, max(1, math.ceil(abs(q - p) / step))))
+        return np.linspace(p, q, m + 1)[:-1]
+    return np.concatenate([leg(a, b), leg(b, float(x[0]))])
+
+
 def play(x, r, init=None):
     """Play operator of radius ``r`` over the sequence ``x`` (see module doc).
 
@@ -603,26 +670,33 @@ class MemoryOperator:
             self.check(tuple(out))
         return tuple(out)
 
-    def sequence(self, x, params=(), init=None) -> np.ndarray:
+    def sequence(self, x, params=(), init=None, history: str = "rest") -> np.ndarray:
         """The operator over a whole sequence (compiled for the built-ins,
-        else by repeated :attr:`step`)."""
+        else by repeated :attr:`step`), after the path of ``history``
+        (:func:`history_prefix`; its values are dropped)."""
         x = _as_sequence(x)
         p = np.asarray(self.check_params(params), dtype=np.float64)
         if x.size == 0:
             return x.copy()
+        pre = history_prefix(x, history)
+        if pre.size:
+            return self.sequence(np.concatenate([pre, x]), params, init)[pre.size:]
         if self.builtin:
             return _COMPILED_RUN[self.name](x, p, init)
         state = np.asarray(self.init(float(x[0]), tuple(p), init), dtype=np.float64)
         return np.array([self.step(state, float(xk), p) for xk in x])
 
-    def states_after(self, x, params, ends) -> np.ndarray:
+    def states_after(self, x, params, ends, history: str = "rest") -> np.ndarray:
         """States after the samples ``x[0..e-1]`` for every ``e`` of ``ends``
         (each >= 1), one row each: where a window of a simulation whose
         first simulated sample is ``e`` starts the operator (the measured
-        history before it)."""
+        samples before it, after the path of ``history``)."""
         x = _as_sequence(x)
         p = np.asarray(self.check_params(params), dtype=np.float64)
         ends = np.asarray(ends, dtype=np.int64)
+        pre = history_prefix(x, history) if x.size else np.empty(0)
+        if pre.size:
+            return self.states_after(np.concatenate([pre, x]), params, ends + pre.size)
         order = np.argsort(ends, kind="stable")
         state = np.asarray(self.init(float(x[0]), tuple(p)), dtype=np.float64)
         out = np.empty((ends.size, state.size))

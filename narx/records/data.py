@@ -20,6 +20,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..exceptions import DataError
+from ..language.memory import check_history
 from ..language.terms import HasSignals, Signals
 
 __all__ = ["Data", "DataError", "as_data"]
@@ -67,10 +68,16 @@ class Data(HasSignals):
         ``y0`` initial conditions are supplied at simulation time.
     inputs : sequence of str
     output : str
+    history : str
+        The path the signals arrived by before the first sample, which
+        starts the memory operators (:data:`narx.language.memory.HISTORIES`:
+        'rest', 'rising', 'falling'); :meth:`with_history` sets it.
     """
 
+    history = "rest"
+
     def __init__(self, u, y=None, *, inputs: Optional[Sequence[str]] = None,
-                 output: str = "y", noise: str = "e"):
+                 output: str = "y", noise: str = "e", history: str = "rest"):
         U = _as_float("u", u, (1, 2))
         if U.ndim == 1:
             U = U[:, None]
@@ -94,6 +101,8 @@ class Data(HasSignals):
             self.y = None
         self._cache = OrderedDict()
         self._cache_bytes = 0
+        if history != "rest":
+            self.history = check_history(history)
 
     #: upper bound of the column cache in bytes (least recently used dropped)
     cache_limit = 512 * 2**20
@@ -119,12 +128,26 @@ class Data(HasSignals):
                             f"{float(self.y[0])!r}): {why}")
 
     def slice(self, start=None, stop=None) -> "Data":
-        """A new record of samples ``start:stop`` (own empty cache)."""
+        """A new record of samples ``start:stop`` (own empty cache); it keeps
+        the history when it starts where this record starts, else starts
+        at rest."""
         d = Data.__new__(Data)
         d.signals = self.signals
         d.U = np.ascontiguousarray(self.U[:, start:stop])
         d.y = None if self.y is None else np.ascontiguousarray(self.y[start:stop])
         d._cache, d._cache_bytes = OrderedDict(), 0
+        if not start and self.history != "rest":
+            d.history = self.history
+        return d
+
+    def with_history(self, history: str) -> "Data":
+        """The same samples started from ``history`` (own empty cache;
+        :data:`narx.language.memory.HISTORIES`)."""
+        check_history(history)
+        if history == self.history:
+            return self
+        d = self.slice()
+        d.history = history
         return d
 
     def cached(self, key: str, fn):
@@ -153,15 +176,18 @@ class Data(HasSignals):
 
     def __getstate__(self):
         # worker processes rebuild their own cache
-        return {"signals": self.signals, "U": self.U, "y": self.y}
+        return {"signals": self.signals, "U": self.U, "y": self.y, "history": self.history}
 
     def __setstate__(self, st):
         self.signals, self.U, self.y = st["signals"], st["U"], st["y"]
         self._cache, self._cache_bytes = OrderedDict(), 0
+        if st.get("history", "rest") != "rest":
+            self.history = st["history"]
 
     def __repr__(self):
         return (f"Data(n={self.n}, inputs={list(self.inputs)}, output={self.output!r}"
-                f"{', no output' if self.y is None else ''})")
+                f"{', no output' if self.y is None else ''}"
+                f"{'' if self.history == 'rest' else f', history={self.history!r}'})")
 
 
 def as_data(u, y=None, *, inputs=None, output="y") -> Data:

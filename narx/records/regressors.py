@@ -81,7 +81,8 @@ def factor_column(f, data: Data, y=None, noise=None,
     if isinstance(f, Lag):
         return shift(signal_array(f, data, y, noise), f.lag)
     if isinstance(f, OpCall):
-        return shift(operator_sequence(f, signal_array(f.arg, data, y, noise)), f.arg.lag)
+        return shift(operator_sequence(f, signal_array(f.arg, data, y, noise), data.history),
+                     f.arg.lag)
     fn = (registry or default_registry()).get(f.name)
     if fn.builtin and len(f.args) == 2:
         (p, q) = f.args
@@ -95,13 +96,14 @@ def factor_column(f, data: Data, y=None, noise=None,
         return np.asarray(fn.func(*args), dtype=np.float64)
 
 
-def operator_sequence(f: OpCall, x) -> np.ndarray:
+def operator_sequence(f: OpCall, x, history: str = "rest") -> np.ndarray:
     """The operator of ``f`` over the whole (unshifted) signal ``x``, from
-    the operator's default initial state (:mod:`narx.language.memory`). A plug-in
+    the operator's default initial state after the path of ``history``
+    (:mod:`narx.language.memory`, *Histories*). A plug-in
     operator's overflow is left as inf or NaN without a numpy warning (the
     fit refuses a non-finite column: :meth:`narx.estimation.fitness.StructureScorer.fit`)."""
     with np.errstate(over="ignore", invalid="ignore"):
-        return default_operators().get(f.name).sequence(x, f.params)
+        return default_operators().get(f.name).sequence(x, f.params, history=history)
 
 
 def _product(cols, n):

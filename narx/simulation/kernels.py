@@ -231,7 +231,7 @@ class Plan:
 
 
 def _run_python(plan, P, idx, U, y_meas, theta, starts, length, write_from, bound,
-                out, registry):
+                out, registry, history="rest"):
     """Reference implementation, vectorised over windows (any Φ-function)."""
     reg = registry or default_registry()
     n, ml = y_meas.shape[0], plan.maxlag
@@ -240,7 +240,7 @@ def _run_python(plan, P, idx, U, y_meas, theta, starts, length, write_from, boun
     if ml:
         buf[:, :ml] = y_meas[starts[:, None] - ml + np.arange(ml)[None, :]]
     rows = np.arange(W)
-    ops = {f: _OperatorWindows(f, y_meas, starts) for f in plan.out_operators}
+    ops = {f: _OperatorWindows(f, y_meas, starts, history) for f in plan.out_operators}
     for j in range(length):
         k = starts + j
         live = k < n
@@ -285,13 +285,13 @@ class _OperatorWindows:
     the operator's value at sample ``k - d``, from the measured output
     while ``j < d``, else stepped on the simulated ``y[k-d]``."""
 
-    def __init__(self, f: OpCall, y_meas, starts):
+    def __init__(self, f: OpCall, y_meas, starts, history: str = "rest"):
         self.op = default_operators().get(f.name)
         self.p = np.asarray(f.params, dtype=np.float64)
         self.d = f.arg.lag
-        self.measured = self.op.sequence(y_meas, f.params)
+        self.measured = self.op.sequence(y_meas, f.params, history=history)
         self.starts = starts
-        self.state = self.op.states_after(y_meas, f.params, starts)
+        self.state = self.op.states_after(y_meas, f.params, starts, history)
         self.play = self.op.builtin and f.name == "Play"
 
     def value(self, j, y_sim, live):
@@ -308,7 +308,7 @@ class _OperatorWindows:
         return out
 
 
-def _operator_arrays(plan: Plan, y_meas, starts):
+def _operator_arrays(plan: Plan, y_meas, starts, history: str = "rest"):
     """Kernel arrays of the operators of output lags: codes, lags,
     parameters, measured values (n_op, N) and window start states
     (n_op, W, S), see :class:`_OperatorWindows`."""
@@ -318,7 +318,7 @@ def _operator_arrays(plan: Plan, y_meas, starts):
         return (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
                 np.zeros((0, 1)), np.zeros((0, 1)), np.zeros((0, W, 1)))
     from ..language.memory import BUILTIN_OPERATOR_CODES
-    win = [_OperatorWindows(f, y_meas, starts) for f in ops]
+    win = [_OperatorWindows(f, y_meas, starts, history) for f in ops]
     width = max(w.state.shape[1] for w in win)
     npar = max([1] + [len(f.params) for f in ops])
     par = np.zeros((len(ops), npar))
@@ -335,13 +335,16 @@ def run_windows(plan: Plan, P, U, y_meas, theta, starts, length: int,
                 write_from: int = 0, bound: Optional[float] = None,
                 out: Optional[np.ndarray] = None,
                 registry: Optional[PhiRegistry] = None,
-                force_python: bool = False, idx=None):
+                force_python: bool = False, idx=None, history: str = "rest"):
     """Run the recursion over windows; returns ``(out, diverged)``.
 
     ``P`` is (T, N) input parts, or a column store (C, N) with ``idx`` the
     row of each term. ``out`` (length N, NaN where nothing was written)
     receives step ``j >= write_from`` of each window at sample
     ``starts[w] + j``. Noise terms are zero (their θ is ignored).
+    ``history`` starts the operators of output lags
+    (:func:`narx.language.memory.history_prefix`; the input parts ``P``
+    carry their record's own).
     """
     y_meas = np.ascontiguousarray(y_meas, dtype=np.float64)
     theta = np.where(plan.noise_terms, 0.0, np.asarray(theta, dtype=np.float64))
@@ -362,8 +365,8 @@ def run_windows(plan: Plan, P, U, y_meas, theta, starts, length: int,
                            plan.dyn, plan.d_ptr, plan.d_code, plan.p_kind, plan.p_sig,
                            plan.p_lag, starts,
                            int(length), int(write_from), int(plan.maxlag),
-                           float(bound), out, *_operator_arrays(plan, y_meas, starts))
+                           float(bound), out, *_operator_arrays(plan, y_meas, starts, history))
     else:
         diverged = _run_python(plan, P, idx, U, y_meas, theta, starts, int(length),
-                               int(write_from), float(bound), out, registry)
+                               int(write_from), float(bound), out, registry, history)
     return out, bool(diverged)

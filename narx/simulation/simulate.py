@@ -27,6 +27,11 @@ mode           aliases                 what is simulated
 =============  ======================  ==========================================
 
 ``ksa`` with k = 1 equals ``osa``; ``ms`` with one window equals ``freerun``.
+A record that starts in motion leaves the memory operators' states unknown;
+``history`` names the path the signals arrived by
+(:data:`narx.language.memory.HISTORIES`), and ``history='estimate'`` picks
+the one whose free run fits the record's first samples best
+(:func:`estimate_history`).
 Noise terms ``e[k-j]`` are zero in every mode (their expectation). A
 simulation that diverges ends quietly with ``diverged=True`` and
 ``mse = inf``; no warnings are emitted.
@@ -45,7 +50,11 @@ from ..language.phi import PhiRegistry
 from ..language.terms import Term
 
 __all__ = ["SimulationResult", "simulate", "MODES", "MODE_TABLE", "mode_name",
-           "window_starts", "recursion_windows"]
+           "window_starts", "recursion_windows", "estimate_history", "HISTORY_HEAD"]
+
+#: :func:`estimate_history` compares the histories on this share of the
+#: record's first samples (at least ten times the model's largest lag)
+HISTORY_HEAD = 0.2
 
 #: the simulation modes, one row each: (name, aliases also accepted, what is
 #: simulated); the module docstring shows it as a table
@@ -92,6 +101,9 @@ class SimulationResult:
     mode : str
     diverged : bool
     horizon : int or None   (``ksa``'s k, ``ms``'s window Δm)
+    history : str
+        The path that started the memory operators
+        (:data:`narx.language.memory.HISTORIES`).
     """
 
     y_hat: np.ndarray
@@ -102,6 +114,7 @@ class SimulationResult:
     horizon: Optional[int] = None
     start: int = 0
     info: dict = field(default_factory=dict)
+    history: str = "rest"
 
     @property
     def residual(self) -> np.ndarray:
@@ -153,7 +166,7 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
              k: Optional[int] = None, window: Optional[int] = None,
              y0=None, plan: Optional[Plan] = None, P=None,
              registry: Optional[PhiRegistry] = None,
-             force_python: bool = False) -> SimulationResult:
+             force_python: bool = False, history: Optional[str] = None) -> SimulationResult:
     """Simulate a model in one of the four modes.
 
     Parameters
@@ -172,8 +185,19 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
         Initial conditions (the first ``maxlag`` outputs) for ``freerun``
         when ``data`` has no output.
     plan, P : optional precomputed :class:`Plan` and input parts.
+    history : str, optional
+        The path that starts the memory operators: a row of
+        :data:`narx.language.memory.HISTORIES`, or ``'estimate'``
+        (:func:`estimate_history`, on the measured output); default the
+        record's own (``data.history``, 'rest' unless set).
     """
     mode = mode_name(mode)
+    if history == "estimate":
+        history = estimate_history(terms, theta, data, registry=registry)[0]
+    if history is not None and history != data.history:
+        if P is not None:
+            raise ValueError("P was built for the record's own history; pass history=None")
+        data = data.with_history(history)
     for name, v, used in (("k", k, "ksa"), ("window", window, "ms")):
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
             raise ValueError(f"{name} must be an integer, got {v!r}")
@@ -234,6 +258,55 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
         valid[first:] = True
         y_hat, diverged = run_windows(plan, P, data.U, y_meas, theta, starts, length,
                                       write_from, bound=bound, registry=registry,
-                                      force_python=force_python)
+                                      force_python=force_python, history=data.history)
     y_hat[:ml] = y_meas[:ml]
-    return SimulationResult(y_hat, y, valid, mode, bool(diverged), horizon, ml)
+    return SimulationResult(y_hat, y, valid, mode, bool(diverged), horizon, ml,
+                            history=data.history)
+
+
+def estimate_history(terms: Sequence[Term], theta, data: Data, *,
+                     registry: Optional[PhiRegistry] = None):
+    r"""The history whose free run fits the record's first samples best.
+
+    Each row :math:`h` of :data:`narx.language.memory.HISTORIES` starts the
+    model's memory operators (:func:`narx.language.memory.history_prefix`),
+    and the free run from the record's first ``maxlag`` samples is scored
+    on its head, the first :math:`n_h = \max(\lceil` :data:`HISTORY_HEAD`
+    :math:`\cdot N
+ceil, 10\,(	ext{maxlag} + 1))` samples:
+
+    .. math::  \hat h = rg\min_h \sum_{k=	ext{maxlag}}^{n_h - 1}
+               (y_k - \hat y_k^{(h)})^2 ,
+
+    ties (and a model without operators, or a record without its output)
+    going to 'rest'. This is the initial-state estimate of a free run
+    ([1]_, ch. 16.6), restricted to three physical paths instead of a free
+    state vector.
+
+    Returns
+    -------
+    history : str
+    head_rmse : dict
+        ``{history: free-run RMSE on the head}`` (empty when not compared).
+
+    References
+    ----------
+    .. [1] L. Ljung, *System Identification: Theory for the User*, 2nd ed.,
+       Prentice Hall, 1999.
+    """
+    from ..language.memory import HISTORIES
+    from ..language.terms import OpCall
+    terms = tuple(terms)
+    if data.y is None or not any(isinstance(f, OpCall) for t in terms for f in t.factors):
+        return "rest", {}
+    plan = Plan.from_terms(terms, data.inputs, registry)
+    head = min(data.n, max(int(np.ceil(HISTORY_HEAD * data.n)), 10 * (plan.maxlag + 1)))
+    if head <= plan.maxlag:
+        return "rest", {}
+    scores = {}
+    for h in HISTORIES:            # whole runs: a history's path spans the record's range
+        r = simulate(terms, theta, data, "freerun", plan=plan, registry=registry, history=h)
+        e = r.y[plan.maxlag:head] - r.y_hat[plan.maxlag:head]
+        scores[h] = float("inf") if r.diverged else float(np.sqrt(np.mean(e * e)))
+    best = min(HISTORIES, key=lambda h: (scores[h], h != "rest"))
+    return best, scores
