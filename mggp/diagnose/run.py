@@ -26,7 +26,8 @@ largest lag of the models compared), and the errors are scored after
 them, the same samples for every model; on a training-record tail the
 models' memory operators (:mod:`narx.language.memory`) carry their state from the
 inputs before it (they are measured), while a validation record starts
-them at rest. The
+them from the history that fits its first samples best
+(:func:`narx.simulation.simulate.estimate_history`). The
 evidence comes from the fitting samples; held-input segments are
 searched in both records; nothing is fitted or chosen on the measuring
 samples, so the gain there is an out-of-sample measurement of the

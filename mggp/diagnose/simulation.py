@@ -93,7 +93,10 @@ def freerun_after(model: Model, data: Data, first: int):
     is measured, so the operators' states at ``first`` are known: only the
     output lags are taken from the record at ``first`` (as in a free run of
     ``data.slice(first)``). For terms without operators the result is that
-    free run.
+    free run. With ``first`` 0 the record is a new one, which may start in
+    motion: its operators start from the history that fits its first
+    samples best (:func:`narx.simulation.simulate.estimate_history`), as
+    ``mggp simulate`` starts them.
 
     Returns
     -------
@@ -104,7 +107,7 @@ def freerun_after(model: Model, data: Data, first: int):
     from narx.simulation.simulate import simulate
     first = int(first)
     if first <= 0:
-        return model.simulate(data, mode="freerun")
+        return model.simulate(data, mode="freerun", history="estimate")
     plan = Plan.from_terms(model.terms, data.inputs, model.registry)
     P = np.ascontiguousarray(plan.input_parts(data, model.registry)[:, first:])
     return simulate(model.terms, model.theta, data.slice(first), "freerun", plan=plan, P=P,
