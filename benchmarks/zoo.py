@@ -238,7 +238,12 @@ def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dic
     doc = dx.to_dict()
     base = doc["baseline"]["validation"]["rmse"]
     base = math.inf if base is None else float(base)
-    og = oracle_gain(base, orc.rmse)
+    first = dx.split.measure[0]
+    if first and orc.model is not None:   # the oracle scored where the diagnosis measures
+        rec.update(oracle_rmse_whole=rec["oracle_rmse"],
+                   oracle_rmse=_num(_freerun_error(orc.model, d.validation, first)))
+    o_rmse = math.nan if rec["oracle_rmse"] is None else float(rec["oracle_rmse"])
+    og = oracle_gain(base, o_rmse)
     rec.update(baseline_rmse=_num(base),
                extended_rmse=_num(doc["extended"]["validation"]["rmse"]),
                oracle_gain=_num(og), identifiable=bool(og >= IDENTIFIABLE),  # NaN: False
