@@ -194,6 +194,10 @@ class Diagnosis:
     timings: Dict[str, float] = field(default_factory=dict)
     evidence_findings: List[Finding] = field(default_factory=list)
     separation: Optional[str] = None
+    #: the whole second record whose held-input segments are evidence
+    #: (``measure_holds``, in its own numbering from ``second_offset``)
+    second_data: Optional[Data] = None
+    second_offset: int = 0
 
     @property
     def effects(self) -> List[str]:
@@ -507,7 +511,10 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                         f"largest lag {base.max_lag}")
     say("evidence: " + ", ".join(t.name for t in registered()))
     t1 = time.perf_counter()
-    ctx = Context(base, fit, measure, rec_names, meas_rng[0], budget, alpha, resolution, seed)
+    # the evidence reads the holds of the whole second record (the validation
+    # record, its selection head included: evidence explains, it does not decide)
+    second, second_at = (measure, meas_rng[0]) if validation is None else (validation, 0)
+    ctx = Context(base, fit, second, rec_names, second_at, budget, alpha, resolution, seed)
     ev = run_tests(ctx)
     checks = ev.checks
     evidence_findings = name_findings(checks)
@@ -580,4 +587,4 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                      Scored(ext_model, ext_source, e_rmse, e_mape, e_hat), vd,
                      Gain(b_rmse, e_rmse, won=winner is not None), split, fit, measure,
                      ctx.measure_holds, rec_names, settings, timings, evidence_findings,
-                     separation)
+                     separation, second, second_at)
