@@ -359,7 +359,7 @@ def _selection_errors(model: Optional[Model], pre: Data, n_fit: int,
     under which memory and dynamics part. On development draws (zoo seeds
     350-549) 9 of the 14 identifiable hysteretic draws left unnamed had
     every candidate within the noise of the baseline on the training tail
-    (p-values near 1), while a memory candidate beat it by 1.5 to 10 times
+    (p-values near 1), while a memory candidate beat it by 1.2 to 11 times
     on the validation record; and 4 of the 5 extensions worse than the
     baseline out of sample had won on the training tail and lost on the
     validation record.
