@@ -226,8 +226,9 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
     for t in tested:
         p_values[t.effect] = min(p_values.get(t.effect, 1.0), t.p_value)
     free_rmse = rm[best_free] if best_free is not None else np.inf
+    worth = free_rmse - (floor or 0.0)      # memory must gain more than the resolution
     ok = [tested[i] for i in mem if tested[i].model is not None and ok_to_win[i]
-          and tested[i].p_value <= alpha and rm[i] < base_rmse and rm[i] < free_rmse]
+          and tested[i].p_value <= alpha and rm[i] < base_rmse and rm[i] < worth]
     if not ok:
         ok = [tested[i] for i in free if ok_to_win[i] and tested[i].p_value <= alpha
               and rm[i] < base_rmse]
