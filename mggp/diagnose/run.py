@@ -13,9 +13,11 @@ Sample bookkeeping (never modifies the data): three sets of samples, each
 with one job. With a validation record, the baseline and the candidates
 are fitted on the first ``1 − SELECT`` of the training record, the paired
 test that names the effect and picks the extension uses the rest of the
-training record (the *selection* samples), and the gain is measured on
-the validation record; without one, the last ``holdout`` of the training
-record measures and the samples before it are cut the same way. The
+training record and the first :data:`VALIDATION_SELECT` of the validation
+record (the *selection* samples, :func:`_selection_errors`), and the gain
+is measured on the rest of the validation record; without one, the last
+``holdout`` of the training record measures and the samples before it are
+cut the same way. The
 models measured are those fitted on the fitting samples (no refit: the
 model recommended is the one the test chose). The selection samples are
 scored on a free run of the training record from its first sample (every
@@ -23,10 +25,10 @@ state of a model, the memory operators of the output included, is its
 own when the selection samples begin; :func:`_errors`); the measuring
 samples are simulated free from their first L measured samples (L = the
 largest lag of the models compared), and the errors are scored after
-them, the same samples for every model; on a training-record tail the
-models' memory operators (:mod:`narx.language.memory`) carry their state from the
-inputs before it (they are measured), while a validation record starts
-them at rest. The
+them, the same samples for every model; the models' memory operators
+(:mod:`narx.language.memory`) carry their state from the inputs before
+the measuring samples (they are measured; a validation record starts
+them at rest at its first sample). The
 evidence comes from the fitting samples; held-input segments are
 searched in both records; nothing is fitted or chosen on the measuring
 samples, so the gain there is an out-of-sample measurement of the
@@ -555,8 +557,8 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     if measure.n <= start + 10:
         raise DataError(f"{rec_names[1]}: {measure.n} samples are too few to measure models "
                         f"with largest lag {start}")
-    # the training tail is simulated with the input history before it (memory
-    # operators carry their state); a validation record starts on its own
+    # the measuring samples are simulated with the input history of their
+    # record before them (memory operators carry their state)
     record, first = (train, meas_rng[0]) if validation is None else (validation, meas_rng[0])
     b_rmse, b_mape, b_hat = _score(base, record, first, start)
     e_rmse, e_mape, e_hat = _score(ext_model, record, first, start)
