@@ -43,6 +43,26 @@ def test_memory_must_beat_the_best_memory_free_candidate_not_only_the_baseline()
     assert v.p_values["hysteresis"] <= ALPHA
 
 
+def test_memory_must_gain_more_than_the_resolution_over_the_memory_free_fit():
+    """A memory candidate whose errors are those of the best memory-free
+    candidate shrunk by 5 % wins the paired test on every sample, but an
+    RMSE gain below the resolution (the floor δ) is not worth naming: the
+    memory-free candidate is named. Control: the same candidates with a
+    floor below that gain name memory."""
+    rng = np.random.default_rng(8)
+    n = 1500
+    base = _ar1(rng, n, scale=2.0)
+    free = _ar1(rng, n)
+    cands = [(_s(MEMORY, "plays"), M, 0.95 * free, 1.0),
+             (_s("unmodelled-nonlinearity", "more degree"), M, free, 1.0)]
+    gap = float(np.sqrt(np.mean(free ** 2))) * 0.05
+    v = decide(base, cands, ALPHA, rng, floor=2 * gap)
+    assert v.p_values["hysteresis"] <= ALPHA                  # significant ...
+    assert v.named == ("unmodelled-nonlinearity",), v.lines()  # ... but not worth naming
+    v = decide(base, cands, ALPHA, rng, floor=gap / 2)         # control
+    assert v.named == ("hysteresis",), v.lines()
+
+
 def test_a_barred_rival_leaves_the_memory_extension_unnamed():
     """A memory-free candidate that wins but leaves the range on the probe
     inputs cannot win; the memory candidate that only ties it is not named

@@ -10,7 +10,9 @@ Typical use::
 
 Without ``--model`` the baseline is an MGGP model with multiple-shooting
 fitness and no Φ-functions. Without ``--validation`` the last
-``--holdout`` fraction of TRAIN.csv measures the gain and the rest fits.
+``--holdout`` fraction of TRAIN.csv measures the gain and the rest fits;
+with it, the head of VAL.csv joins the selection samples and the rest
+measures.
 The terminal shows a short summary; ``--json`` writes the findings,
 both models and the gain (schema in :mod:`mggp.diagnose`); ``--report``
 writes ``summary.md`` and figures; ``--out`` writes the recommended model
@@ -39,7 +41,8 @@ __all__ = ["register", "DIAGNOSE_OPTIONS"]
 #: options of ``mggp diagnose``: the records and outputs, the search budget
 #: and the tests' settings (rules and defaults from :mod:`mggp.fit.params`)
 DIAGNOSE_OPTIONS = (
-    Param("validation", None, PATH, "record that measures the gain", "data",
+    Param("validation", None, PATH, "second record: its head joins the selection "
+          "samples, the rest measures the gain", "data",
           "--validation", metavar="VAL.csv", default_text="a tail of TRAIN.csv",
           estimator=False),
     Param("model", None, PATH, "the model to diagnose", "data", "--model",

@@ -265,8 +265,10 @@ def _plot_holds(path, dx) -> Optional[str]:
         return None
     ext = {}
     min_len = max(20, 2 * dx.baseline.model.max_lag + 12)
+    second = ((dx.second_data, dx.second_offset) if dx.second_data is not None
+              else (dx.measure_data, dx.split.measure[0]))
     for data, rec, off in ((dx.fit_data, dx.records[0], dx.split.fit[0]),
-                           (dx.measure_data, dx.records[1], dx.split.measure[0])):
+                           (second[0], dx.records[1], second[1])):
         for h in hold_responses(dx.extended.model, data, rec, min_len, offset=off):
             ext[(h.record, h.start)] = h
     hs = hs[:6]

@@ -29,8 +29,14 @@ RMSE.)
 
 The effect named is ``hysteresis`` when its p-value is at most α and
 the memory candidate's free-run RMSE on the selection samples is below
-the baseline's and the best memory-free candidate's (the winner: the
-qualifying memory candidate with the smallest RMSE); otherwise that of
+the baseline's, and below the best memory-free candidate's by more than
+the floor δ of the tests (the resolution, the smallest effect worth
+naming; the winner: the qualifying memory candidate with the smallest
+RMSE). A paired test on thousands of samples finds a gain of a few per
+cent significant; on development draws of a dead time behind linear
+dynamics (zoo seeds 550-749) a dynamics form with plays beat the same
+form without them by 3 % (p 0.01), and hysteresis was named on a
+system without memory. Otherwise the effect named is that of
 the winning memory-free candidate (p-value at most α, RMSE
 below the baseline's) with the smallest selection RMSE; otherwise nothing.
 The winner is then the extension; a candidate whose free run leaves the
@@ -226,8 +232,9 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
     for t in tested:
         p_values[t.effect] = min(p_values.get(t.effect, 1.0), t.p_value)
     free_rmse = rm[best_free] if best_free is not None else np.inf
+    worth = free_rmse - (floor or 0.0)      # memory must gain more than the resolution
     ok = [tested[i] for i in mem if tested[i].model is not None and ok_to_win[i]
-          and tested[i].p_value <= alpha and rm[i] < base_rmse and rm[i] < free_rmse]
+          and tested[i].p_value <= alpha and rm[i] < base_rmse and rm[i] < worth]
     if not ok:
         ok = [tested[i] for i in free if ok_to_win[i] and tested[i].p_value <= alpha
               and rm[i] < base_rmse]
