@@ -7,6 +7,8 @@ and is kept."""
 import numpy as np
 import pytest
 
+import narx
+
 from mggp import MGGPRegressor
 from mggp.fit.choices import THETA_WORDS, heldout_rmse, heldout_theta, theta_choice
 from narx.records.data import Data
@@ -45,6 +47,21 @@ def test_equation_noise_keeps_least_squares():
     c = theta_choice(TRUTH, d, seed=0)
     assert c.value is None and c.why.startswith("θ by least squares")
     assert heldout_rmse(TRUTH, d, theta="best") <= heldout_rmse(TRUTH, d, theta="ls")
+
+
+def test_a_structure_with_memory_operators_keeps_least_squares():
+    """The same output noise on a record whose structure holds a play: LS
+    is kept without a refit (their initial state is unknown); the control is
+    test_output_noise_takes_the_free_run_refit (no operator, refit taken)."""
+    rng = np.random.default_rng(0)
+    u = np.sin(np.linspace(0, 30, 1500)) + 0.3 * rng.standard_normal(1500)
+    d = record("none")
+    terms = TRUTH + ("Play(u[k-1],0.2)",)
+    v = narx.Model(list(terms), theta=[1.5, -0.7, 1.0, 0.5]).simulate(Data(u, d.y)).y_hat
+    y = np.asarray(v) + 0.8 * rng.standard_normal(1500)
+    c = theta_choice(terms, Data(u, y), seed=0)
+    assert c.value is None and "memory operators" in c.why
+    assert theta_choice(TRUTH, Data(u, y), seed=0).value == "freerun"
 
 
 def test_theta_must_be_known():
