@@ -399,7 +399,8 @@ def test_fit_report_opens_with_its_conclusion_and_lists_the_choices(capsys, tmp_
                        "3", "--seed", "0", "--quiet", "--no-phi", "--operators", "none",
                        "--no-constant", "--size", "search", "--screen", "none", "--select",
                        "fitness", "--no-local-search", "--outliers", "keep", "--max-height",
-                       "5", "--max-power", "3", "--extend", "none", "--report", rep2)
+                       "5", "--max-power", "3", "--extend", "none", "--refine", "none",
+                       "--report", rep2)
     assert code == 0, err
     assert "auto: " not in err
     assert "## Automatic choices" not in (rep2 / "summary.md").read_text()

@@ -1,10 +1,13 @@
-"""θ by simulation error in the automatic choices (``refine='auto'``,
-mggp.fit.choices.heldout_errors with theta, theta_choice): under output noise
+"""θ by simulation error in the automatic choices (``refine='auto'``, the
+default, and ``'compare'``; mggp.fit.choices.heldout_errors with theta,
+theta_choice): under output noise
 the LS θ of the true structure are biased and its free-run refit simulates
 the held-out part better; under equation noise LS is the right estimate
 and is kept."""
 import numpy as np
 import pytest
+
+import narx
 
 from mggp import MGGPRegressor
 from mggp.fit.choices import THETA_WORDS, heldout_rmse, heldout_theta, theta_choice
@@ -46,6 +49,21 @@ def test_equation_noise_keeps_least_squares():
     assert heldout_rmse(TRUTH, d, theta="best") <= heldout_rmse(TRUTH, d, theta="ls")
 
 
+def test_a_structure_with_memory_operators_keeps_least_squares():
+    """The same output noise on a record whose structure holds a play: LS
+    is kept without a refit (their initial state is unknown); the control is
+    test_output_noise_takes_the_free_run_refit (no operator, refit taken)."""
+    rng = np.random.default_rng(0)
+    u = np.sin(np.linspace(0, 30, 1500)) + 0.3 * rng.standard_normal(1500)
+    d = record("none")
+    terms = TRUTH + ("Play(u[k-1],0.2)",)
+    v = narx.Model(list(terms), theta=[1.5, -0.7, 1.0, 0.5]).simulate(Data(u, d.y)).y_hat
+    y = np.asarray(v) + 0.8 * rng.standard_normal(1500)
+    c = theta_choice(terms, Data(u, y), seed=0)
+    assert c.value is None and "memory operators" in c.why
+    assert theta_choice(TRUTH, Data(u, y), seed=0).value == "freerun"
+
+
 def test_theta_must_be_known():
     with pytest.raises(ValueError, match="theta must be one of"):
         heldout_rmse(TRUTH, record("output"), theta="oe")
@@ -55,15 +73,58 @@ def test_the_fit_says_and_applies_the_choice():
     d = record("output")
     kw = dict(fitness="pem", population=16, generations=2, max_height=2, max_terms=4,
               random_state=1, use_phi=False, operators="none", constant=False)
-    est = MGGPRegressor(refine="auto", **kw).fit(d)
+    est = MGGPRegressor(refine="compare", **kw).fit(d)
     c = est.choices_["refine"]
     assert THETA_WORDS["best"].replace(",", ";", 1) in est.choices_["size"]["why"]
     assert (c["value"] == "freerun") == ("refined" in est.model_.meta
                                          and est.model_.meta["refined"]["improved"])
-    # control: refine='none' (the default) and the steady-state constraints make no such choice
-    assert "refine" not in MGGPRegressor(**kw).fit(d).choices_
-    steady = MGGPRegressor(constraints="steady-state", refine="auto", **kw)
+    # control: refine='none' and the steady-state constraints make no such choice
+    assert "refine" not in MGGPRegressor(refine="none", **kw).fit(d).choices_
+    steady = MGGPRegressor(constraints="steady-state", refine="compare", **kw)
     assert heldout_theta(steady) == "ls"
+    assert heldout_theta(MGGPRegressor(**kw)) == "ls"      # the default compares LS θ
+
+
+def _validation_rmse(model) -> float:
+    """Free-run RMSE against the noise-free output of a new record."""
+    clean = record("none", n=1500, seed=7)
+    return float(np.sqrt(np.mean((model.simulate(clean).y_hat - clean.y)[2:] ** 2)))
+
+
+def test_the_refit_taken_simulates_a_new_record_better():
+    """Under output noise the refit that theta_choice takes simulates a new
+    noise-free record of the system far better than the LS θ (the control,
+    equation noise, keeps LS: test_equation_noise_keeps_least_squares)."""
+    import narx
+    from narx.refine import refine
+    d = record("output")
+    assert theta_choice(TRUTH, d, seed=0).value == "freerun"
+    ls = narx.Model(list(TRUTH)).fit(d)
+    assert _validation_rmse(refine(ls, d, mode="freerun").model) < 0.5 * _validation_rmse(ls)
+
+
+def test_the_default_makes_the_choice_and_applies_it():
+    """The default (refine='auto') judges the final structure's refit and
+    refines it exactly when that is taken; the structure is refine='none''s
+    (control: refine='none' makes no choice)."""
+    kw = dict(fitness="ms", population=16, generations=2, max_lag=2, max_degree=1,
+              max_terms=4, random_state=1, use_phi=False, operators="none",
+              constant=False, extend="none")
+    d = record("output")
+    est = MGGPRegressor(**kw).fit(d)
+    plain = MGGPRegressor(refine="none", **kw).fit(d)
+    assert est.terms_ == plain.terms_ and "refine" not in plain.choices_
+    c = est.choices_["refine"]
+    taken = c["figures"]["heldout_rmse_freerun"] < c["figures"]["heldout_rmse_ls"]
+    assert (c["value"] == "freerun") == taken == (est.refinement_ is not None)
+    if not taken:
+        assert np.allclose(est.model_.theta, plain.model_.theta)
+
+
+def test_a_noise_free_record_keeps_least_squares():
+    """Both θ simulate the held-out part to rounding: a tie keeps LS."""
+    c = theta_choice(TRUTH, record("none"), seed=0)
+    assert c.value is None and c.why.startswith("θ by least squares")
 
 
 def test_the_final_theta_choice_compares_the_converged_refit(monkeypatch):

@@ -295,7 +295,7 @@ class MGGPRegressor:
                  max_power="auto", select="auto", size="auto", stress=True, local_search=True,
                  extend="auto", select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
-                 t_threshold=None, estimator="ls", refine="none", refine_window=None,
+                 t_threshold=None, estimator="ls", refine="auto", refine_window=None,
                  backend="loky", scheduler=None, outliers="auto", checkpoint=None,
                  resume=False, callbacks=None, registry=None):
         self.fitness = fitness

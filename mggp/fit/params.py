@@ -538,14 +538,15 @@ _ROWS = (
           f"model (order by BIC, at most {NOISE_ORDER}) before its mean square is taken, for "
           "equation noise that the dynamics colour",
           "selection", "--estimator", context="if set", meta=True),
-    Param("refine", "none", OneOf(("auto", "freerun", "ms", "none", None)),
+    Param("refine", "auto", OneOf(("auto", "compare", "freerun", "ms", "none", None)),
           "refine θ by minimising the simulation error (ms: windows of --refine-window "
           "samples) instead of the one-step error of least squares, which is biased by "
-          "output noise; auto: the structures the automatic choices compare take their "
-          "free-run refit where it simulates the held-out part better, and the final "
-          "model's θ are refined in free run when that is significantly better held out "
-          "(never with --constraints steady-state); none: least squares (auto and none: "
-          "also in free run when the extension --extend took won so)",
+          "output noise; auto: the final model's θ are refined in free run when that "
+          "refit simulates the held-out part better than least squares (never with "
+          "--constraints steady-state); compare: auto, and the structures the automatic "
+          "choices compare also take their free-run refit where it simulates the held-out "
+          "part better; none: least squares (auto, compare and none: also in free run "
+          "when the extension --extend took won so)",
           "selection", "--refine", meta=True),
     Param("refine_window", None, Int(1, none=True), "multiple-shooting window in samples "
           "of --refine ms", "selection", "--refine-window", metavar="W",

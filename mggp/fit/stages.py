@@ -68,7 +68,9 @@ order (:data:`STAGES`, decision in brackets):
     continuum-of-steady-states equalities of the terms (``constraints``).
 ``refine`` (:class:`Refined`)
     θ of both models by minimising the simulation error (``refine``;
-    also when the extension taken won with θ refined so).
+    'auto', the default: when the free-run refit simulates the held-out
+    part better than least squares; also when the extension taken won with
+    θ refined so).
 ``cls_verdict`` (:class:`ClsVerdict`)
     ``cls_rejected_``: why the CLS refit is not the default model
     (:func:`cls_rejection`), with a :class:`CLSRejectedWarning`.
@@ -674,11 +676,11 @@ def cls_refit(terms, data, ctx):
 def refine(terms, data, ctx):
     """θ of ``model_`` and ``model_cls_`` by least simulation error
     (``refine``; ``refinement_`` holds the errors before and after).
-    'auto': by free-run simulation error when that refit of the structure
-    simulates the held-out part significantly better than its LS θ
+    'auto' and 'compare': by free-run simulation error when that refit of
+    the structure simulates the held-out part better than its LS θ
     (:func:`mggp.fit.choices.theta_choice`), never with the steady-state
     constraints (the hold selection judged the CLS refit of the LS θ).
-    With ``refine`` 'auto' or 'none', an extension taken with θ by free-run
+    With ``refine`` 'auto', 'compare' or 'none', an extension taken with θ by free-run
     simulation error (:class:`Extended`) is refined so (without noise
     terms, whose θ come from extended least squares)."""
     est = ctx.est
@@ -687,16 +689,16 @@ def refine(terms, data, ctx):
     noisy = any(t.has_noise for t in terms)
     extended = ctx.decided.get("extend")
     c = None
-    if (extended is not None and extended.theta == "freerun" and how in ("auto", "none", None)
-            and not noisy):
+    if (extended is not None and extended.theta == "freerun"
+            and how in ("auto", "compare", "none", None) and not noisy):
         how = "freerun"                 # the extension won with θ by simulation error
-        if est.refine == "auto":
+        if est.refine in ("auto", "compare"):
             c = Choice("refine", how, f"θ by free-run simulation error: the extension taken "
                        f"({extended.extension['winner']}) won the held-out test with them "
                        f"(refined on the whole record from its LS θ)", {})
-    elif how == "auto":
+    elif how in ("auto", "compare"):
         how = None
-        if heldout_theta(est) == "best" and not noisy:
+        if not steady(est) and not noisy:
             c = theta_choice(terms, data, ctx.registry, ctx.seed or 0)
             how = c.value
     if c is not None:
