@@ -27,10 +27,10 @@ samples are simulated free from their first L measured samples (L = the
 largest lag of the models compared), and the errors are scored after
 them, the same samples for every model; the models' memory operators
 (:mod:`narx.language.memory`) carry their state from the inputs before
-the measuring samples (they are measured). A validation record's head
-starts them at rest at its first sample; a validation record too short to
-split is measured whole, its operators started from the history that fits
-its first samples best (:func:`narx.simulation.simulate.estimate_history`). The
+the measuring samples (they are measured). A validation record, whose
+head selects (or which is measured whole when too short to split), may
+start in motion: its operators start from the history that fits its first
+samples best (:func:`narx.simulation.simulate.estimate_history`). The
 evidence comes from the fitting samples; held-input segments are
 searched in both records; nothing is fitted or chosen on the measuring
 samples, so the gain there is an out-of-sample measurement of the
@@ -319,7 +319,7 @@ def _split(train: Data, validation: Optional[Data], holdout: float, names):
 
 
 def _errors(model: Optional[Model], record: Data, first: int, start: int,
-            stop: int) -> np.ndarray:
+            stop: int, history: Optional[str] = None) -> np.ndarray:
     """Free-run errors y − ŷ of ``model`` on samples ``first + start`` ..
     ``stop - 1`` of ``record``, the free run started at the record's first
     sample (its first L measured outputs the initial conditions, L the
@@ -334,12 +334,15 @@ def _errors(model: Optional[Model], record: Data, first: int, start: int,
     an operator of the output would begin at rest there, and noisy initial
     lags would set a slow model's velocity: on development draws with
     hysteresis inside the feedback, the selection RMSE of the true structure
-    was 1.8 to 1.9 times that of the same model run from the start."""
+    was 1.8 to 1.9 times that of the same model run from the start.
+    ``history`` starts the memory operators of a record that may begin in
+    motion (``'estimate'``: :func:`narx.simulation.simulate.estimate_history`);
+    default the record's own, at rest."""
     n = stop - first - start
     if model is None:
         return np.full(n, np.inf)
     with np.errstate(all="ignore"):
-        r = model.simulate(record.slice(0, stop), mode="freerun")
+        r = model.simulate(record.slice(0, stop), mode="freerun", history=history)
     e = (r.y - r.y_hat)[first + start:]
     if r.diverged or not np.all(np.isfinite(e)):
         return np.full(n, np.inf)
@@ -352,7 +355,9 @@ def _selection_errors(model: Optional[Model], pre: Data, n_fit: int,
     training record's samples ``n_fit + start`` .. end of ``pre``
     (:func:`_errors`), then, when ``n_vsel`` > 0, the validation record's
     samples ``start`` .. ``n_vsel - 1`` (its own free run from its first
-    sample).
+    sample, the memory operators started from the history that fits its
+    first samples best: a validation record may begin in motion, and at
+    rest a play would start a loop's width away from its state).
 
     Why the validation record's head joins them: the training record's
     tail comes from the same experiment as the fitting samples, and where
@@ -372,7 +377,7 @@ def _selection_errors(model: Optional[Model], pre: Data, n_fit: int,
     e = _errors(model, pre, n_fit, start, pre.n)
     if validation is None or not n_vsel:
         return e
-    return np.concatenate([e, _errors(model, validation, 0, start, n_vsel)])
+    return np.concatenate([e, _errors(model, validation, 0, start, n_vsel, "estimate")])
 
 
 def _score(model: Model, record: Data, first: int,
