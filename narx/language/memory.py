@@ -694,7 +694,7 @@ class MemoryOperator:
         x = _as_sequence(x)
         p = np.asarray(self.check_params(params), dtype=np.float64)
         ends = np.asarray(ends, dtype=np.int64)
-        pre = history_prefix(x, history) if x.size else np.empty(0)
+        pre = history_prefix(x, history)
         if pre.size:
             return self.states_after(np.concatenate([pre, x]), params, ends + pre.size)
         order = np.argsort(ends, kind="stable")

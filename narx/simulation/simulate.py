@@ -272,10 +272,9 @@ def estimate_history(terms: Sequence[Term], theta, data: Data, *,
     model's memory operators (:func:`narx.language.memory.history_prefix`),
     and the free run from the record's first ``maxlag`` samples is scored
     on its head, the first :math:`n_h = \max(\lceil` :data:`HISTORY_HEAD`
-    :math:`\cdot N
-ceil, 10\,(	ext{maxlag} + 1))` samples:
+    :math:`\cdot N\rceil, 10\,(\text{maxlag} + 1))` samples:
 
-    .. math::  \hat h = rg\min_h \sum_{k=	ext{maxlag}}^{n_h - 1}
+    .. math::  \hat h = \arg\min_h \sum_{k=\text{maxlag}}^{n_h - 1}
                (y_k - \hat y_k^{(h)})^2 ,
 
     ties (and a model without operators, or a record without its output)
