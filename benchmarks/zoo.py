@@ -110,12 +110,15 @@ class Oracle:
                 "theta": [float(v) for v in self.model.theta]}
 
 
-def _freerun_error(model, record, first: int = 0) -> float:
-    """Free-run RMSE on ``record`` from ``first`` (operators carry their state
-    from the samples before it), scored after the model's largest lag."""
+def _freerun_error(model, record, first: int = 0, history="estimate") -> float:
+    """Free-run RMSE on ``record`` from ``first``, the free run started at
+    the record's first sample (:func:`mggp.diagnose.simulation.freerun_after`,
+    as the diagnosis measures its gain; ``history``: its memory operators'
+    start, estimated on a validation record, None at rest for the training
+    record as the fit assumes), scored after the model's largest lag."""
     from mggp.diagnose.simulation import freerun_after
     with np.errstate(all="ignore"):
-        r = freerun_after(model, record, first)
+        r = freerun_after(model, record, first, history)
         if r.diverged:
             return math.inf
         e = (r.y - r.y_hat)[r.valid]
@@ -151,7 +154,7 @@ def oracle(draw, holdout: float = ORACLE_HOLDOUT) -> Oracle:
     train, terms = draw.train, draw.truth.terms
     cut = int(round(train.n * (1.0 - holdout)))
     head = slice_data(train, 0, cut)
-    scores = {m: _freerun_error(_fit(terms, head, m), train, cut) for m in ("ls", "freerun")}
+    scores = {m: _freerun_error(_fit(terms, head, m), train, cut, None) for m in ("ls", "freerun")}
     method = min(scores, key=lambda m: (scores[m], m != "ls"))
     model = _fit(terms, train, method)
     return Oracle(method, scores, _freerun_error(model, draw.validation), model)

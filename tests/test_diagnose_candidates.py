@@ -72,8 +72,10 @@ def test_the_selection_free_run_starts_at_the_record_start_so_output_operators_a
     noise = 0.001 * np.ptp(d.y)
     e = _errors(true, d, 2000, 10, d.n)
     assert np.sqrt(np.mean(e ** 2)) < 2 * noise
-    r = freerun_after(true, d, 2000)
-    cold = (r.y - r.y_hat)[10:]
+    r = freerun_after(true, d, 2000, None)
+    np.testing.assert_allclose((r.y - r.y_hat)[10:], e, rtol=0, atol=1e-12)
+    cut = true.simulate(d.slice(2000), mode="freerun")      # started from the measured outputs
+    cold = (cut.y - cut.y_hat)[10:]
     assert np.sqrt(np.mean(cold ** 2)) > np.sqrt(np.mean(e ** 2))
 
 

@@ -243,13 +243,28 @@ def test_tail_free_run_carries_the_memory_operators_state_from_the_input_before_
     d = Data(u, y)
     op = narx.Model(["Play(u[k-1],30)"], theta=np.array([1.0]))
     whole = op.simulate(d, mode="freerun").y_hat
-    tail = freerun_after(op, d, 800)
-    np.testing.assert_allclose(tail.y_hat[1:], whole[801:], rtol=0, atol=1e-12)
+    tail = freerun_after(op, d, 800, None)
+    np.testing.assert_allclose(tail.y_hat, whole[800:], rtol=0, atol=1e-12)
     cut = op.simulate(d.slice(800), mode="freerun").y_hat
     assert np.max(np.abs(cut[1:] - whole[801:])) > 1.0       # a cut record starts at rest
-    poly = narx.Model(["u[k-1]", "u[k-2]*u[k-2]"], theta=np.array([0.5, 0.01]))
-    np.testing.assert_array_equal(freerun_after(poly, d, 800).y_hat,
-                                  poly.simulate(d.slice(800), mode="freerun").y_hat)
+
+
+def test_tail_free_run_carries_an_output_operator_state_the_outputs_do_not_give():
+    """A play of y[k-1] in the feedback: run from the record's start the
+    tail is the model's own simulation; started at the tail from the
+    measured outputs (the control) its play begins at rest and the error
+    stays, since held steps never sweep it back."""
+    from mggp.diagnose.simulation import freerun_after
+    from narx.systems import training_input
+    u = np.repeat(training_input(60, bandwidth=4.0, seed=7), 20)
+    terms = ["y[k-1]", "u[k-1]", "Play(y[k-1],40)"]
+    true = narx.Model(terms, theta=np.array([0.6, 0.2, 0.3]))
+    d = Data(u, np.zeros(u.size))
+    d = Data(u, true.simulate(d, mode="freerun").y_hat)
+    tail = freerun_after(true, d, 600, None)
+    np.testing.assert_allclose(tail.y_hat, d.y[600:], rtol=0, atol=1e-9)
+    cut = true.simulate(d.slice(600), mode="freerun")
+    assert np.sqrt(np.mean((cut.y - cut.y_hat) ** 2)) > 0.02 * np.ptp(d.y)
 
 
 def test_share_of_the_measuring_input_outside_the_fitting_range():

@@ -322,28 +322,20 @@ def _errors(model: Optional[Model], record: Data, first: int, start: int,
             stop: int, history: Optional[str] = None) -> np.ndarray:
     """Free-run errors y − ŷ of ``model`` on samples ``first + start`` ..
     ``stop - 1`` of ``record``, the free run started at the record's first
-    sample (its first L measured outputs the initial conditions, L the
-    model's largest lag); all ``inf`` when it diverges or there is no
-    model.
-
-    The free run crosses the samples before ``first`` (the fitting
-    samples) without using their outputs, so every state of the model —
-    the output lags and the memory operators of the output, such as
-    Play(y[k-1], r) — is the model's own at ``first``. Started at ``first``
-    from the measured outputs instead (:func:`~.simulation.freerun_after`),
-    an operator of the output would begin at rest there, and noisy initial
-    lags would set a slow model's velocity: on development draws with
-    hysteresis inside the feedback, the selection RMSE of the true structure
-    was 1.8 to 1.9 times that of the same model run from the start.
-    ``history`` starts the memory operators of a record that may begin in
-    motion (``'estimate'``: :func:`narx.simulation.simulate.estimate_history`);
-    default the record's own, at rest."""
+    sample and run over all of it, so that ``history`` is estimated on the
+    same samples wherever the record is scored (:func:`~.simulation.freerun_after`: every state of the model at
+    ``first``, the memory operators of the output included, is its own;
+    started there from the measured outputs, on development draws with
+    hysteresis inside the feedback, the selection RMSE of the true
+    structure was 1.8 to 1.9 times that of the same model run from the
+    start); all ``inf`` when it diverges or there is no model. ``history``
+    starts the memory operators of a record that may begin in motion
+    (``'estimate'``); default the record's own, at rest."""
     n = stop - first - start
     if model is None:
         return np.full(n, np.inf)
-    with np.errstate(all="ignore"):
-        r = model.simulate(record.slice(0, stop), mode="freerun", history=history)
-    e = (r.y - r.y_hat)[first + start:]
+    r = freerun_after(model, record, first, history)
+    e = (r.y - r.y_hat)[start:stop - first]
     if r.diverged or not np.all(np.isfinite(e)):
         return np.full(n, np.inf)
     return e
@@ -380,17 +372,22 @@ def _selection_errors(model: Optional[Model], pre: Data, n_fit: int,
     return np.concatenate([e, _errors(model, validation, 0, start, n_vsel, "estimate")])
 
 
-def _score(model: Model, record: Data, first: int,
-           start: int) -> Tuple[float, float, np.ndarray]:
+def _score(model: Model, record: Data, first: int, start: int,
+           history: Optional[str]) -> Tuple[float, float, np.ndarray]:
     """Free-run RMSE and MAPE of ``model`` on samples ``first + start..`` of
-    ``record`` (:func:`~mggp.diagnose.simulation.freerun_after`: the free
-    run starts at ``first`` from the measured outputs, the memory operators
-    carry their state from the inputs before it) and the simulation."""
-    r = freerun_after(model, record, first)
+    ``record`` and its simulation from ``first`` on
+    (:func:`~mggp.diagnose.simulation.freerun_after`: the free run starts
+    at the record's first sample, as the selection samples' does, so that
+    the states of the model at ``first``, those of the memory operators
+    of the output included, are its own; ``history`` starts its memory
+    operators)."""
+    r = freerun_after(model, record, first, history)
     if r.diverged:
         return float("inf"), float("inf"), r.y_hat
     y, yh = r.y[start:], r.y_hat[start:]
     err = y - yh
+    if not np.all(np.isfinite(err)):
+        return float("inf"), float("inf"), r.y_hat
     return float(np.sqrt(np.mean(err * err))), mape(y, yh), r.y_hat
 
 
@@ -564,11 +561,13 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     if measure.n <= start + 10:
         raise DataError(f"{rec_names[1]}: {measure.n} samples are too few to measure models "
                         f"with largest lag {start}")
-    # the measuring samples are simulated with the input history of their
-    # record before them (memory operators carry their state)
-    record, first = (train, meas_rng[0]) if validation is None else (validation, meas_rng[0])
-    b_rmse, b_mape, b_hat = _score(base, record, first, start)
-    e_rmse, e_mape, e_hat = _score(ext_model, record, first, start)
+    # the measuring samples are simulated by a free run from their record's
+    # start (every state of the model its own there); a validation record
+    # starts from its estimated history, as in the selection samples
+    record, first, history = ((train, meas_rng[0], None) if validation is None
+                              else (validation, meas_rng[0], "estimate"))
+    b_rmse, b_mape, b_hat = _score(base, record, first, start, history)
+    e_rmse, e_mape, e_hat = _score(ext_model, record, first, start, history)
     off = meas_rng[0]
     split = Split(fit_name, fit_rng, meas_name, meas_rng, off + start, (n_fit, n_pre),
                   n_fit + s_start, (0, n_vsel), s_start if n_vsel else 0)
