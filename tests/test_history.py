@@ -91,6 +91,7 @@ def test_estimate_finds_a_record_cut_in_motion_and_rest_for_one_at_rest():
         rest = m.simulate(rec)
         assert est.history == want and rest.history == "rest"
         assert est.rmse < 0.5 * rest.rmse
+        np.testing.assert_array_equal(est.y_hat, m.simulate(rec, history=want).y_hat)
     # control: the system started at rest with the record, the input moving
     rec = Data(u, y_long)
     assert abs(u[1] - u[0]) > 0.01

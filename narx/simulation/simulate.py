@@ -192,17 +192,20 @@ def simulate(terms: Sequence[Term], theta, data: Data, mode: str = "freerun", *,
         record's own (``data.history``, 'rest' unless set).
     """
     mode = mode_name(mode)
-    if history == "estimate":
-        history = estimate_history(terms, theta, data, registry=registry)[0]
-    if history is not None and history != data.history:
-        if P is not None:
-            raise ValueError("P was built for the record's own history; pass history=None")
-        data = data.with_history(history)
     for name, v, used in (("k", k, "ksa"), ("window", window, "ms")):
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
             raise ValueError(f"{name} must be an integer, got {v!r}")
         if v is not None and mode != used:
             raise ValueError(f"{name}={v} applies to mode {used!r} only, not to {mode!r}")
+    if history == "estimate":
+        history, _, runs = _history_runs(terms, theta, data, registry)
+        if mode == "freerun" and history in runs and y0 is None and P is None \
+                and not force_python:
+            return runs[history]           # the estimate's own run of that history
+    if history is not None and history != data.history:
+        if P is not None:
+            raise ValueError("P was built for the record's own history; pass history=None")
+        data = data.with_history(history)
     terms = tuple(terms)
     theta = np.asarray(theta, dtype=np.float64).ravel()
     if theta.shape[0] != len(terms):
@@ -293,19 +296,27 @@ def estimate_history(terms: Sequence[Term], theta, data: Data, *,
     .. [1] L. Ljung, *System Identification: Theory for the User*, 2nd ed.,
        Prentice Hall, 1999.
     """
+    best, scores, _ = _history_runs(terms, theta, data, registry)
+    return best, scores
+
+
+def _history_runs(terms, theta, data: Data, registry=None):
+    """:func:`estimate_history`'s ``(history, head_rmse, runs)``, ``runs``
+    the free run of each history compared (empty when none is)."""
     from ..language.memory import HISTORIES
     from ..language.terms import OpCall
     terms = tuple(terms)
     if data.y is None or not any(isinstance(f, OpCall) for t in terms for f in t.factors):
-        return "rest", {}
+        return "rest", {}, {}
     plan = Plan.from_terms(terms, data.inputs, registry)
     head = min(data.n, max(int(np.ceil(HISTORY_HEAD * data.n)), 10 * (plan.maxlag + 1)))
     if head <= plan.maxlag:
-        return "rest", {}
-    scores = {}
+        return "rest", {}, {}
+    scores, runs = {}, {}
     for h in HISTORIES:            # whole runs: a history's path spans the record's range
-        r = simulate(terms, theta, data, "freerun", plan=plan, registry=registry, history=h)
+        runs[h] = r = simulate(terms, theta, data, "freerun", plan=plan, registry=registry,
+                               history=h)
         e = r.y[plan.maxlag:head] - r.y_hat[plan.maxlag:head]
         scores[h] = float("inf") if r.diverged else float(np.sqrt(np.mean(e * e)))
     best = min(HISTORIES, key=lambda h: (scores[h], h != "rest"))
-    return best, scores
+    return best, scores, runs
