@@ -358,7 +358,7 @@ def table(recs: List[dict], figure: Optional[str] = None) -> str:
              f"{_rate(power, len(ident))} identifiable hysteretic draws and on "
              f"{_rate(alarms, len(ctrl))} controls; its extension gained ≥ 1.5× (and was "
              f"recommended) on {_rate(good, len(ident))} identifiable hysteretic draws, and "
-             f"was worse than the baseline (gain < 0.95, the baseline kept) on "
+             f"the recommended model was worse than the baseline (gain < 0.95) on "
              f"{_rate(worse, len(ok))} draws.", ""]
     seeds = sorted(r["seed"] for r in recs)
     splits = sorted({r["split"] for r in recs})
