@@ -7,6 +7,7 @@ Run::
     python -m benchmarks.zoo show 7
     python -m benchmarks.zoo calibrate --seeds 0-99 --json dev.jsonl    # tuning: dev seeds only
     python -m benchmarks.zoo ablate --seeds 0-149 --json ablate.jsonl   # each check's effect
+    python -m benchmarks.zoo replay dev.jsonl --shares 0 0.1 0.2        # the naming margin
 
 For each draw (4,000 training samples, the validation record of the draw),
 ``evaluate`` runs :func:`mggp.diagnose.diagnose` at the **study budget**
@@ -18,7 +19,8 @@ finishes (a killed run keeps its records; a new run skips the seeds
 already there). Fields: ``seed, split, family, hysteretic, placement,
 input_kind, validation_kind, snr_db, colour, n, exact, identifiable,
 oracle_gain, oracle_rmse, oracle_method, baseline_rmse, extended_rmse,
-named, gain, recommended, p_values, diagnose_seconds, seconds`` (``error``
+named, gain, recommended, p_values, winner, candidates,
+baseline_selection_rmse, resolution_floor, diagnose_seconds, seconds`` (``error``
 instead of the diagnosis fields when it failed, ``oracle_error`` when the
 oracle did; ``seconds`` counts the draw, the oracle and the diagnosis).
 
@@ -218,6 +220,7 @@ def _winner(dx) -> Optional[dict]:
 def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dict:
     """Diagnose the draw of ``seed`` at the budget and score it (one record)."""
     from mggp.diagnose import Budget, diagnose
+    from mggp.diagnose.verdict import loss_floor
     from narx.systems import zoo
     t0 = time.perf_counter()
     d = zoo.draw(seed, n=STUDY_N)
@@ -258,9 +261,76 @@ def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dic
                recommended=dx.gain.recommended,
                p_values=doc.get("verdict", {}).get("p_values", {}),
                separates=dx.separation is None, winner=_winner(dx),
+               candidates=_candidates(dx, d.validation),
+               baseline_selection_rmse=_num(dx.verdict.baseline_rmse),
+               resolution_floor=_num(loss_floor(dx.fit_data.y, dx.settings["resolution"])),
                diagnose_seconds=float(dx.timings.get("total", math.nan)),
                seconds=time.perf_counter() - t0)
     return rec
+
+
+def _candidates(dx, validation) -> List[dict]:
+    """Each tested candidate's effect, selection RMSE, adjusted p-values,
+    whether it may win, and its free-run RMSE on the measuring samples
+    (None: not fitted or diverged): what :func:`replay` needs to rename
+    the draw under another naming rule without running it again."""
+    from mggp.diagnose.run import _score
+    first = dx.split.measure[0]
+    start = dx.split.scored_from - first
+    out = []
+    for t in dx.verdict.tested:
+        meas = None
+        if t.model is not None:
+            meas = _num(_score(t.model, validation, first, start, "estimate")[0])
+        out.append({"name": t.structure.name, "effect": t.effect,
+                    "selection_rmse": _num(t.selection_rmse), "p": _num(t.p_adjusted),
+                    "p_free": _num(t.p_free_adjusted), "fitted": t.model is not None,
+                    "eligible": t.structure.name not in dx.verdict.barred,
+                    "measure_rmse": meas})
+    return out
+
+
+def replay(recs: List[dict], shares) -> str:
+    """The headline rates of ``recs`` (records with ``candidates``) renamed
+    by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
+    :func:`~mggp.diagnose.verdict.worth_naming`, in a Markdown table: how
+    the study chose :data:`~mggp.diagnose.verdict.MEMORY_SHARE` on
+    development draws."""
+    from narx.analysis.paired import PairedTest
+    from mggp.diagnose.candidates import MEMORY, Structure
+    from mggp.diagnose.run import Gain
+    from mggp.diagnose.verdict import Tested, choose
+    level = ALPHA
+    inf = lambda v: math.inf if v is None else float(v)          # noqa: E731
+    recs = [r for r in recs if "candidates" in r]
+    if not recs:
+        raise ValueError("no records with a candidates table (run evaluate on this code)")
+    rows = ["| memory share ρ | named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
+            "|---|---|---|---|---|"]
+    ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
+    ctrl = [r for r in recs if not r["hysteretic"]]
+    for share in shares:
+        named, gains = {}, {}
+        for r in recs:
+            cs = r["candidates"]
+            tested = [Tested(Structure(c["effect"], c["name"], "", (), ()),
+                             c["name"] if c["fitted"] else None, inf(c["selection_rmse"]),
+                             None, inf(c["p"]),
+                             PairedTest(math.nan, 0.0, 0, 0) if c["effect"] == MEMORY else None,
+                             math.nan if c["p_free"] is None else float(c["p_free"]))
+                      for c in cs]
+            eff, w = choose(tested, inf(r["baseline_selection_rmse"]), level,
+                            r["resolution_floor"], [c["eligible"] for c in cs], share)
+            named[r["seed"]] = eff
+            gains[r["seed"]] = 1.0 if w is None else Gain(
+                inf(r["baseline_rmse"]), inf(cs[tested.index(w)]["measure_rmse"])).ratio
+        h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
+        rows.append(f"| {share:g} | {_rate(sum(map(h, ident)), len(ident))} | "
+                    f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
+                    f"{_rate(sum(gains[r['seed']] >= 1.5 for r in ident), len(ident))} | "
+                    f"{_rate(sum(gains[r['seed']] < 0.95 for r in recs), len(recs))} |")
+    return (f"{len(recs)} draws, seeds {min(r['seed'] for r in recs)}–"
+            f"{max(r['seed'] for r in recs)}; level {level:g}.\n\n" + "\n".join(rows) + "\n")
 
 
 def records(path) -> List[dict]:
@@ -501,6 +571,11 @@ def _parser():
         e.add_argument("--population", type=int, default=STUDY_BUDGET["population"])
         e.add_argument("--generations", type=int, default=STUDY_BUDGET["generations"])
         e.add_argument("--jobs", type=int, default=1)
+    r = sub.add_parser("replay", help="headline rates renamed under other memory shares "
+                                      "(records with a candidates table)")
+    r.add_argument("files", nargs="+")
+    r.add_argument("--shares", nargs="+", type=float, default=[1.0, 0.33, 0.25, 0.2, 0.1, 0.0],
+                   help="ρ values (1: the resolution alone; 0: no margin)")
     t = sub.add_parser("table", help="Markdown table of a records file")
     t.add_argument("file")
     t.add_argument("--figure", help="PNG of power against false-alarm rate")
@@ -522,6 +597,9 @@ def main(argv=None) -> int:
                 run = evaluate if args.command == "evaluate" else calibrate
             run(parse_seeds(args.seeds), args.json, population=args.population,
                 generations=args.generations, jobs=args.jobs)
+        elif args.command == "replay":
+            recs = [rec for f in args.files for rec in records(f)]
+            print(replay(recs, args.shares), end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:

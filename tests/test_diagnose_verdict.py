@@ -63,6 +63,28 @@ def test_memory_must_gain_more_than_the_resolution_over_the_memory_free_fit():
     assert v.named == ("hysteresis",), v.lines()
 
 
+def test_memory_that_cuts_an_error_already_below_the_resolution_by_a_share_is_named():
+    """Where the best memory-free candidate already simulates within the
+    resolution δ no candidate can gain δ; a memory candidate that cuts its
+    error by more than MEMORY_SHARE (here by half) is named. Control: the
+    same record with a cut of 5 % names the memory-free candidate."""
+    from mggp.diagnose.verdict import MEMORY_SHARE
+    rng = np.random.default_rng(8)
+    n = 1500
+    base = _ar1(rng, n, scale=2.0)
+    free = _ar1(rng, n)
+    delta = 1.5 * float(np.sqrt(np.mean(free ** 2)))          # the whole error below δ
+    assert 0.05 < MEMORY_SHARE < 0.5
+    cands = [(_s(MEMORY, "plays"), M, 0.5 * free, 1.0),
+             (_s("unmodelled-nonlinearity", "more degree"), M, free, 1.0)]
+    v = decide(base, cands, ALPHA, rng, floor=delta)
+    assert v.named == ("hysteresis",), v.lines()
+    cands[0] = (_s(MEMORY, "plays"), M, 0.95 * free, 1.0)     # control
+    v = decide(base, cands, ALPHA, rng, floor=delta)
+    assert v.p_values["hysteresis"] <= ALPHA, v.lines()       # significant, not material
+    assert v.named == ("unmodelled-nonlinearity",), v.lines()
+
+
 def test_a_barred_rival_leaves_the_memory_extension_unnamed():
     """A memory-free candidate that wins but leaves the range on the probe
     inputs cannot win; the memory candidate that only ties it is not named

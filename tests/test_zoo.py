@@ -199,6 +199,33 @@ def test_table_counts_and_figure(tmp_path):
     assert fig.stat().st_size > 1000 and "Figure:" in text
 
 
+def _cand(name, effect, sel, p, p_free, meas):
+    return {"name": name, "effect": effect, "selection_rmse": sel, "p": p, "p_free": p_free,
+            "fitted": True, "eligible": True, "measure_rmse": meas}
+
+
+def test_replay_renames_draws_under_each_memory_share():
+    """Records built by hand: a hysteretic draw whose memory candidate
+    halves an error already below the resolution (0.01), and a control
+    whose memory candidate is 3 % better; at ρ = 1 (the resolution alone)
+    neither is named, at ρ = 0.2 the first is and the control is not, at
+    ρ = 0 both are."""
+    from benchmarks.zoo import replay
+    def rec(seed, hysteretic, mem):
+        r = _record(seed, "play" if hysteretic else "linear", hysteretic, [], 1.0, True, 0.1)
+        r.update(baseline_rmse=0.012, baseline_selection_rmse=0.01, resolution_floor=0.01,
+                 candidates=[_cand("plays", "hysteresis", 0.006 * mem, 1e-6, 1e-4, 0.007 * mem),
+                             _cand("more degree", "unmodelled-nonlinearity", 0.006, 1e-3,
+                                   None, 0.009)])
+        return r
+    text = replay([rec(0, True, 0.5), rec(1, False, 0.97)], [1.0, 0.2, 0.0])
+    assert "| 1 | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
+    assert "| 0.2 | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    assert "| 0 | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    with pytest.raises(ValueError, match="candidates"):
+        replay([_record(2, "play", True, [], 1.0, True, 0.1)], [0.2])
+
+
 @pytest.mark.slow
 def test_evaluate_cli_writes_complete_records_and_resumes(tmp_path):
     path = tmp_path / "zoo.jsonl"
