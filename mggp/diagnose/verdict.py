@@ -413,5 +413,5 @@ def separation_note(data: Data) -> Optional[str]:
         return (f"this record cannot separate memory from dynamics: the input {name} "
                 f"reverses only at {' and '.join(lv)} (one amplitude), at one rate and "
                 f"without holds, so a lag can mimic the loop; a record with several "
-                f"amplitudes, rates or holds would")
+                f"amplitudes, rates or holds would separate them")
     return None
