@@ -305,8 +305,8 @@ def replay(recs: List[dict], shares) -> str:
     recs = [r for r in recs if "candidates" in r]
     if not recs:
         raise ValueError("no records with a candidates table (run evaluate on this code)")
-    rows = ["| memory share ρ | named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
-            "|---|---|---|---|---|"]
+    rows = ["| memory share ρ | named / identifiable | false alarms | gain ≥ 1.5 | "
+            "gain < 0.95 |", "|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
     for share in shares:

@@ -323,7 +323,8 @@ def _errors(model: Optional[Model], record: Data, first: int, start: int,
     """Free-run errors y − ŷ of ``model`` on samples ``first + start`` ..
     ``stop - 1`` of ``record``, the free run started at the record's first
     sample and run over all of it, so that ``history`` is estimated on the
-    same samples wherever the record is scored (:func:`~.simulation.freerun_after`: every state of the model at
+    same samples wherever the record is scored
+    (:func:`~.simulation.freerun_after`: every state of the model at
     ``first``, the memory operators of the output included, is its own;
     started there from the measured outputs, on development draws with
     hysteresis inside the feedback, the selection RMSE of the true

@@ -33,8 +33,9 @@ the baseline's, and below the best memory-free candidate's by more than
 the floor δ of the tests (the resolution, the smallest effect worth
 naming) or by more than the share :data:`MEMORY_SHARE` of it (where
 that candidate already simulates within δ; :func:`worth_naming`); the
-winner: the qualifying memory candidate with the smallest RMSE. A paired test on thousands of samples finds a gain of a few per
-cent significant; on development draws of a dead time behind linear
+winner: the qualifying memory candidate with the smallest RMSE. A
+paired test on thousands of samples finds a gain of a few per cent
+significant; on development draws of a dead time behind linear
 dynamics (zoo seeds 550-749) a dynamics form with plays beat the same
 form without them by 3 % (p 0.01), and hysteresis was named on a
 system without memory. Otherwise the effect named is that of
