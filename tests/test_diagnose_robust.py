@@ -130,10 +130,10 @@ def test_an_extension_that_lost_the_test_is_not_recommended(base_diagnosis, tmp_
     assert "Recommended: the baseline (no candidate extension won the test" in report
     # a winner that measures worse out of sample is said so, with both RMSEs
     worse = replace(dx, gain=Gain(b, 1.5 * b, won=True))
-    assert (f"yet there it is worse: RMSE {1.5 * b:.4g} against RMSE {b:.4g} for the baseline"
-            in worse.summary()), worse.summary()
+    assert (f"on the measuring samples it is worse, though: RMSE {1.5 * b:.4g} against "
+            f"RMSE {b:.4g} for the baseline" in worse.summary()), worse.summary()
     div = replace(dx, gain=Gain(b, float("inf"), won=True))
-    assert "it is worse: diverges against RMSE" in div.summary()
+    assert "it is worse, though: diverges against RMSE" in div.summary()
     # control: a winner that measures better recommends it, with its gain
     better = replace(dx, gain=Gain(b, b / 4, won=True))
     assert ("recommended: the extended model (it won the test on the selection samples; on "

@@ -204,7 +204,7 @@ def verdict(dx) -> str:
     elif g.ratio > 1:
         how = f"its free-run RMSE there is {_g(g.ratio)} times lower than the baseline's"
     else:
-        how = (f"yet there it {'is no better' if g.ratio == 1 else 'is worse'}: "
+        how = (f"it {'is no better' if g.ratio == 1 else 'is worse'}, though: "
                f"{_rmse(g.extended)} against {_rmse(g.baseline)} for the baseline")
     return (f"the extended model (it won the test on the selection samples; on the "
             f"measuring samples {how})")
