@@ -123,9 +123,13 @@ def test_seed_separation_inside_tuning():
             zoo.draw(1000, n=300)
         with pytest.raises(zoo.SeedLeak):
             zoo.guard(1999)
+        with pytest.raises(zoo.SeedLeak):
+            zoo.guard(2999)
+        zoo.guard(3000)                                # the control: past the range
     zoo.draw(1000, n=300)                              # outside tuning: allowed
     assert set(zoo.DEVELOPMENT_SEEDS).isdisjoint(zoo.EVALUATION_SEEDS)
     assert zoo.split_of(3) == "development" and zoo.split_of(1500) == "evaluation"
+    assert zoo.split_of(2500) == "evaluation" and zoo.split_of(3000) == "other"
 
 
 @pytest.mark.parametrize("kw, word", [({"seed": -1}, "seed"), ({"seed": 1.5}, "seed"),

@@ -161,7 +161,7 @@ STATICS = ("polynomial", "dead-zone", "saturation")
 #: seeds that tune and calibrate (defaults, thresholds)
 DEVELOPMENT_SEEDS = range(0, 1000)
 #: seeds that report; never drawn inside :func:`tuning`
-EVALUATION_SEEDS = range(1000, 2000)
+EVALUATION_SEEDS = range(1000, 3000)
 
 _N_RANGE = (1000, 20000)            # drawn training length (log-uniform)
 _N_LIMITS = (200, 1_000_000)        # accepted training length
