@@ -31,8 +31,9 @@ The effect named is ``hysteresis`` when its p-value is at most α and
 the memory candidate's free-run RMSE on the selection samples is below
 the baseline's, and below the best memory-free candidate's by more than
 the floor δ of the tests (the resolution, the smallest effect worth
-naming) or by more than the share :data:`MEMORY_SHARE` of it (where
-that candidate already simulates within δ; :func:`worth_naming`); the
+naming) or by more than the share :data:`MEMORY_SHARE` of it,
+whichever is easier (the share where that RMSE is below δ/ρ;
+:func:`worth_naming`); the
 winner: the qualifying memory candidate with the smallest RMSE. A
 paired test on thousands of samples finds a gain of a few per cent
 significant; on development draws of a dead time behind linear
