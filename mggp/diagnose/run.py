@@ -22,12 +22,11 @@ models measured are those fitted on the fitting samples (no refit: the
 model recommended is the one the test chose). The selection samples are
 scored on a free run of the training record from its first sample (every
 state of a model, the memory operators of the output included, is its
-own when the selection samples begin; :func:`_errors`); the measuring
-samples are simulated free from their first L measured samples (L = the
-largest lag of the models compared), and the errors are scored after
-them, the same samples for every model; the models' memory operators
-(:mod:`narx.language.memory`) carry their state from the inputs before
-the measuring samples (they are measured). A validation record, whose
+own when the selection samples begin; :func:`_errors`), and so are the
+measuring samples, on a free run of their record from its first sample
+(:func:`~.simulation.freerun_after`), scored after the first L of them
+(L = the largest lag of the models compared), the same samples for every
+model. A validation record, whose
 head selects (or which is measured whole when too short to split), may
 start in motion: its operators start from the history that fits its first
 samples best (:func:`narx.simulation.simulate.estimate_history`). The
@@ -100,10 +99,9 @@ class Split:
             sel += "; "
         return (f"fitted on samples {self.fit[0]}-{self.fit[1] - 1} of {self.fit_record}; "
                 + sel +
-                f"gain measured by free run on samples {self.measure[0]}-"
-                f"{self.measure[1] - 1} of {self.measure_record} (samples {self.measure[0]}-"
-                f"{self.scored_from - 1} are the initial conditions, {self.scored_from}-"
-                f"{self.measure[1] - 1} are scored)")
+                f"gain measured on samples {self.measure[0]}-{self.measure[1] - 1} of "
+                f"{self.measure_record} ({self.scored_from}-{self.measure[1] - 1} scored), "
+                f"in a free run from the record's first sample")
 
     def to_dict(self) -> dict:
         d = {"fit": {"record": self.fit_record, "first": self.fit[0],
