@@ -304,9 +304,8 @@ def _history_runs(terms, theta, data: Data, registry=None):
     """:func:`estimate_history`'s ``(history, head_rmse, runs)``, ``runs``
     the free run of each history compared (empty when none is)."""
     from ..language.memory import HISTORIES
-    from ..language.terms import OpCall
     terms = tuple(terms)
-    if data.y is None or not any(isinstance(f, OpCall) for t in terms for f in t.factors):
+    if data.y is None or not any(t.operator_factors for t in terms):
         return "rest", {}, {}
     plan = Plan.from_terms(terms, data.inputs, registry)
     head = min(data.n, max(int(np.ceil(HISTORY_HEAD * data.n)), 10 * (plan.maxlag + 1)))
