@@ -142,3 +142,7 @@ def test_cli_simulate_says_which_history_started_the_operators(capsys, tmp_path)
         said = "memory operators started as if the signals arrived rising" in out
         assert said == (not extra), out
     assert rmse[False] < 0.1 * rmse[True]
+    # bad input: an unknown history is one error line and exit code 2
+    assert main(["simulate", str(path), str(csv), "--history", "sideways"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error:") and "sideways" in err[0], err
