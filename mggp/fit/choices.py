@@ -80,7 +80,7 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "heldout_errors", "LEVEL", "CONSTANT_ENDS",
            "without_constant",
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
-           "holdout_message", "holdout_words", "local_search_kept", "percent", "rmse_text",
+           "holdout_message", "holdout_words", "operator_params_choice", "local_search_kept", "percent", "rmse_text",
            "terms_text", "pilot_generations", "resolve_screen", "resolve_select",
            "search_classes", "size_choice", "steady", "stress_said", "STAGE_CHOICES",
            "stage_choice", "THETAS", "REFIT_NFEV", "THETA_WORDS", "heldout_theta", "paired_gain",
@@ -883,6 +883,83 @@ def theta_choice(terms, data: Data, registry=None, seed=0) -> Choice:
                   f"{rmse_text(g.simple)} against {rmse_text(g.rich)} for their free-run "
                   f"refit (the lower taken, as two estimates of one structure; "
                   f"{holdout_words()})", figs)
+
+
+def operator_params_choice(terms, data: Data, registry=None):
+    r"""``operator_params='auto'`` (the default): the memory operators'
+    parameters of the final structure ``terms`` (play radii, Bouc–Wen β
+    and γ) estimated by free-run error (:func:`narx.refine.refine_operators`,
+    θ by least squares at each trial) instead of kept on the search's grid,
+    when the structure estimated so on the part of the record not held out
+    simulates the held-out part better than with the grid's parameters,
+
+    .. math:: e_{\mathrm{estimated}} < e_{\mathrm{grid}},
+
+    both at least :func:`error_floor`; then estimated again on the whole
+    record from there. As in :func:`theta_choice`, both are estimates of
+    one structure's parameters, so the choice has no margin. The search
+    offers a play of a few radii (:data:`narx.language.memory.PLAY_RADIUS_FRACTIONS`
+    of the input's range) and Bouc–Wen variables of a few shapes; the
+    system's radius lies between, and a sum of plays of the grid's radii
+    only stands in for it.
+
+    Returns ``(Choice, terms)``: the value 'freerun' (estimated) or None
+    (the grid's kept), and the structure handed on."""
+    from narx.refine import operator_groups, refine_operators
+    parsed = Model(tuple(terms), inputs=data.inputs, output=data.output,
+                   registry=registry).terms
+    if not operator_groups(parsed):
+        return Choice("operator_params", None, "no memory operator with a parameter", {}), \
+            tuple(terms)
+    lo, hi = _held_span(data.n, "tail")
+    fit = data.slice(0, lo)
+
+    def held(ts) -> float:
+        try:
+            with ignore_rank_warnings(), np.errstate(all="ignore"):
+                m = Model(tuple(ts), inputs=data.inputs, output=data.output,
+                          registry=registry).fit(fit)
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+            return float("inf")
+        e = _sim_errors(m, data, lo, hi)
+        return max(_rms(e), error_floor(data)) if e is not None else float("inf")
+
+    def refined(ts, record):
+        try:
+            with np.errstate(all="ignore"):
+                r = refine_operators(Model(tuple(ts), inputs=data.inputs,
+                                           output=data.output, registry=registry), record)
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+            return None
+        return r if r.improved else None
+    r = refined(parsed, fit)
+    grid = held(parsed)
+    figs = {"heldout_rmse_grid": grid, "holdout": HOLDOUT}
+    if r is None:
+        return Choice("operator_params", None, "the search's operator parameters: their "
+                      "estimate by free-run error finds no lower error on the fitted part",
+                      figs), tuple(terms)
+    est = held(r.model.terms)
+    figs.update(heldout_rmse_estimated=est, moved=r.moved)
+    if not est < grid:
+        return Choice("operator_params", None, f"the search's operator parameters: held-out "
+                      f"free-run RMSE {rmse_text(grid)} against {rmse_text(est)} with "
+                      f"them estimated by free-run error ({holdout_words()})", figs), \
+            tuple(terms)
+    whole = refined(r.model.terms, data)
+    final = whole.model if whole is not None else r.model
+    moved = dict(r.moved)
+    if whole is not None:                   # chain the two moves: grid -> head -> whole
+        back = {v: k for k, v in moved.items()}
+        for k, v in whole.moved.items():
+            moved[back.get(k, k)] = v
+    figs["moved"] = moved
+    words = ", ".join(f"{k} → {v}" for k, v in moved.items())
+    return Choice("operator_params", "freerun", f"operator parameters estimated by free-run "
+                  f"error ({words}): held-out free-run RMSE {rmse_text(est)} against "
+                  f"{rmse_text(grid)} on the search's grid (the lower taken, as two estimates "
+                  f"of one structure; {holdout_words()}; then estimated on the whole record)",
+                  figs), tuple(final.terms)
 
 
 def constant_off() -> Choice:

@@ -195,7 +195,10 @@ class MGGPRegressor:
     :func:`mggp.fit.choices.size_tolerance`); ``extend`` tries the candidate
     extensions of ``mggp diagnose`` on the chosen structure and takes the
     one that wins the diagnosis's paired held-out test and stays bounded on
-    probe and stress inputs (:mod:`mggp.fit.extension`; ``extension_``). An
+    probe and stress inputs (:mod:`mggp.fit.extension`; ``extension_``);
+    ``operator_params`` estimates the final structure's play radii and
+    Bouc–Wen β, γ by free-run error when that simulates the held-out part
+    better (:func:`mggp.fit.choices.operator_params_choice`). An
     explicit value of a parameter disables its choice; the level is
     :data:`mggp.fit.choices.LEVEL`.
 
@@ -293,7 +296,7 @@ class MGGPRegressor:
                  max_height="auto", phi_names=None, phi_outputs=False, operators="auto",
                  operator_entry="stage", constant="auto", max_lag=None, max_degree=None,
                  max_power="auto", select="auto", size="auto", stress=True, local_search=True,
-                 extend="auto", select_candidates=50,
+                 extend="auto", operator_params="auto", select_candidates=50,
                  screen="auto", screen_top=None, screen_band=1.0, prune=False, noise_lags=0,
                  t_threshold=None, estimator="ls", refine="auto", refine_window=None,
                  backend="loky", scheduler=None, outliers="auto", checkpoint=None,
@@ -333,6 +336,7 @@ class MGGPRegressor:
         self.stress = stress
         self.local_search = local_search
         self.extend = extend
+        self.operator_params = operator_params
         self.select_candidates = select_candidates
         self.screen = screen
         self.screen_top = screen_top

@@ -507,6 +507,14 @@ _ROWS = (
           "record (θ by free-run simulation error when it won so); none: the structure as "
           "chosen; never with --constraints steady-state", "selection", "--extend",
           meta=True, default_text="auto (an extension taken when it wins the test)"),
+    Param("operator_params", "auto", OneOf(("auto", "none")), "after the structure is "
+          "chosen and extended, estimate its memory operators' parameters (play radii, "
+          "Bouc–Wen β and γ) by the free-run error, θ by least squares at each trial, instead "
+          "of keeping the search's grid of them; auto: estimated when the held-out free-run "
+          f"error ({_HELD_OUT}) is lower so, then estimated on the whole record; none: the "
+          "grid's parameters; never with --constraints steady-state", "selection",
+          "--operator-params", meta=True,
+          default_text="auto (estimated when the held-out error is lower)"),
     Param("select_candidates", 50, Int(1), "structures compared by --select freerun and "
           "hold", "selection"),
     Param("screen", "auto", OneOf(("auto", "freerun", "hold", "none", None)),

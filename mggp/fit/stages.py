@@ -51,6 +51,11 @@ order (:data:`STAGES`, decision in brackets):
     :mod:`mggp.fit.extension`); sets ``extension_``. After the choices of
     the structure and before the noise terms, the record and every refit,
     so that those apply to the final structure.
+``operator_params``
+    'auto': the memory operators' parameters (play radii, Bouc–Wen β, γ)
+    estimated by free-run error, θ by least squares at each trial, when
+    that simulates the held-out part better than the search's grid of them
+    (``operator_params``; :func:`mggp.fit.choices.operator_params_choice`).
 ``noise``
     Moving-average noise terms by extended least squares (``noise_lags``;
     :mod:`mggp.fit.noise`).
@@ -150,6 +155,7 @@ class Settings(Protocol):
     t_threshold: Optional[float]
     local_search: bool
     extend: str
+    operator_params: str
     max_height_: int
     max_lag: Optional[int]
     max_degree: Optional[int]
@@ -576,6 +582,24 @@ def extend(terms, data, ctx):
     return Extended(ext.terms, ext.to_dict(), ext.theta)
 
 
+def operator_params(terms, data, ctx):
+    """``operator_params='auto'``: the memory operators' parameters of the
+    final structure estimated by free-run error when that simulates the
+    held-out part better than the search's grid of them
+    (:func:`mggp.fit.choices.operator_params_choice`). After ``extend``, so
+    that the parameters are those of the final structure, and before
+    ``noise`` and every refit on the whole record. Not with the
+    steady-state constraints (the structure was chosen for its CLS refit)."""
+    est = ctx.est
+    if est.operator_params == "none" or steady(est):
+        return Decision(terms)
+    from .choices import operator_params_choice
+    c, new = operator_params_choice(terms, data, ctx.registry)
+    if c.figures:
+        ctx.choices["operator_params"] = c
+    return Decision(tuple(new))
+
+
 def noise(terms, data, ctx):
     """Moving-average noise terms (``noise_lags`` > 0), as many as
     ``max_terms`` leaves room for beside the process terms; with
@@ -757,7 +781,8 @@ def pareto(terms, data, ctx):
 #: the stages of ``fit`` after the search, in order
 STAGES = (("select", select), ("size", size), ("constant", constant),
           ("operators", operators), ("prune", prune), ("local_search", local_search),
-          ("extend", extend), ("noise", noise), ("record", record), ("qr_refit", qr_refit),
+          ("extend", extend), ("operator_params", operator_params), ("noise", noise),
+          ("record", record), ("qr_refit", qr_refit),
           ("precision", precision), ("cls_refit", cls_refit), ("refine", refine),
           ("cls_verdict", cls_verdict), ("pareto", pareto))
 
