@@ -128,3 +128,19 @@ def test_zoo_feedback_draw_is_named_hysteresis_and_a_linear_draw_is_not():
     assert dx.gain.ratio > 1.5
     dx = diagnose(lin.train, validation=lin.validation, budget=SMALL, seed=0)
     assert "hysteresis" not in dx.effects, dx.verdict.lines()
+
+
+def test_the_candidates_leave_out_the_searchs_relay_like_bouc_wen_shapes():
+    """The search offers Bouc–Wen variables that saturate within a fortieth
+    of the input's range (Dahl friction with stiff bristles); the
+    diagnosis's candidates stop at BOUC_WEN_MAX_SIZE (relay-like shapes
+    also fit memory-free effects)."""
+    from mggp.diagnose.candidates import BOUC_WEN_MAX_SIZE, _bouc_wens
+    from mggp.gp.primitives import bouc_wen_shapes
+    x = np.linspace(-1.0, 1.0, 50)                     # range 2
+    search = {b for b, _ in bouc_wen_shapes(x)}
+    assert max(search) * 2 >= 40 and min(search) * 2 < 1
+    terms = _bouc_wens("u", x, (1,))
+    betas = {float(t.split(",")[1]) for t in terms}
+    assert betas and max(betas) * 2 <= BOUC_WEN_MAX_SIZE * 1.01
+    assert betas < search

@@ -356,9 +356,12 @@ PLAY_RADIUS_FRACTIONS = (0.05, 0.1, 0.2, 0.35)
 #: shapes (β·range of the input, γ/β) of the Bouc–Wen variables of the
 #: structure search (:func:`_bouc_wen_search`): a geometric grid of how
 #: far a sweep over the whole range drives the variable into its
-#: saturation at 1/(β + γ), each with the loop shapes γ = β (the piezo
-#: law's) and γ = 0
-BOUC_WEN_SHAPES = tuple((s, g) for s in (0.5, 1.5, 4.5) for g in (1.0, 0.0))
+#: saturation at 1/(β + γ), from a loop that barely saturates (0.5) to
+#: one that saturates within a fortieth of the range, as Dahl friction
+#: with stiff bristles does (40.5: a presliding displacement small
+#: against the stroke), each with the loop shapes γ = β (the piezo law's)
+#: and γ = 0 (Dahl's)
+BOUC_WEN_SHAPES = tuple((s, g) for s in (0.5, 1.5, 4.5, 13.5, 40.5) for g in (1.0, 0.0))
 
 
 def _play_search(span):
