@@ -141,3 +141,45 @@ def test_the_final_theta_choice_compares_the_converged_refit(monkeypatch):
     assert capped > 1.05 * converged
     c = theta_choice(TRUTH, d, seed=0)
     assert c.figures["heldout_rmse_freerun"] == pytest.approx(converged, rel=1e-3)
+
+
+class _Stress:
+    """A stand-in stress test that fails the models of ``bad``."""
+
+    def __init__(self, *bad):
+        self.bad = bad
+
+    def model_verdict(self, model):
+        return "diverges when the input is scaled 1.5× about its mean" \
+            if any(model is b for b in self.bad) else ""
+
+
+def _refit_case(stress):
+    from types import SimpleNamespace
+
+    from mggp.fit.choices import Choice
+    from mggp.fit.stages import _stress_refit
+    before = narx.Model(list(TRUTH), [1.5, -0.7, 1.0])
+    refit = narx.Model(list(TRUTH), [1.6, -0.7, 1.0])
+    ctx = SimpleNamespace(stress=stress(before, refit), choices={})
+    c = Choice("refine", "freerun", "θ by free-run simulation error: ...", {"x": 1})
+    return ctx, before, refit, _stress_refit(ctx, c, before, None, refit, None, "r")
+
+
+def test_a_refit_that_fails_the_stress_inputs_is_not_kept():
+    ctx, before, refit, (model, cls, refinement) = _refit_case(lambda b, r: _Stress(r))
+    assert model is before and refinement is None
+    kept = ctx.choices["refine"]
+    assert kept.value is None and "diverges when the input is scaled" in kept.why
+    assert before.meta["choices"]["refine"]["value"] is None
+
+
+def test_a_refit_is_kept_when_the_ls_theta_fails_too():
+    """Control: both fail the stress inputs, the refit (lower error) stays."""
+    ctx, before, refit, (model, _, refinement) = _refit_case(lambda b, r: _Stress(b, r))
+    assert model is refit and refinement == "r" and not ctx.choices
+
+
+def test_a_bounded_refit_is_kept():
+    ctx, before, refit, (model, _, refinement) = _refit_case(lambda b, r: _Stress())
+    assert model is refit and refinement == "r" and not ctx.choices

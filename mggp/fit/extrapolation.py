@@ -164,6 +164,11 @@ class StressCheck:
                               registry=self.registry).fit(d)
         except (ValueError, np.linalg.LinAlgError, FloatingPointError):
             return "cannot be fitted"
+        return self.model_verdict(model)
+
+    def model_verdict(self, model) -> str:
+        """The test of a fitted ``model`` with its own θ (not cached): ``''``
+        when its free run stays bounded on every stress input, else why not."""
         for label, rec in self.records:
             try:
                 sim = model.simulate(rec, mode="freerun")

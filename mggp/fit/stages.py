@@ -731,12 +731,38 @@ def refine(terms, data, ctx):
         model.meta["refine"] = c.value
     if how and how != "none":
         from narx.refine import refine_both
+        before, before_cls = model, model_cls
         refinement, model, model_cls, why = refine_both(
             model, model_cls, data, how, est.refine_window or est.window)
         if why:
             warnings.warn(f"refine={est.refine!r} is not applied: {why}", UserWarning,
                           stacklevel=_CALLER)
+        elif c is not None and ctx.stress is not None:
+            model, model_cls, refinement = _stress_refit(ctx, c, before, before_cls, model,
+                                                         model_cls, refinement)
     return Refined(terms, refinement, model, model_cls)
+
+
+def _stress_refit(ctx, c, before, before_cls, model, model_cls, refinement):
+    """The automatic θ choice's refit kept only when its free run stays
+    bounded on the stress inputs wherever the least-squares θ's does
+    (:meth:`mggp.fit.extrapolation.StressCheck.model_verdict`): the refit
+    lowers the error on the training record, where nothing holds its
+    poles or its nonlinear gains inside the stable region: on an
+    evaluation draw of the zoo fit study (seed 1207, a play after linear
+    dynamics with a rate-nonlinearity extension) the refit diverged on the
+    validation record and on the training input scaled 1.5×, where the LS
+    θ stayed finite. Returns ``(model, model_cls, refinement)``."""
+    why = ctx.stress.model_verdict(model)
+    if not why or ctx.stress.model_verdict(before):
+        return model, model_cls, refinement
+    kept = Choice("refine", None, f"θ by least squares: their free-run refit {why}, where "
+                  f"the least-squares θ stays bounded (the refit was chosen for: "
+                  f"{c.why})", dict(c.figures, stress_refused=why))
+    ctx.choices["refine"] = kept
+    before.meta.setdefault("choices", {})["refine"] = kept.to_dict()
+    before.meta["refine"] = None
+    return before, before_cls, None
 
 
 def cls_rejection(model, model_cls, data, held: bool = False) -> Optional[str]:
