@@ -98,3 +98,22 @@ def test_the_fit_reports_the_choice_and_none_keeps_the_grid():
         pytest.fail(f"no estimate taken on a play record of radius {R_TRUE}: {c}")
     got = {f.params for t in on.get_best().terms for f in t.operator_factors}
     assert got != grid and "operator_params" not in off.choices_
+
+
+class _FailsEstimate:
+    """A stand-in stress test: the grid's structure passes, any fitted
+    model (the estimate) diverges."""
+
+    def __call__(self, terms):
+        return ""
+
+    def model_verdict(self, model):
+        return "diverges when the input is held"
+
+
+def test_an_estimate_that_fails_the_stress_inputs_is_not_taken():
+    d = play_record(seed=2)
+    grid = ("y[k-1]", "u[k-1]", "Play(u[k-1],0.2)")
+    c, terms = operator_params_choice(grid, d, check=_FailsEstimate())
+    assert c.value is None and "diverges when the input is held" in c.why
+    assert [str(t) for t in terms] == list(grid)

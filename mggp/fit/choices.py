@@ -885,7 +885,7 @@ def theta_choice(terms, data: Data, registry=None, seed=0) -> Choice:
                   f"{holdout_words()})", figs)
 
 
-def operator_params_choice(terms, data: Data, registry=None):
+def operator_params_choice(terms, data: Data, registry=None, check=None):
     r"""``operator_params='auto'`` (the default): the memory operators'
     parameters of the final structure ``terms`` (play radii, Bouc–Wen β
     and γ) estimated by free-run error (:func:`narx.refine.refine_operators`,
@@ -902,6 +902,10 @@ def operator_params_choice(terms, data: Data, registry=None):
     of the input's range) and Bouc–Wen variables of a few shapes; the
     system's radius lies between, and a sum of plays of the grid's radii
     only stands in for it.
+
+    With ``check`` (the fit's :class:`~mggp.fit.extrapolation.StressCheck`)
+    the estimate is kept only when its free run stays bounded on the stress
+    inputs wherever the grid's does.
 
     Returns ``(Choice, terms)``: the value 'freerun' (estimated) or None
     (the grid's kept), and the structure handed on."""
@@ -954,6 +958,12 @@ def operator_params_choice(terms, data: Data, registry=None):
         for k, v in whole.moved.items():
             moved[back.get(k, k)] = v
     figs["moved"] = moved
+    why = "" if check is None else check.model_verdict(final)
+    if why and not check(tuple(parsed)):
+        figs["stress_refused"] = why
+        return Choice("operator_params", None, f"the search's operator parameters: with "
+                      f"them estimated by free-run error the model {why}, where it stays "
+                      f"bounded with the grid's", figs), tuple(terms)
     words = ", ".join(f"{k} → {v}" for k, v in moved.items())
     return Choice("operator_params", "freerun", f"operator parameters estimated by free-run "
                   f"error ({words}): held-out free-run RMSE {rmse_text(est)} against "

@@ -594,7 +594,7 @@ def operator_params(terms, data, ctx):
     if est.operator_params == "none" or steady(est):
         return Decision(terms)
     from .choices import operator_params_choice
-    c, new = operator_params_choice(terms, data, ctx.registry)
+    c, new = operator_params_choice(terms, data, ctx.registry, ctx.stress)
     if c.figures:
         ctx.choices["operator_params"] = c
     return Decision(tuple(new))
