@@ -135,12 +135,13 @@ CONSTANT = Term(())
 
 #: ``MGGPRegressor`` keywords that keep the structure as the search built it:
 #: no size choice, no local search, no constant term, no power cap, no
-#: stress test, no catalogue extension and θ by least squares (the published
-#: studies' setting, which reproduces the published method, and the
-#: diagnosis's searches, whose fitness modes are compared and whose
-#: baseline the diagnosis extends itself)
+#: stress test, no catalogue extension, the operators' parameters on the
+#: search's grid and θ by least squares (the published studies' setting,
+#: which reproduces the published method, and the diagnosis's searches,
+#: whose fitness modes are compared and whose baseline the diagnosis
+#: extends itself)
 AS_SEARCHED = dict(size="search", local_search=False, constant=False, max_power="none",
-                   stress=False, refine="none", extend="none")
+                   stress=False, refine="none", extend="none", operator_params="none")
 
 
 @dataclass(frozen=True)
