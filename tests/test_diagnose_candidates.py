@@ -135,7 +135,8 @@ def test_the_candidates_leave_out_the_searchs_relay_like_bouc_wen_shapes():
     of the input's range (Dahl friction with stiff bristles); the
     diagnosis's candidates stop at BOUC_WEN_MAX_SIZE (relay-like shapes
     also fit memory-free effects)."""
-    from mggp.diagnose.candidates import BOUC_WEN_MAX_SIZE, _bouc_wens
+    from mggp.diagnose.augmentation import BOUC_WEN_MAX_SIZE, bouc_wen_terms
+    from mggp.diagnose.candidates import _bouc_wens
     from mggp.gp.primitives import bouc_wen_shapes
     x = np.linspace(-1.0, 1.0, 50)                     # range 2
     search = {b for b, _ in bouc_wen_shapes(x)}
@@ -144,3 +145,5 @@ def test_the_candidates_leave_out_the_searchs_relay_like_bouc_wen_shapes():
     betas = {float(t.split(",")[1]) for t in terms}
     assert betas and max(betas) * 2 <= BOUC_WEN_MAX_SIZE * 1.01
     assert betas < search
+    dyn = {float(t.split(",")[1]) for t in bouc_wen_terms(Data(x, x), (1, 2))}
+    assert dyn == betas

@@ -96,7 +96,7 @@ from narx.model import ignore_rank_warnings
 from narx.records.regressors import regressor_matrix
 from narx.language.terms import Signals, parse_term
 
-from .augmentation import direction_terms
+from .augmentation import bouc_wen_grid, direction_terms
 from .simulation import freerun_rmse
 
 __all__ = ["Structure", "MEMORY", "MEMORY_FREE", "candidate_structures", "fit_structure",
@@ -121,14 +121,6 @@ MAX_NEW = 20
 #: :data:`mggp.gp.primitives.PLAY_RADIUS_FRACTIONS` left a play of 0.15 of
 #: the range at 16 times the noise level in free run)
 PLAY_FRACTIONS = tuple(round(0.025 * j, 3) for j in range(1, 17))
-#: largest β·range of the candidates' Bouc–Wen variables (the sizes of
-#: :data:`narx.language.memory.BOUC_WEN_SHAPES`): the search's
-#: faster-saturating shapes act as a relay on the sign of the
-#: input's change, which also fits memory-free effects; offered to the
-#: candidates on development draws (zoo seeds 550-749, 850-999) they named
-#: hysteresis on one more of 126 identifiable draws and on 3 more of 188
-#: controls (a dead time, a Hammerstein, a bilinear system)
-BOUC_WEN_MAX_SIZE = 4.5
 #: most Gauss–Newton steps when a candidate's θ is refined by simulation
 #: error (:func:`fit_structure`; each step simulates once per parameter
 #: for the Jacobian; from the LS θ a few steps take most of the gain)
@@ -143,16 +135,13 @@ def _plays(signal: str, x, lags) -> List[str]:
 
 
 def _bouc_wens(signal: str, x, lags) -> List[str]:
-    """Bouc–Wen variables of ``signal`` at ``lags`` on the search's grid of
-    shapes (:func:`mggp.gp.primitives.bouc_wen_shapes` of ``x``; the gain is
-    the term's coefficient) up to the saturation :data:`BOUC_WEN_MAX_SIZE`.
-    A denser grid (9 × 3 shapes) made the forward selection pick
-    near-collinear columns: on the piezo record the candidate's selection
-    RMSE rose from 0.34 to 1.6."""
-    from ..gp.primitives import BOUC_WEN_SHAPES, bouc_wen_shapes
-    return [f"BoucWen({t},{beta:g},{gamma:g})"
-            for (beta, gamma), (size, _) in zip(bouc_wen_shapes(x), BOUC_WEN_SHAPES)
-            if size <= BOUC_WEN_MAX_SIZE for t in _lags(signal, lags)]
+    """Bouc–Wen variables of ``signal`` at ``lags`` on the diagnosis's grid
+    of shapes (:func:`~.augmentation.bouc_wen_grid` of ``x``; the gain is
+    the term's coefficient). A denser grid (9 × 3 shapes) made the
+    forward selection pick near-collinear columns: on the piezo record the
+    candidate's selection RMSE rose from 0.34 to 1.6."""
+    return [f"BoucWen({t},{beta:g},{gamma:g})" for beta, gamma in bouc_wen_grid(x)
+            for t in _lags(signal, lags)]
 
 
 @dataclass(frozen=True)
