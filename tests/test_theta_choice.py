@@ -11,6 +11,7 @@ import narx
 
 from mggp import MGGPRegressor
 from mggp.fit.choices import THETA_WORDS, heldout_rmse, heldout_theta, theta_choice
+from mggp.fit.extrapolation import StressCheck
 from narx.records.data import Data
 
 TRUTH = ("y[k-1]", "y[k-2]", "u[k-1]")
@@ -143,7 +144,7 @@ def test_the_final_theta_choice_compares_the_converged_refit(monkeypatch):
     assert c.figures["heldout_rmse_freerun"] == pytest.approx(converged, rel=1e-3)
 
 
-class _Stress:
+class _Stress(StressCheck):
     """A stand-in stress test that fails the models of ``bad``."""
 
     def __init__(self, *bad):

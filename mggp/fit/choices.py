@@ -80,7 +80,8 @@ __all__ = ["AS_SEARCHED", "BOUC_WEN_CLASS_GAIN", "Choice", "CLASS_GAIN", "CONSTA
            "heldout_errors", "LEVEL", "CONSTANT_ENDS",
            "without_constant",
            "constant_off", "constant_searched", "front_rows_heldout", "heldout_rmse",
-           "holdout_message", "holdout_words", "operator_params_choice", "local_search_kept", "percent", "rmse_text",
+           "holdout_message", "holdout_words", "operator_params_choice", "local_search_kept",
+           "percent", "rmse_text",
            "terms_text", "pilot_generations", "resolve_screen", "resolve_select",
            "search_classes", "size_choice", "steady", "stress_said", "STAGE_CHOICES",
            "stage_choice", "THETAS", "REFIT_NFEV", "THETA_WORDS", "heldout_theta", "paired_gain",
@@ -916,18 +917,10 @@ def operator_params_choice(terms, data: Data, registry=None, check=None):
     if not operator_groups(parsed):
         return Choice("operator_params", None, "no memory operator with a parameter", {}), \
             tuple(terms)
-    lo, hi = _held_span(data.n, "tail")
-    fit = data.slice(0, lo)
+    fit = data.slice(0, _held_span(data.n, "tail")[0])
 
     def held(ts) -> float:
-        try:
-            with ignore_rank_warnings(), np.errstate(all="ignore"):
-                m = Model(tuple(ts), inputs=data.inputs, output=data.output,
-                          registry=registry).fit(fit)
-        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
-            return float("inf")
-        e = _sim_errors(m, data, lo, hi)
-        return max(_rms(e), error_floor(data)) if e is not None else float("inf")
+        return heldout_rmse(ts, data, registry, ends=("tail",))
 
     def refined(ts, record):
         try:
@@ -959,8 +952,8 @@ def operator_params_choice(terms, data: Data, registry=None, check=None):
         for k, v in whole.moved.items():
             moved[back.get(k, k)] = v
     figs["moved"] = moved
-    why = "" if check is None else check.model_verdict(final)
-    if why and not check(tuple(parsed)):
+    why = "" if check is None else check.fails_beyond(final, tuple(parsed))
+    if why:
         figs["stress_refused"] = why
         return Choice("operator_params", None, f"the search's operator parameters: with "
                       f"them estimated by free-run error the model {why}, where it stays "

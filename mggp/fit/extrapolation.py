@@ -166,6 +166,20 @@ class StressCheck:
             return "cannot be fitted"
         return self.model_verdict(model)
 
+    def fails_beyond(self, model, baseline) -> str:
+        """Why the fitted ``model`` fails the stress inputs where ``baseline``
+        passes them, else ``''``: the rule by which an estimate of a
+        structure's parameters (θ refitted by free-run error, operator
+        parameters) replaces the one it started from. ``baseline`` is a
+        fitted model (judged with its own θ) or a structure's terms
+        (judged by least squares, as :meth:`__call__`)."""
+        why = self.model_verdict(model)
+        if not why:
+            return ""
+        base_why = (self.model_verdict(baseline) if hasattr(baseline, "theta")
+                    else self(baseline))
+        return "" if base_why else why
+
     def model_verdict(self, model) -> str:
         """The test of a fitted ``model`` with its own θ (not cached): ``''``
         when its free run stays bounded on every stress input, else why not."""

@@ -746,15 +746,15 @@ def refine(terms, data, ctx):
 def _stress_refit(ctx, c, before, before_cls, model, model_cls, refinement):
     """The automatic θ choice's refit kept only when its free run stays
     bounded on the stress inputs wherever the least-squares θ's does
-    (:meth:`mggp.fit.extrapolation.StressCheck.model_verdict`): the refit
+    (:meth:`mggp.fit.extrapolation.StressCheck.fails_beyond`): the refit
     lowers the error on the training record, where nothing holds its
     poles or its nonlinear gains inside the stable region: on an
     evaluation draw of the zoo fit study (seed 1207, a play after linear
     dynamics with a rate-nonlinearity extension) the refit diverged on the
     validation record and on the training input scaled 1.5×, where the LS
     θ stayed finite. Returns ``(model, model_cls, refinement)``."""
-    why = ctx.stress.model_verdict(model)
-    if not why or ctx.stress.model_verdict(before):
+    why = ctx.stress.fails_beyond(model, before)
+    if not why:
         return model, model_cls, refinement
     kept = Choice("refine", None, f"θ by least squares: their free-run refit {why}, where "
                   f"the least-squares θ stays bounded (the refit was chosen for: "
