@@ -90,8 +90,6 @@ def fit_one(seed: int, jobs: int = 1, extend: Optional[str] = None) -> dict:
                exploded=bool(diverged or explodes(y_hat[ok], np.asarray(d.validation.y)[ok])),
                choices={k: v["value"] for k, v in est.choices_.items()},
                model_class=est.choices_.get("use_phi", {}).get("figures", {}).get("class"),
-               stress_beyond=bool(est.choices_.get("size", {}).get("figures", {})
-                                  .get("beyond_tolerance")),
                terms=list(model.term_texts), truth=list(d.truth.terms),
                extension=(est.extension_ or {}).get("winner"),
                extend_seconds=(est.extension_ or {}).get("seconds"),

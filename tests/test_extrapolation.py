@@ -262,12 +262,6 @@ def test_bounded_first_refuses_only_when_a_bounded_row_is_within_tolerance():
     i, refused, all_fail = bounded_first(rows, [0, 1, 2], 0.05, bad.get)
     assert (i, refused, [w for _, w in all_fail]) == (0, [], ["diverges", "leaves"])
     assert bounded_first(rows, [0, 1], 0.05, None) == (0, [], [])
-    # beyond the tolerance: the bounded C is taken, the failing A and B refused
-    i, refused, all_fail = bounded_first(rows, [0, 1], 0.05, bad.get, [2])
-    assert (i, [j for j, _ in refused], all_fail) == (2, [0, 1], [])
-    bad["C"] = "diverges"                                      # control: none passes
-    i, refused, all_fail = bounded_first(rows, [0, 1], 0.05, bad.get, [2])
-    assert (i, refused, len(all_fail)) == (0, [], 2)
 
 
 def test_power_cap_lifted_only_beyond_the_tolerance():
@@ -280,8 +274,7 @@ def test_power_cap_lifted_only_beyond_the_tolerance():
 def test_size_choice_line_names_the_refused_structures():
     """The size choice skips the 2-term structure that fails the stress
     inputs for the 3-term one within the tolerance and says why; when every
-    one fails it keeps the old choice and says so, and when one beyond the
-    tolerance passes it takes that one."""
+    one within the tolerance fails it keeps the old choice and says so."""
     from mggp.fit.choices import size_choice
     rows = [(4, 1.0, "A"), (2, 1.01, "B"), (3, 1.02, "C")]
     c = size_choice(rows, 1600, {"A": "", "B": "diverges when the input is reversed in time",
@@ -290,11 +283,6 @@ def test_size_choice_line_names_the_refused_structures():
     assert "2 terms (RMSE 1.01): diverges when the input is reversed in time" in c.why
     c = size_choice(rows, 1600, {"A": "x", "B": "y", "C": "z"}.get)
     assert c.value == "B" and "so none is refused" in c.why
-    # every one within the tolerance fails, a bounded one beyond it is taken
-    rows.append((2, 1.8, "D"))
-    c = size_choice(rows, 1600, {"A": "x", "B": "y", "C": "z", "D": ""}.get)
-    assert c.value == "D" and c.figures["beyond_tolerance"]
-    assert "the least-error one that stays bounded taken" in c.why
     assert size_choice(rows, 1600).value == "B"                # no check: the old rule
 
 

@@ -525,9 +525,7 @@ def size_choice(rows, n_heldout: int = 0, check=None) -> Choice:
     error). With ``check`` (:class:`mggp.fit.extrapolation.StressCheck`), in that
     order the first whose free run stays bounded on the stress inputs
     (:func:`mggp.fit.extrapolation.bounded_first`); the line names the
-    structures refused. When every one within the tolerance fails, the
-    least-error structure beyond it that passes is taken, and the line says
-    so; when none passes, the line says that every one fails."""
+    structures refused, or says that every one within the tolerance fails."""
     from .extrapolation import bounded_first
     tol = size_tolerance(n_heldout) if n_heldout else SIZE_TOLERANCE
     best = min(r[1] for r in rows)
@@ -536,20 +534,11 @@ def size_choice(rows, n_heldout: int = 0, check=None) -> Choice:
     if not ok:
         return Choice("size", rows[0][2], "size: the chosen structure (every held-out free "
                       "run diverges)", {"candidates": len(rows)})
-    within = [o[3] for o in ok]
-    beyond = sorted((j for j in range(len(rows)) if j not in within),
-                    key=lambda j: (rows[j][1], rows[j][0]))
-    i, refused, all_fail = bounded_first(rows, within, tol, check, beyond)
+    i, refused, all_fail = bounded_first(rows, [o[3] for o in ok], tol, check)
     n, err = rows[i][0], rows[i][1]
     figs = {"terms": n, "heldout_rmse": err, "searched_terms": rows[0][0],
             "searched_heldout_rmse": rows[0][1], "candidates": len(rows)}
-    if i not in within:
-        figs["beyond_tolerance"] = True
-        why = (f"size {terms_text(n)}: every structure within {percent(tol)} of the least "
-               f"held-out free-run RMSE ({rmse_text(best)}) fails the stress inputs; the "
-               f"least-error one that stays bounded taken, held-out free-run RMSE "
-               f"{rmse_text(err)}")
-    elif i == 0:
+    if i == 0:
         why = (f"size {terms_text(n)}: the chosen structure (held-out free-run RMSE "
                f"{rmse_text(err)}; "
                f"no smaller one of the Pareto front within {percent(tol)})")

@@ -33,13 +33,10 @@ Stress inputs
     (:data:`STRESS_BAND`, :math:`\\bar y` the training output's mean). A
     structure that fails is refused when a structure that passes has a
     held-out free-run error within the size tolerance of the least
-    (:func:`mggp.fit.choices.size_tolerance`), and the choice line says so.
-    When every structure within the tolerance fails, the size choice (the
-    last choice of a structure) takes the structure of least held-out error
-    beyond the tolerance that passes: a model that stays bounded is worth a
-    larger error inside the training range. When none passes, and in the
-    other choices, the choice is made as without the check and its line
-    says that they all fail (:func:`bounded_first`). A linear model passes whatever its error; a
+    (:func:`mggp.fit.choices.size_tolerance`), and the choice line says so; when
+    every structure within the tolerance fails, the choice is made as
+    without the check and its line says that they all fail
+    (:func:`bounded_first`). A linear model passes whatever its error; a
     cubic of one input reaches 1.5³/2 ≈ 1.7 ranges from the middle on the
     scaled input, a fifth power 3.8: refused when a bounded structure
     fits as well.
@@ -200,18 +197,15 @@ class StressCheck:
         return ""
 
 
-def bounded_first(rows, order, tol: float, check: Optional[StressCheck], beyond=()):
+def bounded_first(rows, order, tol: float, check: Optional[StressCheck]):
     """The stress rule over ``rows`` ``(n_terms, held-out error, terms, ...)``:
     ``(index, refused, all_fail)``. ``order`` lists the row indices in
     preference order; the first of them whose error is within ``tol`` of
     the least and whose structure passes ``check`` is taken, those before it
     are ``refused`` (``[(index, why)]``). When every row within the
-    tolerance fails, the first of ``beyond`` (row indices, preference order)
-    with a finite error that passes is taken, every failing row within the
-    tolerance ``refused``; when none of them passes either, ``index`` is the
-    first of ``order`` and ``all_fail`` lists the reasons of the rows within
-    the tolerance (``refused`` empty). Without ``check``: the first of
-    ``order``, nothing refused."""
+    tolerance fails, ``index`` is the first of ``order`` and ``all_fail``
+    lists their reasons (``refused`` empty). Without ``check``: the first
+    of ``order``, nothing refused."""
     if not order:
         return None, [], []
     if check is None:
@@ -228,8 +222,4 @@ def bounded_first(rows, order, tol: float, check: Optional[StressCheck], beyond=
         if not why:
             return i, refused, []
         refused.append((i, why))
-    failed = {j for j, _ in refused}
-    for i in beyond:
-        if np.isfinite(rows[i][1]) and i not in failed and not check(rows[i][2]):
-            return i, refused, []
     return order[0], [], refused
