@@ -30,10 +30,14 @@ def test_table_counts_the_goal_explosions_and_failures():
 
 
 def test_identifiable_draws_come_from_the_diagnosis_records():
-    zoo = [{"seed": 1000, "identifiable": True}, {"seed": 1001, "identifiable": False},
-           {"seed": 1002, "identifiable": False}]
+    zoo = [{"seed": 1000, "identifiable": True, "input_kind": "sine"},
+           {"seed": 1001, "identifiable": False}, {"seed": 1002, "identifiable": False},
+           {"seed": 1003, "input_kind": "sine"}, {"seed": 1004, "input_kind": "chirp"}]
     t = fit_table(RECS, zoo)
     assert "1/1 (100 %) identifiable hysteretic" in t
+    assert "2/4 (50 %) of both together" in t
+    assert "not identifiable, on their own: 0/2 (0 %)" in t
+    assert "| sine | 1/1 | 1/1 |" in t and "| chirp | 0/0 | 0/1 |" in t
     # control: without them every hysteretic draw counts
     assert "identifiable" not in fit_table(RECS).split("\n")[0]
 
