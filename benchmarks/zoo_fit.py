@@ -15,8 +15,9 @@ the validation record, and compares that RMSE with the oracle's
 LS and free-run θ). One JSON line per draw is appended as it finishes (a
 killed run keeps its records; a new run skips the seeds already there).
 Fields: ``seed, split, family, hysteretic, placement, snr_db, fit_rmse,
-oracle_rmse, ratio, exploded, choices, model_class, terms, truth, extension,
-extend_seconds, seconds`` (``error`` when the fit failed; ``extension``: the
+oracle_rmse, ratio, exploded, choices, model_class, class_errors, terms, truth,
+extension, extend_seconds, seconds`` (``class_errors``: each class pilot's
+held-out free-run RMSE by class key; ``error`` when the fit failed; ``extension``: the
 catalogue extension the ``extend`` stage took, None for none; ``extend``
 when ``--extend`` set the parameter). ``exploded``: the free run is not finite or leaves the
 band of three times the validation output's range
@@ -92,6 +93,9 @@ def fit_one(seed: int, jobs: int = 1, extend: Optional[str] = None) -> dict:
                exploded=bool(diverged or explodes(y_hat[ok], np.asarray(d.validation.y)[ok])),
                choices={k: v["value"] for k, v in est.choices_.items()},
                model_class=est.choices_.get("use_phi", {}).get("figures", {}).get("class"),
+               class_errors={k.removeprefix("heldout_rmse_"): _num(v) for k, v in
+                             est.choices_.get("use_phi", {}).get("figures", {}).items()
+                             if k.startswith("heldout_rmse_")},
                terms=list(model.term_texts), truth=list(d.truth.terms),
                extension=(est.extension_ or {}).get("winner"),
                extend_seconds=(est.extension_ or {}).get("seconds"),

@@ -114,14 +114,14 @@ def test_callbacks_are_told_which_search_runs():
     kw = dict(_KW, generations=5, size="search", constant=False)
     est = MGGPRegressor(**dict(kw, callbacks=[cb, plain.append])).fit(d.u, d.y)
     chosen = est.choices_["use_phi"]["figures"]["class"]
-    assert cb.phases == [("pilot 1/5 no Φ", 1), ("pilot 2/5 Φ", 1), ("pilot 3/5 operators", 1),
-                         ("pilot 4/5 Bouc–Wen", 1), (f"pilot 5/5 {chosen}, powers uncapped", 1),
-                         (f"search {chosen}", 5)]
+    assert cb.phases == [("pilot 1/6 no Φ", 1), ("pilot 2/6 Φ", 1), ("pilot 3/6 Φ of outputs", 1),
+                         ("pilot 4/6 operators", 1), ("pilot 5/6 Bouc–Wen", 1),
+                         (f"pilot 6/6 {chosen}, powers uncapped", 1), (f"search {chosen}", 5)]
     # each generation is reported under the search it belongs to; the chosen
     # pilot's run continues from its last generation
     assert [g for lab, g in cb.generations if lab == f"search {chosen}"] == [2, 3, 4, 5]
     assert len(plain) == len(cb.generations)        # a plain callable still runs
-    assert cb.planned == len(cb.generations) == 14  # the plan: every report of the fit
+    assert cb.planned == len(cb.generations) == 16  # the plan: every report of the fit
     # control: one class and the power cap asked for, one search
     one = _Phases()
     MGGPRegressor(**dict(kw, use_phi=False, max_power=3, callbacks=[one])).fit(d.u, d.y)
@@ -366,10 +366,12 @@ def test_size_tolerance_widens_on_a_short_held_out_part():
 def test_search_classes_follow_the_overrides():
     from mggp.fit.choices import search_classes
     labels = lambda **kw: [(c.label, c.operators) for c in search_classes(MGGPRegressor(**kw))]
-    assert labels() == [("no Φ", ()), ("Φ", ()), ("operators", ("play", "dengtan")),
-                        ("Bouc–Wen", ("boucwen",))]
-    assert labels(operators="none") == [("no Φ", ()), ("Φ", ())]
-    assert labels(operators="play") == [("no Φ", ("play",)), ("Φ", ("play",))]
+    assert labels() == [("no Φ", ()), ("Φ", ()), ("Φ of outputs", ()),
+                        ("operators", ("play", "dengtan")), ("Bouc–Wen", ("boucwen",))]
+    assert labels(operators="none") == [("no Φ", ()), ("Φ", ()), ("Φ of outputs", ())]
+    assert labels(operators="play") == [("no Φ", ("play",)), ("Φ", ("play",)),
+                                        ("Φ of outputs", ("play",))]
+    assert labels(phi_outputs=True) == [("Φ", ())]                # one search, as asked
     assert labels(use_phi=False) == [("no Φ", ())]                 # operators 'auto': none
     assert labels(use_phi=True, operators="dengtan") == [("Φ", ("dengtan",))]
     # a checkpointed fit makes the same choices (its pilots are checkpointed too)
@@ -388,7 +390,7 @@ def test_bouc_wen_class_chosen_for_a_piezo_record_not_for_a_linear_one(seed):
     fig = est.choices_["use_phi"]["figures"]
     assert fig["class"] == "Bouc–Wen" and fig["operators"] == ["boucwen"]
     others = [fig[k] for k in ("heldout_rmse_no_phi", "heldout_rmse_phi",
-                               "heldout_rmse_operators")]
+                               "heldout_rmse_phi_outputs", "heldout_rmse_operators")]
     assert fig["heldout_rmse_bouc_wen"] < 0.2 * min(others)
     assert any("BoucWen(" in t for t in est.model_.term_texts)
     assert est.model_.meta["use_phi"] is False and est.model_.meta["operators"] == ["boucwen"]
@@ -404,12 +406,12 @@ def test_bouc_wen_class_needs_half_the_error_of_the_class_before():
     40 % takes over under the common 15 % margin."""
     from mggp.fit.choices import BOUC_WEN_CLASS_GAIN, search_classes
     classes = search_classes(MGGPRegressor())
-    assert [c.label for c in classes] == ["no Φ", "Φ", "operators", "Bouc–Wen"]
-    assert classes[-1].gain == BOUC_WEN_CLASS_GAIN == 0.5 and classes[2].gain == CLASS_GAIN
+    assert [c.label for c in classes] == ["no Φ", "Φ", "Φ of outputs", "operators", "Bouc–Wen"]
+    assert classes[-1].gain == BOUC_WEN_CLASS_GAIN == 0.5 and classes[3].gain == CLASS_GAIN
     pick = lambda errors: class_choice(classes, errors).figures["class"]
-    assert pick([1.0, 1.0, 1.0, 0.6]) == "no Φ"
-    assert pick([1.0, 1.0, 1.0, 0.4]) == "Bouc–Wen"
-    assert pick([1.0, 1.0, 0.6, 1.0]) == "operators"
+    assert pick([1.0, 1.0, 1.0, 1.0, 0.6]) == "no Φ"
+    assert pick([1.0, 1.0, 1.0, 1.0, 0.4]) == "Bouc–Wen"
+    assert pick([1.0, 1.0, 1.0, 0.6, 1.0]) == "operators"
 
 
 def _piroddi_noise_free(n=500, seed=0, noise=0.0):

@@ -406,22 +406,23 @@ _ROWS = (
           default_text=f"auto ({HEIGHT}, or what reaches a dead time)"),
     Param("use_phi", "auto", OneOf((True, False, "auto")), "terms may hold Φ-functions "
           "of lagged inputs (input increments and their signs, which model hysteresis); "
-          "'auto': a pilot search of each model class (no Φ, Φ, and with operators='auto' "
-          "plays with Deng–Tan, then Bouc–Wen variables) at full population for "
+          "'auto': a pilot search of each model class (no Φ, Φ, Φ of the output's lags too, "
+          "and with operators='auto' plays with Deng–Tan, then Bouc–Wen variables) at full population for "
           f"{_PILOT}; the class whose structure has the least held-out free-run error "
           f"({_HELD_OUT}; {_CLASS_MARGINS}) continues to the full generations",
           "model class", "--no-phi",
           context=True, meta=True, const=False,
           flag_help="plain polynomial terms only: no Φ-functions (--phi: Φ-functions "
-          "allowed; neither: pilots of the classes no Φ, Φ, plays with Deng–Tan, and "
-          "Bouc–Wen variables, the one with the lowest held-out free-run error continued)",
+          "allowed; neither: pilots of the classes no Φ, Φ, Φ of the output's lags too, "
+          "plays with Deng–Tan, and Bouc–Wen variables, the one with the lowest held-out free-run error continued)",
           default_text="chosen by held-out free-run error", tier="common"),
     Param("phi_names", None, NAMES, "Φ-functions the search uses (default: all "
           "registered)", "model class", context=True, meta=True),
     Param("phi_outputs", False, Bool(), "Φ-terms of output lags too, e.g. "
-          "Phi1(y[k-1],y[k-2]) (hysteresis driven by the output's rate)", "model class",
-          "--phi-outputs", context="if set", meta=True, const=True,
-          default_text="inputs only"),
+          "Phi1(y[k-1],y[k-2]) (hysteresis driven by the output's rate), in one search "
+          "with Φ (use_phi='auto' pilots this class among the others when not set)",
+          "model class", "--phi-outputs", context="if set", meta=True, const=True,
+          default_text="inputs only, or piloted by use_phi='auto'"),
     Param("operators", "auto", OPERATORS, "memory operators of the inputs, "
           f"comma-separated: {_OPERATOR_TEXT}, or a plug-in's name in lower case (one "
           "registered by --phi-module with a search grid), entering as --operator-entry "
