@@ -412,6 +412,41 @@ def test_bouc_wen_class_needs_half_the_error_of_the_class_before():
     assert pick([1.0, 1.0, 1.0, 1.0, 0.6]) == "no Φ"
     assert pick([1.0, 1.0, 1.0, 1.0, 0.4]) == "Bouc–Wen"
     assert pick([1.0, 1.0, 1.0, 0.6, 1.0]) == "operators"
+    # Φ of the output's lags: its own margin, 30 % (PHI_OUTPUTS_CLASS_GAIN)
+    assert pick([1.0, 1.0, 0.75, 1.0, 1.0]) == "no Φ"
+    assert pick([1.0, 1.0, 0.65, 1.0, 1.0]) == "Φ of outputs"
+    assert pick([1.0, 0.8, 0.6, 1.0, 1.0]) == "Φ"         # 25 % below the Φ class kept
+
+
+def _coulomb_record(n=1500, seed=0, noise=0.002):
+    """A damped mass with Coulomb friction on its own velocity:
+    y = 1.5 y[k-1] - 0.6 y[k-2] + 0.1 u[k-1] - 0.03 sign(y[k-1] - y[k-2]),
+    driven by smoothed random steps, white output noise of ``noise`` × std(y)."""
+    rng = np.random.default_rng(seed)
+    u = np.convolve(np.repeat(rng.uniform(-1, 1, n // 25 + 1), 25)[:n], np.ones(5) / 5,
+                    mode="same")
+    y = np.zeros(n)
+    for k in range(2, n):
+        y[k] = 1.5 * y[k - 1] - 0.6 * y[k - 2] + 0.1 * u[k - 1] - 0.03 * np.sign(
+            y[k - 1] - y[k - 2])
+    return u, y + noise * np.std(y) * rng.standard_normal(n)
+
+
+def test_phi_of_output_lags_class_taken_for_friction_on_the_output():
+    """Coulomb friction on the output's own velocity is a Φ of the output's
+    lags (Phi2(y[k-1],y[k-2])), which no input class expresses: the
+    automatic choice takes the class with Φ of the output's lags, over 30 %
+    below the others held out, and the model keeps that term (a fixed
+    seed). The control, a linear record staying without Φ, is in
+    test_bouc_wen_class_chosen_for_a_piezo_record_not_for_a_linear_one."""
+    u, y = _coulomb_record(seed=0)
+    est = MGGPRegressor(population=100, generations=15, random_state=0).fit(Data(u, y))
+    fig = est.choices_["use_phi"]["figures"]
+    assert fig["class"] == "Φ of outputs"
+    others = [v for k, v in fig.items() if k.startswith("heldout_rmse_")
+              and k != "heldout_rmse_phi_outputs"]
+    assert fig["heldout_rmse_phi_outputs"] < 0.7 * min(others)
+    assert "Phi2(y[k-1],y[k-2])" in est.model_.term_texts
 
 
 def _piroddi_noise_free(n=500, seed=0, noise=0.0):
