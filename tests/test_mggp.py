@@ -204,7 +204,9 @@ def test_two_input_search_does_not_depend_on_the_unit_of_u2():
 def test_phi_outputs_recovers_a_term_of_the_output_direction():
     """y = 0.6 y₋₁ + 0.5 u₋₁ + 0.2 sign(y₋₁ − y₋₂) + e: with phi_outputs the
     exact structure is found (Phi2 of the two output lags, either order: the
-    same column up to sign); the default search cannot build it (control)."""
+    same column up to sign); the default's class pilots take the class with
+    Φ of the output lags here; a search with Φ of the inputs only cannot
+    build it (control)."""
     rng = np.random.default_rng(0)
     u = rng.uniform(-1, 1, 600)
     e = 0.01 * rng.standard_normal(600)
@@ -216,9 +218,12 @@ def test_phi_outputs_recovers_a_term_of_the_output_direction():
     found = sorted(MGGPRegressor(phi_outputs=True, **kw).fit(u, y).model_.term_texts)
     assert found in (sorted(["y[k-1]", "u[k-1]", "Phi2(y[k-1],y[k-2])"]),
                      sorted(["y[k-1]", "u[k-1]", "Phi2(y[k-2],y[k-1])"]))
-    # the search alone (no extension: the extend stage's catalogue holds Φ of the
-    # output lags, so the default fit may add them)
-    plain = MGGPRegressor(extend="none", **kw).fit(u, y).model_.term_texts
+    # the searches alone (no extension: the extend stage's catalogue holds Φ of
+    # the output lags, so a fit may add them after any search)
+    auto = MGGPRegressor(extend="none", **kw).fit(u, y)
+    assert auto.choices_["use_phi"]["figures"]["class"] == "Φ of outputs"
+    assert any("Phi2(y" in t for t in auto.model_.term_texts)
+    plain = MGGPRegressor(extend="none", use_phi=True, **kw).fit(u, y).model_.term_texts
     assert not any("Phi1(y" in t or "Phi2(y" in t for t in plain)
 
 

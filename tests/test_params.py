@@ -195,7 +195,8 @@ def test_help_texts_state_the_figures_of_the_constants_they_describe():
     from mggp.fit.params import PARAMS
     assert "within 5 % of the least" in PARAMS["size"].help
     assert "by over 5 %" in PARAMS["constant"].help
-    assert "over 15 % lower, Bouc–Wen variables over 50 %" in PARAMS["use_phi"].help
+    assert ("over 15 % lower, Φ of the output's lags too over 30 %, Bouc–Wen variables "
+            "over 50 %") in PARAMS["use_phi"].help
     assert "p < 0.05" in PARAMS["constant"].help and "p < 0.05" not in PARAMS["use_phi"].help
     code = ("import importlib, mggp.fit.choices as c, narx.language.memory as m, "
             "mggp.fit.operator_stage as o, mggp.fit.params as p\n"
