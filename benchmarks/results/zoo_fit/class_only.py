@@ -1,0 +1,58 @@
+"""The class choice of the default fit on zoo draws, without the rest of the fit.
+
+Typical call (from the project root)::
+
+    python benchmarks/results/zoo_fit/class_only.py OUT.jsonl 1150-1203 1221-1251
+
+Runs ``MGGPRegressor(random_state=seed)`` on each draw's training record
+and stops it right after :func:`mggp.fit.choices.class_choice` (patched
+here to raise), writing one line per draw: ``seed, family, class, why,
+errors`` (each pilot's held-out RMSE). The pilots share one seed and a
+class's continuation does not depend on the other classes, so a draw whose
+class is the one an earlier run of the fit took is fitted as that run
+fitted it; only the draws whose class moved need the full fit
+(``python -m benchmarks.zoo_fit fit``). Used for the rerun of the
+evaluation draws after the class with Φ of the output's lags joined the
+pilots (``benchmarks/RESULTS.md``).
+"""
+import sys, json, warnings, os, time
+warnings.simplefilter("ignore")
+import mggp.fit.estimator as E
+from narx.systems import zoo
+from benchmarks.zoo import STUDY_N
+from mggp import MGGPRegressor
+class Stop(Exception):
+    pass
+real = E.class_choice
+def patched(*a, **k):
+    raise Stop(real(*a, **k))
+E.class_choice = patched
+out = sys.argv[1]
+seeds = []
+for a in sys.argv[2:]:
+    if "-" in a:
+        lo, hi = map(int, a.split("-")); seeds += list(range(lo, hi + 1))
+    else:
+        seeds.append(int(a))
+done = set()
+if os.path.exists(out):
+    done = {json.loads(l)["seed"] for l in open(out)}
+for seed in seeds:
+    if seed in done:
+        continue
+    t = time.perf_counter()
+    d = zoo.draw(seed, n=STUDY_N)
+    rec = {"seed": seed, "family": d.family}
+    try:
+        MGGPRegressor(random_state=seed, n_jobs=1).fit(d.train)
+        rec["class"] = None
+    except Stop as s:
+        c = s.args[0]
+        rec.update({"class": c.figures["class"], "why": c.why,
+                    "errors": {k: v for k, v in c.figures.items() if k.startswith("heldout_rmse_")}})
+    except Exception as exc:
+        rec["error"] = f"{type(exc).__name__}: {exc}"
+    rec["seconds"] = time.perf_counter() - t
+    with open(out, "a") as f:
+        f.write(json.dumps(rec, default=float) + "\n")
+    print(seed, rec.get("class"), round(rec["seconds"]), flush=True)
