@@ -1017,8 +1017,8 @@ def search_classes(est) -> list:
     """The model classes searched, simplest first. ``use_phi='auto'``: no Φ,
     Φ of the inputs, Φ of the inputs and of the output's lags (hysteresis or
     friction driven by the output's own velocity, such as Coulomb friction
-    or damping of a mass's motion) and, with ``operators='auto'``, the memory operators
-    :data:`mggp.gp.primitives.AUTO_OPERATORS` (play, Deng–Tan) without Φ in the
+    or damping of a mass's motion) and, with ``operators='auto'``, the memory
+    operators :data:`mggp.gp.primitives.AUTO_OPERATORS` (play, Deng–Tan) without Φ in the
     primitive set, then the Bouc–Wen variables without Φ (each class with
     the operators ``operators`` names, which enter as ``operator_entry``
     says);
@@ -1029,11 +1029,19 @@ def search_classes(est) -> list:
     if est.use_phi != "auto" or est.phi_outputs:
         phi = est.use_phi is not False
         return [SearchClass("Φ" if phi else "no Φ", phi, ops, entry)]
-    out = [SearchClass("no Φ", False, ops, entry), SearchClass("Φ", True, ops, entry),
-           SearchClass("Φ of outputs", True, ops, entry, PHI_OUTPUTS_CLASS_GAIN, True)]
+    out = _phi_classes(ops, entry)
     if est.operators == "auto":
         out += _operator_classes()
     return out
+
+
+def _phi_classes(ops: tuple = (), entry: bool = False) -> list:
+    """The classes of ``use_phi='auto'`` before the operator classes: no Φ,
+    Φ, and Φ of the output's lags too (with its margin
+    :data:`PHI_OUTPUTS_CLASS_GAIN`), each with the operators ``ops``."""
+    return [SearchClass("no Φ", False, ops, entry, CLASS_GAIN),
+            SearchClass("Φ", True, ops, entry, CLASS_GAIN),
+            SearchClass("Φ of outputs", True, ops, entry, PHI_OUTPUTS_CLASS_GAIN, True)]
 
 
 def _operator_classes() -> list:
@@ -1149,10 +1157,7 @@ def class_margins(classes=None) -> str:
     Bouc–Wen variables over 50 %' (``classes``: those compared; default:
     every class ``use_phi='auto'`` can compare)."""
     if classes is None:
-        classes = [SearchClass("no Φ", False, (), gain=CLASS_GAIN),
-                   SearchClass("Φ", True, (), gain=CLASS_GAIN),
-                   SearchClass("Φ of outputs", True, (), gain=PHI_OUTPUTS_CLASS_GAIN,
-                               phi_outputs=True)] + _operator_classes()
+        classes = _phi_classes() + _operator_classes()
     return (f"a richer class only when its error is over {percent(CLASS_GAIN)} lower"
             + "".join(f", {_with(cl.label).removeprefix('with ')} over {percent(cl.gain)}"
                       for cl in classes[1:] if cl.gain != CLASS_GAIN))

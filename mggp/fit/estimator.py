@@ -776,7 +776,8 @@ class MGGPRegressor:
         of a fit with pilots in the checkpoint's context."""
         data, shape = ctx.data, shape or ctx.shape
         pset = make_pset(data.signals, ctx.registry, use_phi=cls.use_phi,
-                         phi_names=self.phi_names, phi_outputs=bool(self.phi_outputs or cls.phi_outputs),
+                         phi_names=self.phi_names,
+                         phi_outputs=bool(self.phi_outputs or cls.phi_outputs),
                          operators=search_operators(
                              cls.operators if cls.in_search else None, data.U))
         evaluator = Evaluator(data, self.fitness, window=self.window, k=self.k,

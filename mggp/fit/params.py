@@ -406,15 +406,17 @@ _ROWS = (
           default_text=f"auto ({HEIGHT}, or what reaches a dead time)"),
     Param("use_phi", "auto", OneOf((True, False, "auto")), "terms may hold Φ-functions "
           "of lagged inputs (input increments and their signs, which model hysteresis); "
-          "'auto': a pilot search of each model class (no Φ, Φ, Φ of the output's lags too, "
-          "and with operators='auto' plays with Deng–Tan, then Bouc–Wen variables) at full population for "
+          "'auto': a pilot search of each model class (no Φ, Φ, Φ of the output's lags "
+          "too, and with operators='auto' plays with Deng–Tan, then Bouc–Wen variables) "
+          "at full population for "
           f"{_PILOT}; the class whose structure has the least held-out free-run error "
           f"({_HELD_OUT}; {_CLASS_MARGINS}) continues to the full generations",
           "model class", "--no-phi",
           context=True, meta=True, const=False,
           flag_help="plain polynomial terms only: no Φ-functions (--phi: Φ-functions "
           "allowed; neither: pilots of the classes no Φ, Φ, Φ of the output's lags too, "
-          "plays with Deng–Tan, and Bouc–Wen variables, the one with the lowest held-out free-run error continued)",
+          "plays with Deng–Tan, and Bouc–Wen variables, the one with the lowest held-out "
+          "free-run error continued)",
           default_text="chosen by held-out free-run error", tier="common"),
     Param("phi_names", None, NAMES, "Φ-functions the search uses (default: all "
           "registered)", "model class", context=True, meta=True),

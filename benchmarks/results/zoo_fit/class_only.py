@@ -19,7 +19,7 @@ import sys, json, warnings, os, time
 warnings.simplefilter("ignore")
 import mggp.fit.estimator as E
 from narx.systems import zoo
-from benchmarks.zoo import STUDY_N
+from benchmarks.zoo import STUDY_N, parse_seeds
 from mggp import MGGPRegressor
 class Stop(Exception):
     pass
@@ -28,12 +28,7 @@ def patched(*a, **k):
     raise Stop(real(*a, **k))
 E.class_choice = patched
 out = sys.argv[1]
-seeds = []
-for a in sys.argv[2:]:
-    if "-" in a:
-        lo, hi = map(int, a.split("-")); seeds += list(range(lo, hi + 1))
-    else:
-        seeds.append(int(a))
+seeds = parse_seeds(sys.argv[2:])
 done = set()
 if os.path.exists(out):
     done = {json.loads(l)["seed"] for l in open(out)}
