@@ -188,7 +188,9 @@ def _parser():
                        help="the fit's extend parameter (default: its default)")
     t = sub.add_parser("table", help="Markdown table of a records file")
     t.add_argument("file")
-    t.add_argument("--zoo", help="the diagnosis study's records (identifiable draws)")
+    t.add_argument("--zoo", nargs="+", metavar="FILE",
+                   help="the diagnosis study's records (identifiable draws); several files "
+                        "are read as one")
     return p
 
 
@@ -211,7 +213,8 @@ def main(argv=None) -> int:
             recs = records(args.file)
             if not recs:
                 raise ValueError(f"{args.file}: no records")
-            print(fit_table(recs, records(args.zoo) if args.zoo else None), end="")
+            zoo = [r for f in args.zoo for r in records(f)] if args.zoo else None
+            print(fit_table(recs, zoo), end="")
     except (ValueError, OSError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -47,6 +47,15 @@ def test_cli_table_and_its_errors(tmp_path, capsys):
     path.write_text("".join(json.dumps(r) + "\n" for r in RECS) + '{"torn')
     assert main(["table", str(path)]) == 0
     assert "Default fit against the oracle" in capsys.readouterr().out
+    # the diagnosis records may come in several files, read as one
+    z1, z2 = tmp_path / "z1.jsonl", tmp_path / "z2.jsonl"
+    z1.write_text(json.dumps({"seed": 1000, "identifiable": True}) + "\n")
+    z2.write_text("".join(json.dumps({"seed": s, "identifiable": False}) + "\n"
+                          for s in (1001, 1002)))
+    assert main(["table", str(path), "--zoo", str(z1), str(z2)]) == 0
+    assert "1/1 (100 %) identifiable hysteretic" in capsys.readouterr().out
+    assert main(["table", str(path), "--zoo", str(z1)]) == 0     # control: 1001, 1002 count
+    assert "1/3 (33 %) identifiable hysteretic" in capsys.readouterr().out
     assert main(["table", str(tmp_path / "none.jsonl")]) == 2
     assert "no records" in capsys.readouterr().err
     assert main(["calibrate", "--seeds", "1000", "--json", str(path)]) == 2
