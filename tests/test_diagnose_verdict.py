@@ -85,6 +85,44 @@ def test_memory_that_cuts_an_error_already_below_the_resolution_by_a_share_is_na
     assert v.named == ("unmodelled-nonlinearity",), v.lines()
 
 
+def _bursts(rng, n, k=2, amplitude=20.0, width=40):
+    """k smooth excursions of one amplitude at random places (the large
+    errors of a free run at a few reversals)."""
+    b = np.zeros(n)
+    for s in rng.integers(0, n - width, k):
+        b[s:s + width] += amplitude * np.hanning(width)
+    return b
+
+
+def test_a_memory_candidate_that_halves_the_typical_error_is_seen_below_the_resolution():
+    """Both candidates simulate within the resolution δ except at a few
+    large excursions, and the memory candidate halves every other error
+    (RMSE 23 % lower). Compared with the log loss floored at δ, the test
+    weighs squared errors and the excursions drown the gain (p about 0.2
+    here); floored at ρ·r_f (versus_free_floor) it weighs the ratio of the
+    errors, and memory is named. Control: a memory candidate whose typical
+    errors equal the memory-free one's, with excursions of its own, is not
+    named."""
+    from mggp.diagnose.verdict import MEMORY_SHARE, versus_free_floor
+    rng = np.random.default_rng(0)
+    n = 1500
+    typical = _ar1(rng, n)
+    free = typical + _bursts(rng, n)
+    mem = 0.5 * typical + _bursts(rng, n)
+    base = _ar1(rng, n, scale=4.0) + _bursts(rng, n)
+    r_free = float(np.sqrt(np.mean(free ** 2)))
+    delta = 5.0 * r_free
+    assert versus_free_floor(r_free, delta) == pytest.approx(MEMORY_SHARE * r_free)
+    assert versus_free_floor(np.inf, delta) == delta and versus_free_floor(1.0, None) is None
+    cands = [(_s(MEMORY, "plays"), M, mem, 1.0),
+             (_s("unmodelled-nonlinearity", "more degree"), M, free, 1.0)]
+    v = decide(base, cands, ALPHA, np.random.default_rng(1), floor=delta)
+    assert v.named == ("hysteresis",), v.lines()
+    cands[0] = (_s(MEMORY, "plays"), M, typical + _bursts(rng, n), 1.0)      # control
+    v = decide(base, cands, ALPHA, np.random.default_rng(1), floor=delta)
+    assert "hysteresis" not in v.named, v.lines()
+
+
 def test_a_barred_rival_leaves_the_memory_extension_unnamed():
     """A memory-free candidate that wins but leaves the range on the probe
     inputs cannot win; the memory candidate that only ties it is not named

@@ -16,7 +16,9 @@ of :mod:`.paired`; the p-values are adjusted over all candidates by
 Holm's procedure. ``hysteresis`` needs more: a memory candidate must also
 beat the best memory-free candidate (lags, degree, CLS: the one with the
 smallest selection RMSE, the strongest comparator), by the same test with
-Holm's adjustment over the memory candidates — so a baseline too weak for
+Holm's adjustment over the memory candidates, its log loss floored at the
+smaller of δ and the share ρ of that candidate's RMSE
+(:func:`versus_free_floor`) — so a baseline too weak for
 a memoryless system (a Wiener saturation, say) that more degree fixes as
 well is not read as hysteresis. A memory candidate's p-value is the
 larger of its two adjusted p-values (intersection–union: both nulls must
@@ -77,7 +79,8 @@ from narx.analysis.paired import PairedTest, holm, paired_test
 from .candidates import MEMORY, MEMORY_FREE, Structure
 from .findings import json_number, number_text
 
-__all__ = ["Tested", "Verdict", "decide", "choose", "worth_naming", "MEMORY_SHARE",
+__all__ = ["Tested", "Verdict", "decide", "choose", "worth_naming", "versus_free_floor",
+           "MEMORY_SHARE",
            "loss_floor", "separation_note", "reversals",
            "reversal_levels"]
 
@@ -242,7 +245,8 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
         if best_free is None:
             vs = [PairedTest(float("nan"), 0.0, 0, e_base.size)] * len(mem)
         else:
-            vs = [paired_test(candidates[best_free][2], candidates[i][2], rng, floor=floor)
+            vf_floor = versus_free_floor(rm[best_free], floor)
+            vs = [paired_test(candidates[best_free][2], candidates[i][2], rng, floor=vf_floor)
                   for i in mem]
         for i, t, a in zip(mem, vs, holm([t.p_value for t in vs])):
             tested[i] = Tested(tested[i].structure, tested[i].model, rm[i], tested[i].test,
@@ -273,6 +277,31 @@ def worth_naming(free_rmse: float, floor: Optional[float],
     :math:`r_f` the best memory-free candidate's RMSE, δ the resolution
     (``floor``; 0 when None) and ρ = ``share`` (:data:`MEMORY_SHARE`)."""
     return max(free_rmse - (floor or 0.0), (1.0 - share) * free_rmse)
+
+
+def versus_free_floor(free_rmse: float, floor: Optional[float],
+                      share: float = MEMORY_SHARE) -> Optional[float]:
+    r"""The floor of the log loss when a memory candidate is tested against
+    the best memory-free candidate: :math:`\min(\delta,\ \rho\, r_f)`,
+    δ the resolution (``floor``), ρ = ``share`` (:data:`MEMORY_SHARE`) and
+    :math:`r_f` the memory-free candidate's selection RMSE.
+
+    The floor sets what the test weighs: errors well below it by their
+    squares (the RMSE's view, where a few large excursions at reversals
+    carry the variance and the power is low), errors above it by their
+    ratio. :func:`worth_naming` names a cut by the share ρ of
+    :math:`r_f` even below δ, so the test compares errors by their ratio
+    from that scale on. With δ alone, on development zoo draws (seeds
+    0-999, ``python -m benchmarks.zoo calibrate``) a Dahl element inside
+    the feedback whose memory candidate simulated 9 times better than
+    every memory-free one, both within δ, was not named (p 0.19). None
+    (squared error) stays None; a memory-free RMSE that is not finite or
+    zero leaves δ."""
+    if floor is None:
+        return None
+    if not np.isfinite(free_rmse) or free_rmse <= 0.0:
+        return floor
+    return float(min(floor, share * free_rmse))
 
 
 def choose(tested: Sequence[Tested], base_rmse: float, alpha: float,
