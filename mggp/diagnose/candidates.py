@@ -211,11 +211,18 @@ def late_lags(data: Data, scans=None) -> dict:
     return {name: int(scan.best) for name, scan in late_inputs(data, 6, scans)}
 
 
-def candidate_structures(baseline: Model, data: Data, scans=None) -> List[Structure]:
+def candidate_structures(baseline: Model, data: Data, scans=None,
+                         linear_twin: bool = True) -> List[Structure]:
     """The candidate structures of ``baseline`` on the fitting record
     ``data`` (module doc), memory candidates first. ``scans``:
     :func:`narx.records.deadtime.onset_scans` of ``data`` when already computed
-    (:func:`late_lags`)."""
+    (:func:`late_lags`). ``linear_twin``: include ``linear dynamics``, the
+    dynamics forms' linear part alone (θ also by simulation error, in
+    place of the baseline), the memory-free twin of the operator dynamics
+    forms: where the baseline misses a linear system's dynamics, a form
+    with operators recovers them, and without the twin the memory
+    candidate beat every memory-free rival by its dynamics alone (on
+    development zoo draws, 18 of 22 false alarms were won by such forms)."""
     y, ins = data.output, list(data.inputs)
     base = tuple(baseline.term_texts)
     now = [f"{n}[k]" for n in ins]
@@ -270,6 +277,12 @@ def candidate_structures(baseline: Model, data: Data, scans=None) -> List[Struct
                   "by simulation error, in place of the baseline", (),
                   tuple(linear + _monomials([f"{y}[k-1]"] + [f"{n}[k-1]" for n in ins], (2, 3))
                         + _rate_terms(data)), refine=True),
+    ] + ([
+        Structure("unmodelled-dynamics", "linear dynamics", "unmodelled-dynamics: linear "
+                  "dynamics of order up to 3 (the lags of the dynamics forms above, without "
+                  "operators), θ also by simulation error, in place of the baseline", (),
+                  tuple(linear), refine=True),
+    ] if linear_twin else []) + [
         Structure("unmodelled-nonlinearity", "rate nonlinearity", "unmodelled-nonlinearity: "
                   "odd powers of the output's rate (Δy|Δy|, Δy³: damping that grows with the "
                   "velocity) added to the baseline's terms", base,

@@ -170,7 +170,7 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
         return parsed[text]
     base = Model(terms, inputs=data.inputs, output=data.output, registry=registry)
     fitted = []
-    for s in candidate_structures(base, fit, scans):
+    for s in candidate_structures(base, fit, scans, linear_twin=False):
         s, room = _allowed_structure(s, max_terms, allowed, parse)
         model = None
         if s.new and room > 0 or not s.new:
