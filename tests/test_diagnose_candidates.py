@@ -147,3 +147,30 @@ def test_the_candidates_leave_out_the_searchs_relay_like_bouc_wen_shapes():
     assert betas < search
     dyn = {float(t.split(",")[1]) for t in bouc_wen_terms(Data(x, x), (1, 2))}
     assert dyn == betas
+
+
+def _zoo_diagnosis(seed):
+    """The zoo study's diagnosis of development draw ``seed`` (4,000
+    samples, its validation record, population 100 × 20)."""
+    from benchmarks.zoo import STUDY_BUDGET, STUDY_N
+    d = zoo.draw(seed, n=STUDY_N)
+    return d, diagnose(d.train, validation=d.validation, budget=Budget(**STUDY_BUDGET),
+                       seed=seed, jobs=1)
+
+
+def test_a_linear_system_the_baseline_misses_is_not_read_as_memory():
+    """Development draw 25: a linear system on a multisine whose baseline
+    misses the dynamics (its truth validates 29× better). Operator
+    dynamics recover them and beat every memory-free candidate but the
+    linear-dynamics twin, the same form without operators: the twin is
+    the best memory-free rival and wins, so memory is not named (without
+    the twin, hysteresis was). Control: development draw 167, a play
+    before dynamics, where the operator dynamics beat the twin and
+    hysteresis is named."""
+    d, dx = _zoo_diagnosis(25)
+    assert d.family == "linear"
+    assert "hysteresis" not in dx.effects, dx.verdict.lines()
+    assert dx.verdict.best_free.structure.name == "linear dynamics"
+    d, dx = _zoo_diagnosis(167)                                    # control
+    assert d.family == "play"
+    assert "hysteresis" in dx.effects, dx.verdict.lines()

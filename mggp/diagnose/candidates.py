@@ -26,7 +26,10 @@ effect                       candidates
                              of order up to 3 with plays and Bouc–Wen variables of
                              y[k-1] (hysteresis inside the feedback); the
                              dynamics forms with θ refined
-``unmodelled-dynamics``      more lags: y[k-1..6] and every input at lags 0..6
+``unmodelled-dynamics``      more lags: y[k-1..6] and every input at lags 0..6;
+                             linear dynamics of order up to 3 alone, θ refined
+                             (the dynamics forms without operators, their
+                             memory-free twin; not in the fit's ``extend``)
 ``unmodelled-nonlinearity``  more degree: the products of degree 2 and 3 of y[k-1],
                              y[k-2] and every input at lags 0 and 1 (degree 4 of
                              y[k-1], u[k-1] when the baseline has degree 3 or more);

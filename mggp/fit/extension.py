@@ -170,6 +170,8 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
         return parsed[text]
     base = Model(terms, inputs=data.inputs, output=data.output, registry=registry)
     fitted = []
+    # the diagnosis's linear-dynamics twin is left out: it names a cause, and the
+    # figures of this stage (zoo fit, measured panel) were measured without it
     for s in candidate_structures(base, fit, scans, linear_twin=False):
         s, room = _allowed_structure(s, max_terms, allowed, parse)
         model = None
