@@ -96,7 +96,10 @@ __all__ = ["Tested", "Verdict", "decide", "choose", "worth_naming", "versus_free
 #: identifiable hysteretic draws with 22 false alarms on 460 controls,
 #: against 318 and 22 at 0.2 (both runs; 0.15 with the floor of
 #: :func:`versus_free_floor`, 0.2 with δ); replayed, 0.1 named 324 with
-#: 29 false alarms and 0 named 324 with 38. A gain of a few per
+#: 29 false alarms and 0 named 324 with 38. With the linear-dynamics
+#: twin among the candidates (:func:`.candidates.candidate_structures`)
+#: 0.15 named 318 with 12 false alarms; replayed, 0.1 named 319 with 16
+#: and 0.2 named 314 with 12. A gain of a few per
 #: cent, such as a dynamics form with plays fitting a dead time 3 %
 #: better than the same form without them, still is not named.
 MEMORY_SHARE = 0.15
