@@ -29,8 +29,9 @@ bootstrap of the log-loss differences (:func:`narx.analysis.paired.paired_test`,
 losses floored at ``resolution`` of the output's range), Holm's adjustment
 over the candidates, a memory candidate also beating the best memory-free
 one (by its own test, floored at ``resolution`` too, and by more than the
-resolution or :data:`EXTENSION_SHARE` of that one's error) unless that one is barred (then the memory candidate that beats the
-chosen structure wins, its cause unnamed), at ``level``. The winner is
+resolution or :data:`EXTENSION_SHARE` of that one's error) unless that
+one is barred (then the memory candidate that beats the chosen structure
+wins, its cause unnamed), at ``level``. The winner is
 taken only when its free run stays bounded on the diagnosis's probe inputs
 (:func:`~mggp.diagnose.candidates.stays_bounded`) and, with ``check``, on
 the fit's stress inputs (:class:`mggp.fit.extrapolation.StressCheck`);

@@ -15,26 +15,31 @@ fitted it; only the draws whose class moved need the full fit
 evaluation draws after the class with Φ of the output's lags joined the
 pilots (``benchmarks/RESULTS.md``).
 """
-import sys, json, warnings, os, time
-warnings.simplefilter("ignore")
+import sys
+import time
+import warnings
+
 import mggp.fit.estimator as E
-from narx.systems import zoo
-from benchmarks.zoo import STUDY_N, parse_seeds
+from benchmarks.zoo import STUDY_N, parse_seeds, resume
 from mggp import MGGPRegressor
+from narx.systems import zoo
+
+warnings.simplefilter("ignore")
+
+
 class Stop(Exception):
-    pass
-real = E.class_choice
-def patched(*a, **k):
-    raise Stop(real(*a, **k))
-E.class_choice = patched
-out = sys.argv[1]
-seeds = parse_seeds(sys.argv[2:])
-done = set()
-if os.path.exists(out):
-    done = {json.loads(l)["seed"] for l in open(out)}
-for seed in seeds:
-    if seed in done:
-        continue
+    """Raised with the class choice, to end the fit there."""
+
+
+_class_choice = E.class_choice
+
+
+def _stop_after_class_choice(*a, **k):
+    raise Stop(_class_choice(*a, **k))
+
+
+def one(seed: int) -> dict:
+    """The class choice of the default fit on draw ``seed``."""
     t = time.perf_counter()
     d = zoo.draw(seed, n=STUDY_N)
     rec = {"seed": seed, "family": d.family}
@@ -44,10 +49,15 @@ for seed in seeds:
     except Stop as s:
         c = s.args[0]
         rec.update({"class": c.figures["class"], "why": c.why,
-                    "errors": {k: v for k, v in c.figures.items() if k.startswith("heldout_rmse_")}})
+                    "errors": {k: float(v) for k, v in c.figures.items()
+                               if k.startswith("heldout_rmse_")}})
     except Exception as exc:
         rec["error"] = f"{type(exc).__name__}: {exc}"
     rec["seconds"] = time.perf_counter() - t
-    with open(out, "a") as f:
-        f.write(json.dumps(rec, default=float) + "\n")
-    print(seed, rec.get("class"), round(rec["seconds"]), flush=True)
+    return rec
+
+
+if __name__ == "__main__":
+    E.class_choice = _stop_after_class_choice
+    resume(parse_seeds(sys.argv[2:]), sys.argv[1], one,
+           lambda r: print(r["seed"], r.get("class"), round(r["seconds"]), flush=True))
