@@ -8,6 +8,7 @@ Run::
     python -m benchmarks.zoo calibrate --seeds 0-99 --json dev.jsonl    # tuning: dev seeds only
     python -m benchmarks.zoo ablate --seeds 0-149 --json ablate.jsonl   # each check's effect
     python -m benchmarks.zoo replay dev.jsonl --shares 0 0.1 0.2        # the naming margin
+    python -m benchmarks.zoo replay dev.jsonl --shares 0.15 --part-shares 0 0.8 0.85 0.9
 
 For each draw (4,000 training samples, the validation record of the draw),
 ``evaluate`` runs :func:`mggp.diagnose.diagnose` at the **study budget**
@@ -31,9 +32,9 @@ one with the smaller free-run RMSE on the last 25 % (the memory operators
 carrying their state from the samples before) is chosen, then *refitted on
 every training sample* by the same method, and its free-run RMSE on the
 validation record is the oracle's error — on the samples the diagnosis
-measures its gain on (the validation record after the head that joins
-the selection samples, :data:`mggp.diagnose.run.VALIDATION_SELECT`; the
-operators carry their state from the samples before;
+measures its gain on (the validation record's measuring blocks,
+:func:`mggp.diagnose.run.validation_blocks`, in one free run over the
+whole record;
 ``oracle_rmse_whole`` keeps the error on the whole record). ``oracle_gain`` = the RMSE of the
 best model without memory at the study budget (the diagnosis's baseline:
 MGGP, multiple-shooting fitness, no Φ, no operators; its validation RMSE
@@ -60,7 +61,7 @@ import sys
 import time
 import warnings
 from dataclasses import dataclass
-from typing import Dict, Iterable, List, Optional
+from typing import Dict, Iterable, List, Optional, Tuple
 
 import numpy as np
 
@@ -248,10 +249,12 @@ def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dic
     doc = dx.to_dict()
     base = doc["baseline"]["validation"]["rmse"]
     base = math.inf if base is None else float(base)
-    first = dx.split.measure[0]
-    if first and orc.model is not None:   # the oracle scored where the diagnosis measures
+    if dx.split.measure[0] and orc.model is not None:  # scored where the diagnosis measures
+        from mggp.diagnose.run import _score
         rec.update(oracle_rmse_whole=rec["oracle_rmse"],
-                   oracle_rmse=_num(_freerun_error(orc.model, d.validation, first)))
+                   oracle_rmse=_num(_score(orc.model, d.validation, 0,
+                                           dx.split.measure_mask(d.validation.n),
+                                           "estimate")[0]))
     o_rmse = math.nan if rec["oracle_rmse"] is None else float(rec["oracle_rmse"])
     og = oracle_gain(base, o_rmse)
     rec.update(baseline_rmse=_num(base),
@@ -262,6 +265,8 @@ def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dic
                p_values=doc.get("verdict", {}).get("p_values", {}),
                separates=dx.separation is None, winner=_winner(dx),
                candidates=_candidates(dx, d.validation),
+               baseline_part_rmse=[_num(v) for v in dx.verdict.baseline_part_rmse],
+               baseline_measure_block_rmse=_measured(dx.baseline.model, dx, d.validation)[1],
                baseline_selection_rmse=_num(dx.verdict.baseline_rmse),
                resolution_floor=_num(loss_floor(dx.fit_data.y, dx.settings["resolution"])),
                diagnose_seconds=float(dx.timings.get("total", math.nan)),
@@ -270,46 +275,60 @@ def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dic
 
 
 def _candidates(dx, validation) -> List[dict]:
-    """Each tested candidate's effect, selection RMSE, adjusted p-values,
-    whether it may win, and its free-run RMSE on the measuring samples
-    (None: not fitted or diverged): what :func:`replay` needs to rename
-    the draw under another naming rule without running it again."""
-    from mggp.diagnose.run import _score
-    first = dx.split.measure[0]
-    start = dx.split.scored_from - first
+    """Each tested candidate's effect, selection RMSE (whole and per part),
+    adjusted p-values, whether it may win, and its free-run RMSE on the
+    measuring samples (whole and per block; None: not fitted or
+    diverged): what :func:`replay` needs to rename the draw under another
+    naming rule without running it again."""
     out = []
     for t in dx.verdict.tested:
-        meas = None
-        if t.model is not None:
-            meas = _num(_score(t.model, validation, first, start, "estimate")[0])
+        meas, blocks = _measured(t.model, dx, validation)
         out.append({"name": t.structure.name, "effect": t.effect,
                     "selection_rmse": _num(t.selection_rmse), "p": _num(t.p_adjusted),
                     "p_free": _num(t.p_free_adjusted), "fitted": t.model is not None,
                     "eligible": t.structure.name not in dx.verdict.barred,
-                    "measure_rmse": meas})
+                    "part_rmse": [_num(v) for v in t.part_rmse],
+                    "measure_rmse": meas, "measure_block_rmse": blocks})
     return out
 
 
-def replay(recs: List[dict], shares) -> str:
+def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[float]]]:
+    """Free-run RMSE of ``model`` on the diagnosis's measuring samples of
+    ``validation``, whole and per measuring block (None: no model, or it
+    diverged)."""
+    from mggp.diagnose.run import _score, block_mask
+    if model is None:
+        return None, []
+    sp = dx.split
+    whole = _num(_score(model, validation, 0, sp.measure_mask(validation.n), "estimate")[0])
+    blocks = [_num(_score(model, validation, 0, block_mask(validation.n, [b], sp.scored_from),
+                          "estimate")[0]) for b in sp.blocks]
+    return whole, blocks
+
+
+def replay(recs: List[dict], shares, part_shares=None) -> str:
     """The headline rates of ``recs`` (records with ``candidates``) renamed
     by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
-    :func:`~mggp.diagnose.verdict.worth_naming`, in a Markdown table: how
-    the study chose :data:`~mggp.diagnose.verdict.MEMORY_SHARE` on
-    development draws."""
+    :func:`~mggp.diagnose.verdict.worth_naming` and each share s of
+    :func:`~mggp.diagnose.verdict.holds_up` (default: the code's), in a
+    Markdown table: how the study chose
+    :data:`~mggp.diagnose.verdict.MEMORY_SHARE` and
+    :data:`~mggp.diagnose.verdict.PART_SHARE` on development draws
+    (records without per-part RMSEs replay without the part rule)."""
     from narx.analysis.paired import PairedTest
     from mggp.diagnose.candidates import MEMORY, Structure
     from mggp.diagnose.run import Gain
-    from mggp.diagnose.verdict import Tested, choose
+    from mggp.diagnose.verdict import PART_SHARE, Tested, choose
     level = ALPHA
     inf = lambda v: math.inf if v is None else float(v)          # noqa: E731
     recs = [r for r in recs if "candidates" in r]
     if not recs:
         raise ValueError("no records with a candidates table (run evaluate on this code)")
-    rows = ["| memory share ρ | named / identifiable | false alarms | gain ≥ 1.5 | "
-            "gain < 0.95 |", "|---|---|---|---|---|"]
+    rows = ["| memory share ρ | part share s | named / identifiable | false alarms | "
+            "gain ≥ 1.5 | gain < 0.95 |", "|---|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
-    for share in shares:
+    for share, part in ((a, b) for a in shares for b in (part_shares or [PART_SHARE])):
         named, gains = {}, {}
         for r in recs:
             cs = r["candidates"]
@@ -317,15 +336,17 @@ def replay(recs: List[dict], shares) -> str:
                              c["name"] if c["fitted"] else None, inf(c["selection_rmse"]),
                              None, inf(c["p"]),
                              PairedTest(math.nan, 0.0, 0, 0) if c["effect"] == MEMORY else None,
-                             math.nan if c["p_free"] is None else float(c["p_free"]))
+                             math.nan if c["p_free"] is None else float(c["p_free"]),
+                             tuple(map(inf, c.get("part_rmse", ()))))
                       for c in cs]
             eff, w = choose(tested, inf(r["baseline_selection_rmse"]), level,
-                            r["resolution_floor"], [c["eligible"] for c in cs], share)
+                            r["resolution_floor"], [c["eligible"] for c in cs], share,
+                            tuple(map(inf, r.get("baseline_part_rmse", ()))), part)
             named[r["seed"]] = eff
             gains[r["seed"]] = 1.0 if w is None else Gain(
                 inf(r["baseline_rmse"]), inf(cs[tested.index(w)]["measure_rmse"])).ratio
         h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
-        rows.append(f"| {share:g} | {_rate(sum(map(h, ident)), len(ident))} | "
+        rows.append(f"| {share:g} | {part:g} | {_rate(sum(map(h, ident)), len(ident))} | "
                     f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
                     f"{_rate(sum(gains[r['seed']] >= 1.5 for r in ident), len(ident))} | "
                     f"{_rate(sum(gains[r['seed']] < 0.95 for r in recs), len(recs))} |")
@@ -576,6 +597,9 @@ def _parser():
     r.add_argument("files", nargs="+")
     r.add_argument("--shares", nargs="+", type=float, default=[1.0, 0.33, 0.25, 0.2, 0.1, 0.0],
                    help="ρ values (1: the resolution alone; 0: no margin)")
+    r.add_argument("--part-shares", nargs="+", type=float, default=None,
+                   help="s values of the part rule (default: the code's PART_SHARE; "
+                        "0: no part rule)")
     t = sub.add_parser("table", help="Markdown table of a records file")
     t.add_argument("file")
     t.add_argument("--figure", help="PNG of power against false-alarm rate")
@@ -599,7 +623,7 @@ def main(argv=None) -> int:
                 generations=args.generations, jobs=args.jobs)
         elif args.command == "replay":
             recs = [rec for f in args.files for rec in records(f)]
-            print(replay(recs, args.shares), end="")
+            print(replay(recs, args.shares, args.part_shares), end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:

@@ -273,6 +273,7 @@ def test_share_of_the_measuring_input_outside_the_fitting_range():
     meas = Data(np.r_[np.zeros(5), np.full(3, 2.0), np.full(2, -1.5)], np.zeros(10))
     assert outside_fit_range(fit, meas) == {"u": 0.5}
     assert outside_fit_range(fit, meas, start=8) == {"u": 1.0}
+    assert outside_fit_range(fit, meas, mask=np.arange(10) % 2 == 1) == {"u": 0.6}
 
 
 def test_augmentation_leaves_out_only_the_control_terms_in_the_span_of_the_others():

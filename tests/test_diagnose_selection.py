@@ -1,4 +1,4 @@
-"""mggp diagnose: with a validation record, its head joins the selection samples.
+"""mggp diagnose: with a validation record, its blocks join the selection samples.
 
 The training record traces one loop (one sine: one amplitude, one rate), so
 on its tail a lag or a memoryless term mimics a play's loop; the validation
@@ -15,7 +15,7 @@ from narx.records.data import Data
 
 from mggp.diagnose import Budget, diagnose
 from mggp.diagnose.candidates import MIN_SELECT
-from mggp.diagnose.run import VALIDATION_SELECT, _split
+from mggp.diagnose.run import MEASURE_BLOCKS, _split, block_mask, validation_blocks
 
 SMALL = Budget(population=60, generations=10)
 
@@ -52,20 +52,36 @@ def test_a_loop_traced_once_is_named_by_the_validation_head(static, hysteretic):
     assert ("hysteresis" in dx.effects) == hysteretic, dx.verdict.lines()
     if hysteretic:
         assert dx.gain.recommended == "extended" and dx.gain.ratio > 1.5
-    half = int(round(val.n * VALIDATION_SELECT))
-    assert dx.split.validation_select == (0, half)           # selects ...
-    assert dx.split.measure == (half, val.n)                 # ... and never measures
+    sel, meas = validation_blocks(val.n)
+    assert dx.split.validation_select == sel                 # selects ...
+    assert dx.split.blocks == meas                           # ... and never measures
     d = dx.to_dict()["samples"]
-    assert d["select_validation"]["last"] < d["measure"]["first"]
+    assert [b[0] for b in d["select_validation"]["blocks"]][0] == 0
+    assert d["measure"]["blocks"] == [[a, b - 1] for a, b in meas]
+
+
+def test_the_validation_blocks_interleave_and_never_overlap():
+    from narx.simulation.simulate import HISTORY_HEAD
+    n = 2000
+    sel, meas = validation_blocks(n)
+    assert sel[0] == (0, int(np.ceil(HISTORY_HEAD * n)))     # the head selects
+    assert len(meas) == MEASURE_BLOCKS and len(sel) == MEASURE_BLOCKS + 1
+    s, m = block_mask(n, sel), block_mask(n, meas)
+    assert not np.any(s & m) and np.all(s | m)               # a partition of the record
+    starts = sorted([(a, "s") for a, _ in sel] + [(a, "m") for a, _ in meas])
+    kinds = [k for _, k in starts]
+    assert kinds == ["s"] + ["m", "s"] * MEASURE_BLOCKS      # they take turns
+    assert meas[0][0] < n / 2 < meas[-1][1] - 1              # measured early and late
 
 
 def test_a_short_validation_record_is_measured_whole():
     k = np.arange(2000)
     u = np.sin(2 * np.pi * k / 200)
     train = Data(u, np.sin(u))
-    short = Data(u[:2 * MIN_SELECT - 1], np.sin(u[:2 * MIN_SELECT - 1]))
-    *_, n_vsel, _, (_, measure) = _split(train, short, 0.3, ("train", "validation"))
-    assert n_vsel == 0 and measure == (0, short.n)
+    n_short = 2 * MEASURE_BLOCKS * MIN_SELECT + MIN_SELECT - 1
+    short = Data(u[:n_short], np.sin(u[:n_short]))
+    *_, (vsel, meas), _, (_, measure) = _split(train, short, 0.3, ("train", "validation"))
+    assert vsel == () and meas == ((0, short.n),) and measure == (0, short.n)
     long_ = Data(u[:1000], np.sin(u[:1000]))
-    *_, n_vsel, _, (_, measure) = _split(train, long_, 0.3, ("train", "validation"))
-    assert n_vsel == 500 and measure == (500, 1000)
+    *_, (vsel, meas), _, (_, measure) = _split(train, long_, 0.3, ("train", "validation"))
+    assert vsel[0] == (0, 200) and meas[0][0] == measure[0] == 200 and measure[1] == 1000

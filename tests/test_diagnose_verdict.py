@@ -13,7 +13,7 @@ from narx.systems import piezo_bouc_wen, sine_input, training_input
 
 from mggp.diagnose import Budget, diagnose
 from mggp.diagnose.candidates import MEMORY, Structure
-from mggp.diagnose.verdict import decide, separation_note
+from mggp.diagnose.verdict import PART_SHARE, decide, holds_up, separation_note
 from test_diagnose import _play_record
 from test_paired import ALPHA, _ar1, _interval
 
@@ -167,6 +167,38 @@ def test_nothing_is_named_when_no_candidate_beats_the_baseline():
     # every candidate is tested, the p-values adjusted over all of them: the
     # far better Bouc–Wen candidate is named in place of nothing
     assert [c["p_value"] <= ALPHA for c in d["candidates"]] == [False, False, False]
+
+
+def test_a_candidate_that_wins_by_one_excursion_of_the_baseline_cannot_win():
+    """Three parts of selection samples (a training tail, two validation
+    blocks): the baseline has one excursion, 20 times its error, in the
+    last; a candidate without it but twice as bad elsewhere beats it
+    overall and in the paired test, yet loses two parts by half and is
+    not recommended. Controls: without the parts it wins; one 10 % better
+    on the parts the baseline holds wins with them."""
+    rng = np.random.default_rng(11)
+    n = 500
+    base = np.concatenate([_ar1(rng, n), _ar1(rng, n), 20 * _ar1(rng, n)])
+    doubled = np.concatenate([2 * base[:2 * n], base[2 * n:] / 20])
+    cands = [(_s("unmodelled-dynamics", "more lags"), M, doubled, 1.0)]
+    v = decide(base, cands, ALPHA, rng, segments=[n, n, n])
+    assert v.tested[0].p_value <= ALPHA                        # it wins the test ...
+    assert v.winner is None and v.named == ()                  # ... but not the parts
+    assert v.uneven == ("more lags",) and "cannot win" in v.lines()[0]
+    assert decide(base, cands, ALPHA, rng).named == ("unmodelled-dynamics",)
+    better = np.concatenate([0.9 * base[:2 * n], base[2 * n:] / 20])
+    v = decide(base, [(_s("unmodelled-dynamics", "more lags"), M, better, 1.0)], ALPHA,
+               rng, segments=[n, n, n])
+    assert v.named == ("unmodelled-dynamics",) and v.uneven == ()
+    assert len(v.tested[0].part_rmse) == len(v.baseline_part_rmse) == 3
+
+
+def test_holds_up_counts_a_tie_where_both_diverge_and_a_loss_where_one_does():
+    inf = float("inf")
+    assert holds_up((1.0, 1.0), (1.0, PART_SHARE * 1.0 + 1e-12))
+    assert not holds_up((1.0, 1.0), (1.0, 0.8 * PART_SHARE))
+    assert holds_up((inf, 1.0), (inf, 1.0)) and holds_up((1.0,), (inf,))
+    assert not holds_up((inf,), (1.0,)) and holds_up((), ())
 
 
 # --------------------------------------------------------- separation line

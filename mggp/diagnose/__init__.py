@@ -15,8 +15,8 @@ Typical use::
 
 Steps (:func:`diagnose`): the samples are cut into fitting, selection
 and measuring samples (:class:`Split`: with a validation record, the
-training record's head fits and its tail selects, the validation record
-measures; without one, three consecutive parts of the training record);
+training record's head fits and its tail selects, the validation record's
+blocks select and measure in turn; without one, three consecutive parts of the training record);
 the baseline (the user's model, or MGGP with multiple-shooting fitness
 and no Φ-functions, fitted on the fitting samples); evidence from the
 registered residual tests (:mod:`.registry`; none runs by default,
@@ -44,8 +44,11 @@ JSON document (``Diagnosis.to_dict``)::
      "baseline": {"terms", "theta", "validation": {"rmse", "mape"}},
      "extended": {"terms", "theta", "validation": {"rmse", "mape"}, "changes"},
      "gain": {"metric": "rmse", "baseline", "extended", "ratio", "recommended"},
-     "samples": {"fit": {...}, "select": {...}, "measure": {...},
-                 "select_validation": {...} (with a validation record)},
+     "samples": {"fit": {"record", "first", "last"},
+                 "select": {"record", "first", "last", "scored_from"},
+                 "measure": {"record", "first", "last", "scored_from", "blocks"},
+                 "select_validation": {"record", "blocks", "scored_from"}
+                 (with a validation record that selects)},
      "tests": [...], "evidence": [...],
      "verdict": {"level", "candidates": [{"effect", "name", "changes", "terms",
                  "selection_rmse", "p_value", ...}],
@@ -59,6 +62,8 @@ none is registered, the default). ``verdict.p_values``
 holds each class's p-value: an effect is named at level α only if its
 p-value is at most α (for ``hysteresis`` the larger of its p-values
 against the baseline and against the best memory-free class).
+``blocks`` are ``[first, last]`` sample pairs (the measuring samples
+are those of ``measure.blocks`` from ``scored_from`` on);
 ``validation`` holds the free-run errors on the measuring samples;
 ``ratio`` = baseline / extended RMSE (> 1: the extension is better);
 ``recommended`` is ``"extended"`` when the extension won the test on the

@@ -212,20 +212,30 @@ def verdict(dx) -> str:
 
 def _plot_models(path, dx, inputs):
     d = dx.measure_data
-    t = np.arange(d.n) + dx.split.measure[0]
+    first = dx.split.measure[0]
+    t = np.arange(d.n) + first
+    scored = dx.split.measure_mask(first + d.n)[first:]
     n = len(inputs)
     fig, axes = figure(1, 1 + n, figsize=(7.5 + 3.5 * n, 3.8),
                        gridspec_kw={"width_ratios": [2] + [1] * n}, squeeze=False)
     axes = axes[0]
-    for ax, x in zip(axes, [t] + [d.input(name) for name in inputs]):
-        ax.plot(x, d.y, "k", lw=1.2, label="data")
-        ax.plot(x, dx.baseline.y_hat, lw=0.9, label=f"baseline (RMSE {_g(dx.baseline.rmse)})")
-        ax.plot(x, dx.extended.y_hat, lw=0.9, ls="--",
+    for i, (ax, x) in enumerate(zip(axes, [t] + [d.input(name) for name in inputs])):
+        # the loops show the scored samples only; the time axis shows the
+        # selection blocks between them too, shaded
+        keep = (lambda v: v) if i == 0 else (lambda v: np.where(scored, v, np.nan))
+        ax.plot(x, keep(d.y), "k", lw=1.2, label="data")
+        ax.plot(x, keep(dx.baseline.y_hat), lw=0.9,
+                label=f"baseline (RMSE {_g(dx.baseline.rmse)})")
+        ax.plot(x, keep(dx.extended.y_hat), lw=0.9, ls="--",
                 label=f"extended (RMSE {_g(dx.extended.rmse)})")
+    for a, b in dx.split.validation_select:
+        if b > first:
+            axes[0].axvspan(max(a, first), b - 1, color="grey", alpha=0.15, lw=0)
     axes[0].axvline(dx.split.scored_from, color="grey", lw=0.6, ls=":")
     axes[0].set_xlabel(f"sample of {dx.split.measure_record}")
     axes[0].set_ylabel(d.output)
-    axes[0].set_title("Free run on the measuring samples")
+    axes[0].set_title("Free run on the measuring samples" + (
+        " (shaded: selection blocks, not scored)" if dx.split.validation_select else ""))
     for ax, name in zip(axes[1:], inputs):
         ax.set_xlabel(name)
         ax.set_title(f"Loop: {d.output} against {name}")
@@ -355,8 +365,10 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
     out, names = dx.measure_data.output, ", ".join(inputs)
     figs = [(f"Data against both models. Left: the output {out} against the sample index "
              f"of the measuring record, data and the free run of the baseline and of the "
-             f"extended model (the dotted line: scoring starts there). Right: the loop of "
-             f"{out} against each input ({names}).",
+             f"extended model (the dotted line: scoring starts there; shaded: the "
+             f"validation record's selection blocks between the measuring ones, not scored). "
+             f"Right: the loop of {out} against each input ({names}), on the scored "
+             f"samples.",
              _plot_models(j(folder, "models.png"), dx, inputs)),
             (f"The free-run residual e = {out} − ŷ on the fitting samples against each input "
              f"({names}), red where that input rises, blue where it falls, for the baseline "

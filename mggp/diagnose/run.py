@@ -13,9 +13,10 @@ Sample bookkeeping (never modifies the data): three sets of samples, each
 with one job. With a validation record, the baseline and the candidates
 are fitted on the first ``1 − SELECT`` of the training record, the paired
 test that names the effect and picks the extension uses the rest of the
-training record and the first :data:`VALIDATION_SELECT` of the validation
-record (the *selection* samples, :func:`_selection_errors`), and the gain
-is measured on the rest of the validation record; without one, the last
+training record and the selection blocks of the validation record (its
+head, then every other block of its rest: :func:`validation_blocks`; the
+*selection* samples, :func:`_selection_errors`), and the gain is measured
+on the validation record's other blocks; without one, the last
 ``holdout`` of the training record measures and the samples before it are
 cut the same way. The
 models measured are those fitted on the fitting samples (no refit: the
@@ -24,12 +25,12 @@ scored on a free run of the training record from its first sample (every
 state of a model, the memory operators of the output included, is its
 own when the selection samples begin; :func:`_errors`), and so are the
 measuring samples, on a free run of their record from its first sample
-(:func:`~.simulation.freerun_after`), scored after the first L of them
+(:func:`~.simulation.freerun_after`), from the first L samples on
 (L = the largest lag of the models compared), the same samples for every
 model. A validation record, whose
 head selects (or which is measured whole when too short to split), may
-start in motion: its operators start from the history that fits its first
-samples best (:func:`narx.simulation.simulate.estimate_history`). The
+start in motion: its operators start from the history that fits its head
+best (:func:`narx.simulation.simulate.estimate_history`). The
 evidence comes from the fitting samples; held-input segments are
 searched in both records; nothing is fitted or chosen on the measuring
 samples, so the gain there is an out-of-sample measurement of the
@@ -83,25 +84,37 @@ class Split:
     scored_from: int
     select: Tuple[int, int] = (0, 0)
     select_scored_from: int = 0
-    validation_select: Tuple[int, int] = (0, 0)
+    validation_select: Tuple[Tuple[int, int], ...] = ()
     validation_select_scored_from: int = 0
+    measure_blocks: Tuple[Tuple[int, int], ...] = ()
+
+    @property
+    def blocks(self) -> Tuple[Tuple[int, int], ...]:
+        """The measuring samples, ``(start, stop)`` blocks of the measuring
+        record (the whole measure range when none are given)."""
+        return self.measure_blocks or (self.measure,)
+
+    def measure_mask(self, n: int) -> np.ndarray:
+        """The scored measuring samples as a mask over the ``n`` samples of
+        the measuring record."""
+        return block_mask(n, self.blocks, self.scored_from)
 
     def describe(self) -> str:
+        def spans(blocks, scored_from):
+            return ", ".join(f"{max(a, scored_from)}-{b - 1}" for a, b in blocks
+                             if b > max(a, scored_from))
         sel = ""
         if self.select[1] > self.select[0]:
             sel = (f"candidates tested and selected by free run on samples {self.select[0]}-"
                    f"{self.select[1] - 1} of {self.fit_record} ({self.select_scored_from}-"
                    f"{self.select[1] - 1} scored)")
-            v = self.validation_select
-            if v[1] > v[0]:
-                sel += (f" and {v[0]}-{v[1] - 1} of {self.measure_record} "
-                        f"({self.validation_select_scored_from}-{v[1] - 1} scored)")
+            if self.validation_select:
+                sel += (f" and {spans(self.validation_select, self.validation_select_scored_from)}"
+                        f" of {self.measure_record}")
             sel += "; "
         return (f"fitted on samples {self.fit[0]}-{self.fit[1] - 1} of {self.fit_record}; "
-                + sel +
-                f"gain measured on samples {self.measure[0]}-{self.measure[1] - 1} of "
-                f"{self.measure_record} ({self.scored_from}-{self.measure[1] - 1} scored), "
-                f"in a free run from the record's first sample")
+                + sel + f"gain measured on samples {spans(self.blocks, self.scored_from)} of "
+                f"{self.measure_record}, in a free run from the record's first sample")
 
     def to_dict(self) -> dict:
         d = {"fit": {"record": self.fit_record, "first": self.fit[0],
@@ -109,11 +122,11 @@ class Split:
              "select": {"record": self.fit_record, "first": self.select[0],
                         "last": self.select[1] - 1, "scored_from": self.select_scored_from},
              "measure": {"record": self.measure_record, "first": self.measure[0],
-                         "last": self.measure[1] - 1, "scored_from": self.scored_from}}
-        v = self.validation_select
-        if v[1] > v[0]:
-            d["select_validation"] = {"record": self.measure_record, "first": v[0],
-                                      "last": v[1] - 1,
+                         "last": self.measure[1] - 1, "scored_from": self.scored_from,
+                         "blocks": [[a, b - 1] for a, b in self.blocks]}}
+        if self.validation_select:
+            d["select_validation"] = {"record": self.measure_record,
+                                      "blocks": [[a, b - 1] for a, b in self.validation_select],
                                       "scored_from": self.validation_select_scored_from}
         return d
 
@@ -281,20 +294,56 @@ def _check_records(train: Data, validation: Optional[Data], model: Optional[Mode
 #: share of the samples before the measuring ones that tests and selects the
 #: candidates (the rest, before it, fits them)
 SELECT = 0.3
-#: share of a validation record, from its start, that joins the selection
-#: samples (the rest measures the gain)
-VALIDATION_SELECT = 0.5
+#: the validation record's rest after its head (:func:`validation_blocks`)
+#: is cut into twice this many blocks that measure and select in turn
+MEASURE_BLOCKS = 3
+
+
+def validation_blocks(n: int) -> Tuple[Tuple[Tuple[int, int], ...], Tuple[Tuple[int, int], ...]]:
+    r"""``(selection blocks, measuring blocks)`` of a validation record of
+    ``n`` samples, each block ``(start, stop)``.
+
+    The head, the first :math:`\lceil h n\rceil` samples (h =
+    :data:`narx.simulation.simulate.HISTORY_HEAD`, the samples that choose
+    where the memory operators start), selects; the rest is cut into
+    2 :data:`MEASURE_BLOCKS` equal blocks that measure and select in turn,
+    a measuring block first. Selection and measurement so see the same
+    conditions wherever the record changes them along its length (a chirp's
+    frequency, the amplitudes of a sweep): with the head selecting and the
+    tail measuring, on development draws (zoo seeds 0-749 and 850-999) five
+    of the eight extensions worse than the baseline out of sample were on
+    chirps, chosen on the low frequencies of the head and measured on the
+    high frequencies of the tail, where the baseline's error was 20 to 60
+    times smaller. A record too short to give each block
+    :data:`~.candidates.MIN_SELECT` samples measures whole: ``((), ((0, n),))``.
+    """
+    from narx.simulation.simulate import HISTORY_HEAD
+    head = int(np.ceil(HISTORY_HEAD * n))
+    edges = [int(round(x)) for x in np.linspace(head, n, 2 * MEASURE_BLOCKS + 1)]
+    blocks = list(zip(edges[:-1], edges[1:]))
+    if head < MIN_SELECT or min(b - a for a, b in blocks) < MIN_SELECT:
+        return (), ((0, n),)
+    return ((0, head),) + tuple(blocks[1::2]), tuple(blocks[0::2])
+
+
+def block_mask(n: int, blocks, start: int = 0) -> np.ndarray:
+    """Boolean mask of ``n`` samples, True on the ``blocks`` (``(start,
+    stop)`` pairs) from sample ``start`` on."""
+    m = np.zeros(n, dtype=bool)
+    for a, b in blocks:
+        m[max(a, start):b] = True
+    return m
 
 
 def _split(train: Data, validation: Optional[Data], holdout: float, names):
-    """``(fit, measure, n_fit, n_select_stop, n_val_select, fit range,
+    """``(fit, measure, n_fit, n_select_stop, validation blocks, fit range,
     measure range)``: the training record is cut into fit (head) and
-    selection (tail, :data:`SELECT`) samples; with a validation record its
-    first :data:`VALIDATION_SELECT` joins the selection samples
-    (``n_val_select`` of them; 0 when the rest would be shorter than
-    :data:`~.candidates.MIN_SELECT` or the head too) and the rest
-    measures; without one, the last ``holdout`` of the training record
-    measures and the samples before are cut the same way."""
+    selection (tail, :data:`SELECT`) samples; a validation record is cut
+    into selection and measuring blocks (:func:`validation_blocks`, a pair
+    of tuples; the measure range spans the measuring blocks, from the
+    first one's start to the record's end); without one, the last
+    ``holdout`` of the training record measures, the samples before are
+    cut the same way and the blocks are ``((), ((n_pre, n),))``."""
     if validation is None and not 0.0 < holdout < 1.0:
         raise ValueError(f"holdout must be a fraction in (0, 1), got {holdout!r}")
     n_pre = train.n if validation is not None else int(round(train.n * (1.0 - holdout)))
@@ -307,13 +356,12 @@ def _split(train: Data, validation: Optional[Data], holdout: float, names):
                         f"{need})" + ("" if validation is not None else "; give --validation"))
     fit = slice_data(train, 0, n_fit)
     if validation is not None:
-        v = int(round(validation.n * VALIDATION_SELECT))
-        if v < MIN_SELECT or validation.n - v < MIN_SELECT:
-            v = 0
-        return (fit, slice_data(validation, v, validation.n), n_fit, n_pre, v,
+        blocks = validation_blocks(validation.n)
+        v = blocks[1][0][0]
+        return (fit, slice_data(validation, v, validation.n), n_fit, n_pre, blocks,
                 (names[0], (0, n_fit)), (names[1], (v, validation.n)))
-    return (fit, slice_data(train, n_pre, train.n), n_fit, n_pre, 0, (names[0], (0, n_fit)),
-            (names[0], (n_pre, train.n)))
+    return (fit, slice_data(train, n_pre, train.n), n_fit, n_pre, ((), ((n_pre, train.n),)),
+            (names[0], (0, n_fit)), (names[0], (n_pre, train.n)))
 
 
 def _errors(model: Optional[Model], record: Data, first: int, start: int,
@@ -340,20 +388,37 @@ def _errors(model: Optional[Model], record: Data, first: int, start: int,
     return e
 
 
+def _masked_errors(model: Optional[Model], record: Data, mask: np.ndarray,
+                   history: Optional[str]) -> np.ndarray:
+    """Free-run errors y − ŷ of ``model`` on the samples of ``record`` where
+    ``mask`` is True, the free run started at the record's first sample
+    (:func:`~.simulation.freerun_after`); all ``inf`` when it diverges or
+    there is no model."""
+    n = int(np.count_nonzero(mask))
+    if model is None:
+        return np.full(n, np.inf)
+    r = freerun_after(model, record, 0, history)
+    e = (r.y - r.y_hat)[mask]
+    if r.diverged or not np.all(np.isfinite(e)):
+        return np.full(n, np.inf)
+    return e
+
+
 def _selection_errors(model: Optional[Model], pre: Data, n_fit: int,
-                      validation: Optional[Data], n_vsel: int, start: int) -> np.ndarray:
+                      validation: Optional[Data], vsel, start: int) -> np.ndarray:
     """The free-run errors of ``model`` on the selection samples: the
     training record's samples ``n_fit + start`` .. end of ``pre``
-    (:func:`_errors`), then, when ``n_vsel`` > 0, the validation record's
-    samples ``start`` .. ``n_vsel - 1`` (its own free run from its first
-    sample, the memory operators started from the history that fits its
-    first samples best: a validation record may begin in motion, and at
-    rest a play would start a loop's width away from its state).
+    (:func:`_errors`), then, when the validation record has selection
+    blocks ``vsel`` (:func:`validation_blocks`), its samples in them from
+    ``start`` on (its own free run from its first sample, the memory
+    operators started from the history that fits its first samples best:
+    a validation record may begin in motion, and at rest a play would
+    start a loop's width away from its state).
 
-    Why the validation record's head joins them: the training record's
-    tail comes from the same experiment as the fitting samples, and where
-    that experiment traces the loop at one amplitude, one rate or one kind
-    of input, a lag or a memoryless term mimics the memory there and every
+    Why the validation record selects too: the training record's tail
+    comes from the same experiment as the fitting samples, and where that
+    experiment traces the loop at one amplitude, one rate or one kind of
+    input, a lag or a memoryless term mimics the memory there and every
     candidate ties with the baseline; the validation record is the user's
     other experiment (other amplitudes, rates, holds), the conditions
     under which memory and dynamics part. On development draws (zoo seeds
@@ -363,41 +428,45 @@ def _selection_errors(model: Optional[Model], pre: Data, n_fit: int,
     on the validation record; and 4 of the 5 extensions worse than the
     baseline out of sample had won on the training tail and lost on the
     validation record.
-    The gain is then measured on the rest of the validation record only,
-    so it stays out of sample."""
+    The gain is then measured on the validation record's other blocks
+    only, so it stays out of sample."""
     e = _errors(model, pre, n_fit, start, pre.n)
-    if validation is None or not n_vsel:
+    if validation is None or not vsel:
         return e
-    return np.concatenate([e, _errors(model, validation, 0, start, n_vsel, "estimate")])
+    return np.concatenate([e, _masked_errors(model, validation,
+                                             block_mask(validation.n, vsel, start),
+                                             "estimate")])
 
 
-def _score(model: Model, record: Data, first: int, start: int,
+def _score(model: Model, record: Data, first: int, mask: np.ndarray,
            history: Optional[str]) -> Tuple[float, float, np.ndarray]:
-    """Free-run RMSE and MAPE of ``model`` on samples ``first + start..`` of
-    ``record`` and its simulation from ``first`` on
+    """Free-run RMSE and MAPE of ``model`` on the samples of ``record``
+    where ``mask`` is True, and its simulation from ``first`` on
     (:func:`~mggp.diagnose.simulation.freerun_after`: the free run starts
     at the record's first sample, as the selection samples' does, so that
-    the states of the model at ``first``, those of the memory operators
-    of the output included, are its own; ``history`` starts its memory
-    operators)."""
-    r = freerun_after(model, record, first, history)
+    the states of the model, those of the memory operators of the output
+    included, are its own; ``history`` starts its memory operators)."""
+    r = freerun_after(model, record, 0, history)
     if r.diverged:
-        return float("inf"), float("inf"), r.y_hat
-    y, yh = r.y[start:], r.y_hat[start:]
+        return float("inf"), float("inf"), r.y_hat[first:]
+    y, yh = r.y[mask], r.y_hat[mask]
     err = y - yh
     if not np.all(np.isfinite(err)):
-        return float("inf"), float("inf"), r.y_hat
-    return float(np.sqrt(np.mean(err * err))), mape(y, yh), r.y_hat
+        return float("inf"), float("inf"), r.y_hat[first:]
+    return float(np.sqrt(np.mean(err * err))), mape(y, yh), r.y_hat[first:]
 
 
-def outside_fit_range(fit: Data, measure: Data, start: int = 0) -> Dict[str, float]:
-    """Share of the measuring samples from ``start`` on whose input lies
-    outside the range the fitting samples span, per input: where it is not
-    0 the gain measures extrapolation too (a model is identified only on
-    the range it was fitted on)."""
+def outside_fit_range(fit: Data, measure: Data, start: int = 0,
+                      mask: Optional[np.ndarray] = None) -> Dict[str, float]:
+    """Share of the measuring samples (those of ``measure`` from ``start``
+    on, or where ``mask`` is True) whose input lies outside the range the
+    fitting samples span, per input: where it is not 0 the gain measures
+    extrapolation too (a model is identified only on the range it was
+    fitted on)."""
     out = {}
     for name in fit.inputs:
-        u, v = fit.input(name), measure.input(name)[start:]
+        v = measure.input(name)
+        u, v = fit.input(name), (v[start:] if mask is None else v[mask])
         out[name] = float(np.mean((v < u.min()) | (v > u.max()))) if v.size else 0.0
     return out
 
@@ -496,7 +565,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
         train = repaired(train, glitches[names[0]])
         if validation is not None:
             validation = repaired(validation, glitches[names[1]])
-    fit, measure, n_fit, n_pre, n_vsel, (fit_name, fit_rng), (meas_name, meas_rng) = _split(
+    fit, measure, n_fit, n_pre, (vsel, mblocks), (fit_name, fit_rng), (meas_name, meas_rng) = _split(
         train, validation, holdout, names)
     rec_names = (fit_name, meas_name if validation is not None else f"{fit_name} (tail)")
     from narx.records.deadtime import onset_scans
@@ -536,17 +605,19 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     if n_pre - n_fit <= s_start + 20:
         raise DataError(f"{rec_names[0]}: {n_pre - n_fit} selection samples are too few for "
                         f"models with largest lag {s_start}")
-    if n_vsel and n_vsel <= s_start + 20:
-        n_vsel = 0
-    e_base = _selection_errors(base, pre, n_fit, validation, n_vsel, s_start)
-    cands = [(st, m, _selection_errors(m, pre, n_fit, validation, n_vsel, s_start), score)
+    if vsel and vsel[0][1] <= s_start + 20:
+        vsel = ()
+    e_base = _selection_errors(base, pre, n_fit, validation, vsel, s_start)
+    cands = [(st, m, _selection_errors(m, pre, n_fit, validation, vsel, s_start), score)
              for st, m, score in fitted]
     # a candidate whose free run leaves the output's range on probe inputs
     # (:func:`~.candidates.stays_bounded`) cannot win
     eligible = [stays_bounded(m, fit) for _, m, _ in fitted]
     floor = loss_floor(fit.y, resolution)
+    segments = [n_pre - n_fit - s_start] + [b - max(a, s_start) for a, b in vsel
+                                            if b > max(a, s_start)]
     vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]), floor,
-                eligible)
+                eligible, segments=segments)
     timings["test"] = time.perf_counter() - t3
     winner = vd.winner
     ext_model = winner.model if winner is not None else base
@@ -565,11 +636,13 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     # starts from its estimated history, as in the selection samples
     record, first, history = ((train, meas_rng[0], None) if validation is None
                               else (validation, meas_rng[0], "estimate"))
-    b_rmse, b_mape, b_hat = _score(base, record, first, start, history)
-    e_rmse, e_mape, e_hat = _score(ext_model, record, first, start, history)
-    off = meas_rng[0]
-    split = Split(fit_name, fit_rng, meas_name, meas_rng, off + start, (n_fit, n_pre),
-                  n_fit + s_start, (0, n_vsel), s_start if n_vsel else 0)
+    scored_from = first + start if validation is None else start
+    mask = block_mask(record.n, mblocks, scored_from)
+    b_rmse, b_mape, b_hat = _score(base, record, first, mask, history)
+    e_rmse, e_mape, e_hat = _score(ext_model, record, first, mask, history)
+    split = Split(fit_name, fit_rng, meas_name, meas_rng, max(first, scored_from),
+                  (n_fit, n_pre), n_fit + s_start, tuple(vsel), s_start if vsel else 0,
+                  tuple(mblocks))
     ext_source = ("the baseline (no candidate won the test, nothing changed)" if winner is None
                   else f"{winner.structure.name}: {winner.structure.changes}")
     findings = [Finding(t.effect, f"{t.structure.name}: {t.structure.changes}; free-run RMSE "
@@ -584,7 +657,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                 "resolution": resolution, "holdout": None if validation is not None
                 else holdout, "select": SELECT, "budget": dict(budget.__dict__),
                 "baseline": base_source,
-                "measure_outside_fit_range": outside_fit_range(fit, measure, start),
+                "measure_outside_fit_range": outside_fit_range(fit, record, mask=mask),
                 "dead_time": dead_time,
                 "outliers": {label: [sp.to_dict() for sp in found]
                              for label, found in glitches.items()} if outliers == "auto"
