@@ -11,8 +11,8 @@ Typical use::
 Without ``--model`` the baseline is an MGGP model with multiple-shooting
 fitness and no Φ-functions. Without ``--validation`` the last
 ``--holdout`` fraction of TRAIN.csv measures the gain and the rest fits;
-with it, the head of VAL.csv joins the selection samples and the rest
-measures.
+with it, the head of VAL.csv and every other block of its rest join the
+selection samples, and the blocks between them measure.
 The terminal shows a short summary; ``--json`` writes the findings,
 both models and the gain (schema in :mod:`mggp.diagnose`); ``--report``
 writes ``summary.md`` and figures; ``--out`` writes the recommended model
@@ -41,8 +41,8 @@ __all__ = ["register", "DIAGNOSE_OPTIONS"]
 #: options of ``mggp diagnose``: the records and outputs, the search budget
 #: and the tests' settings (rules and defaults from :mod:`mggp.fit.params`)
 DIAGNOSE_OPTIONS = (
-    Param("validation", None, PATH, "second record: its head joins the selection "
-          "samples, the rest measures the gain", "data",
+    Param("validation", None, PATH, "second record: its head and every other block "
+          "join the selection samples, the blocks between measure the gain", "data",
           "--validation", metavar="VAL.csv", default_text="a tail of TRAIN.csv",
           estimator=False),
     Param("model", None, PATH, "the model to diagnose", "data", "--model",
