@@ -174,3 +174,25 @@ def test_a_linear_system_the_baseline_misses_is_not_read_as_memory():
     d, dx = _zoo_diagnosis(167)                                    # control
     assert d.family == "play"
     assert "hysteresis" in dx.effects, dx.verdict.lines()
+
+
+def test_a_record_that_starts_in_motion_fits_its_plays_from_their_history():
+    """A Prandtl–Ishlinskii record whose plays start at 0 while the input
+    starts at -33 (of about ±80): the plays candidate, fitted from every
+    history, keeps one other than rest and simulates its hold-out better
+    than when fitted at rest. Control: the same system started at rest
+    on the first input keeps rest."""
+    from narx.systems import prandtl_ishlinskii
+    from mggp.diagnose.candidates import Structure
+    u = training_input(3000, bandwidth=4.0, seed=2)
+    assert u[0] < -30
+    radii = np.linspace(0.0, 60.0, 10)
+    plays = Structure(MEMORY, "plays", "plays of u", ("u[k]",),
+                      tuple(f"Play(u[k],{r:g})" for r in radii[1:]))
+    moving = Data(u, prandtl_ishlinskii(u))
+    m, score = fit_structure(plays, moving)
+    m_rest, score_rest = fit_structure(plays, moving, histories=False)
+    assert m.meta["history"] != "rest" and "history" not in m_rest.meta
+    assert score < 0.5 * score_rest
+    at_rest = Data(u, prandtl_ishlinskii(u, z0=u[0]))
+    assert fit_structure(plays, at_rest)[0].meta["history"] == "rest"

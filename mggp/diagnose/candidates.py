@@ -104,7 +104,7 @@ from .simulation import freerun_rmse
 
 __all__ = ["Structure", "MEMORY", "MEMORY_FREE", "candidate_structures", "fit_structure",
            "late_lags", "HEAD", "MAX_NEW", "MIN_FIT", "MIN_SELECT", "probe_inputs",
-           "stays_bounded"]
+           "stays_bounded", "HISTORY_SHARE"]
 
 #: the class of the memory candidates
 MEMORY = "hysteresis"
@@ -365,9 +365,62 @@ def _forward_order(base, new, data: Data, registry, most: int = MAX_NEW) -> list
     return order
 
 
-def fit_structure(s: Structure, data: Data, registry=None,
-                  max_new: int = MAX_NEW) -> Tuple[Optional[Model], float]:
-    """Fit the candidate ``s`` on the fitting record ``data`` (module doc),
+#: a candidate with memory operators leaves 'rest' for another history of
+#: the fitting record only when its hold-out score falls below this share
+#: of the score at rest (:func:`fit_structure`). Set a priori, not tuned:
+#: on development zoo draws 0-299, which start at rest, the rule changed
+#: the named effect of 2 draws (one named, one not), and the
+#: Prandtl–Ishlinskii records of ``tests/test_diagnose.py`` that start in
+#: motion are named on every seed (seed 2 was not).
+HISTORY_SHARE = 0.9
+
+
+def fit_structure(s: Structure, data: Data, registry=None, max_new: int = MAX_NEW,
+                  histories: bool = True) -> Tuple[Optional[Model], float]:
+    """Fit the candidate ``s`` on the fitting record ``data``
+    (:func:`_fit_structure`), its memory operators started from the
+    record's history that gives it the best hold-out score.
+
+    A record cut from a longer experiment starts in motion: its
+    operators' states at the first sample are unknown, and started at
+    rest they are off by up to their width until the input has swept over
+    it, which biases θ. A candidate with operators is fitted from each
+    history of :data:`narx.language.memory.HISTORIES` and keeps the one
+    whose hold-out score (the free-run RMSE on the last ``1 - HEAD`` of
+    ``data``, every history's own run from the first sample) is lowest,
+    'rest' unless another scores below :data:`HISTORY_SHARE` of it; the
+    model's ``meta['history']`` says which, and its free run on the
+    training record starts from it. Judged by each candidate's own
+    hold-out, not by one shared least-squares fit: a shared fit of every
+    operator term left 'rest' on about half of the development zoo draws,
+    which start at rest, and cost 8 of 200 identifiable draws named.
+
+    ``histories=False`` fits from the record's own history only (the
+    ``extend`` stage of ``mggp fit``, whose figures were measured so).
+
+    Returns
+    -------
+    (model, score)
+        As :func:`_fit_structure`.
+    """
+    from narx.language.memory import HISTORIES
+    terms = _canonical(list(s.base) + list(s.new), data, registry)
+    if not histories or not any(t.operator_factors for t in terms):
+        return _fit_structure(s, data, registry, max_new)
+    fits = {h: _fit_structure(s, data.with_history(h), registry, max_new) for h in HISTORIES}
+    best = min(HISTORIES, key=lambda h: fits[h][1])
+    if not fits[best][1] < HISTORY_SHARE * fits["rest"][1]:
+        best = "rest"
+    m, score = fits[best]
+    if m is not None:
+        m.meta["history"] = best
+    return m, score
+
+
+def _fit_structure(s: Structure, data: Data, registry=None,
+                   max_new: int = MAX_NEW) -> Tuple[Optional[Model], float]:
+    """Fit the candidate ``s`` on the fitting record ``data`` (module doc)
+    from the record's own history,
     keeping at most ``max_new`` new terms (default :data:`MAX_NEW`; the
     ``extend`` stage of ``mggp fit`` keeps the model within its
     ``max_terms``).

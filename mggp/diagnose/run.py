@@ -430,7 +430,8 @@ def _selection_errors(model: Optional[Model], pre: Data, n_fit: int,
     validation record.
     The gain is then measured on the validation record's other blocks
     only, so it stays out of sample."""
-    e = _errors(model, pre, n_fit, start, pre.n)
+    e = _errors(model, pre, n_fit, start, pre.n,
+                None if model is None else model.meta.get("history"))
     if validation is None or not vsel:
         return e
     return np.concatenate([e, _masked_errors(model, validation,
@@ -639,7 +640,8 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     scored_from = first + start if validation is None else start
     mask = block_mask(record.n, mblocks, scored_from)
     b_rmse, b_mape, b_hat = _score(base, record, first, mask, history)
-    e_rmse, e_mape, e_hat = _score(ext_model, record, first, mask, history)
+    e_rmse, e_mape, e_hat = _score(ext_model, record, first, mask,
+                                   history or ext_model.meta.get("history"))
     split = Split(fit_name, fit_rng, meas_name, meas_rng, max(first, scored_from),
                   (n_fit, n_pre), n_fit + s_start, tuple(vsel), s_start if vsel else 0,
                   tuple(mblocks))

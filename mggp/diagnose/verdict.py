@@ -171,7 +171,8 @@ class Tested:
              "p_value": json_number(self.p_value),
              "p_versus_baseline": json_number(self.p_adjusted),
              "block": self.test.block,
-             "part_rmse": [json_number(v) for v in self.part_rmse]}
+             "part_rmse": [json_number(v) for v in self.part_rmse],
+             "history": None if self.model is None else self.model.meta.get("history", "rest")}
         if self.effect == MEMORY:
             d["p_versus_memory_free"] = json_number(self.p_free_adjusted)
         return d
@@ -224,11 +225,14 @@ class Verdict:
             p = f"p {number_text(t.p_adjusted)}" + (
                 f", vs best memory-free p {number_text(t.p_free_adjusted)}"
                 if t.effect == MEMORY else "")
-            bar = ("; leaves the output's range on the probe inputs, cannot win"
-                   if t.structure.name in self.barred else
-                   f"; worse than the baseline by more than {1 - PART_SHARE:.0%} on a part of "
-                   f"the selection samples, cannot win" if t.structure.name in self.uneven
-                   else "")
+            hist = None if t.model is None else t.model.meta.get("history", "rest")
+            start = (f"; operators started from history '{hist}'"
+                     if hist not in (None, "rest") else "")
+            bar = start + ("; leaves the output's range on the probe inputs, cannot win"
+                           if t.structure.name in self.barred else
+                           f"; worse than the baseline by more than {1 - PART_SHARE:.0%} on a "
+                           f"part of the selection samples, cannot win"
+                           if t.structure.name in self.uneven else "")
             out.append(f"{mark} {t.effect:<24s} {t.structure.name:<28s} RMSE "
                        f"{number_text(t.selection_rmse):>9s}  {p}{bar}")
         return out

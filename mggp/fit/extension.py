@@ -171,13 +171,14 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
         return parsed[text]
     base = Model(terms, inputs=data.inputs, output=data.output, registry=registry)
     fitted = []
-    # the diagnosis's linear-dynamics twin is left out: it names a cause, and the
-    # figures of this stage (zoo fit, measured panel) were measured without it
+    # the diagnosis's linear-dynamics twin and its fitted histories are left
+    # out: the figures of this stage (zoo fit, measured panel) were measured
+    # without them
     for s in candidate_structures(base, fit, scans, linear_twin=False):
         s, room = _allowed_structure(s, max_terms, allowed, parse)
         model = None
         if s.new and room > 0 or not s.new:
-            model = fit_structure(s, fit, registry, max_new=room)[0]
+            model = fit_structure(s, fit, registry, max_new=room, histories=False)[0]
         fitted.append((s, model))
     span = hi - lo
 
