@@ -295,15 +295,21 @@ def _candidates(dx, validation) -> List[dict]:
 def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[float]]]:
     """Free-run RMSE of ``model`` on the diagnosis's measuring samples of
     ``validation``, whole and per measuring block (None: no model, or it
-    diverged)."""
-    from mggp.diagnose.run import _score, block_mask
+    diverged there), from one free run over the record (as
+    :func:`mggp.diagnose.run._score` scores them)."""
+    from mggp.diagnose.run import block_mask
+    from mggp.diagnose.simulation import freerun_after
     if model is None:
         return None, []
     sp = dx.split
-    whole = _num(_score(model, validation, 0, sp.measure_mask(validation.n), "estimate")[0])
-    blocks = [_num(_score(model, validation, 0, block_mask(validation.n, [b], sp.scored_from),
-                          "estimate")[0]) for b in sp.blocks]
-    return whole, blocks
+    r = freerun_after(model, validation, 0, "estimate")
+    e = np.full(validation.n, np.inf) if r.diverged else r.y - r.y_hat
+
+    def rmse(mask) -> Optional[float]:
+        x = e[mask]
+        return _num(float(np.sqrt(np.mean(x * x)))) if np.all(np.isfinite(x)) else None
+    return (rmse(sp.measure_mask(validation.n)),
+            [rmse(block_mask(validation.n, [b], sp.scored_from)) for b in sp.blocks])
 
 
 def replay(recs: List[dict], shares, part_shares=None) -> str:

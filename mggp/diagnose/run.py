@@ -377,15 +377,9 @@ def _errors(model: Optional[Model], record: Data, first: int, start: int,
     structure was 1.8 to 1.9 times that of the same model run from the
     start); all ``inf`` when it diverges or there is no model. ``history``
     starts the memory operators of a record that may begin in motion
-    (``'estimate'``); default the record's own, at rest."""
-    n = stop - first - start
-    if model is None:
-        return np.full(n, np.inf)
-    r = freerun_after(model, record, first, history)
-    e = (r.y - r.y_hat)[start:stop - first]
-    if r.diverged or not np.all(np.isfinite(e)):
-        return np.full(n, np.inf)
-    return e
+    (``'estimate'``); default the record's own, at rest. The contiguous
+    case of :func:`_masked_errors`."""
+    return _masked_errors(model, record, block_mask(record.n, [(first + start, stop)]), history)
 
 
 def _masked_errors(model: Optional[Model], record: Data, mask: np.ndarray,
