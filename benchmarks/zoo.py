@@ -312,11 +312,12 @@ def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[flo
             [rmse(block_mask(validation.n, [b], sp.scored_from)) for b in sp.blocks])
 
 
-def replay(recs: List[dict], shares, part_shares=None) -> str:
+def replay(recs: List[dict], shares, part_shares=None, carry=(False,)) -> str:
     """The headline rates of ``recs`` (records with ``candidates``) renamed
     by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
     :func:`~mggp.diagnose.verdict.worth_naming` and each share s of
-    :func:`~mggp.diagnose.verdict.holds_up` (default: the code's), in a
+    :func:`~mggp.diagnose.verdict.holds_up` (default: the code's), with
+    and without its clause on one part carrying the gain (``carry``), in a
     Markdown table: how the study chose
     :data:`~mggp.diagnose.verdict.MEMORY_SHARE` and
     :data:`~mggp.diagnose.verdict.PART_SHARE` on development draws
@@ -330,11 +331,12 @@ def replay(recs: List[dict], shares, part_shares=None) -> str:
     recs = [r for r in recs if "candidates" in r]
     if not recs:
         raise ValueError("no records with a candidates table (run evaluate on this code)")
-    rows = ["| memory share ρ | part share s | named / identifiable | false alarms | "
-            "gain ≥ 1.5 | gain < 0.95 |", "|---|---|---|---|---|---|"]
+    rows = ["| memory share ρ | part share s | one part may carry | named / identifiable | "
+            "false alarms | gain ≥ 1.5 | gain < 0.95 |", "|---|---|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
-    for share, part in ((a, b) for a in shares for b in (part_shares or [PART_SHARE])):
+    for share, part, one in ((a, b, c) for a in shares for b in (part_shares or [PART_SHARE])
+                             for c in carry):
         named, gains = {}, {}
         for r in recs:
             cs = r["candidates"]
@@ -347,12 +349,13 @@ def replay(recs: List[dict], shares, part_shares=None) -> str:
                       for c in cs]
             eff, w = choose(tested, inf(r["baseline_selection_rmse"]), level,
                             r["resolution_floor"], [c["eligible"] for c in cs], share,
-                            tuple(map(inf, r.get("baseline_part_rmse", ()))), part)
+                            tuple(map(inf, r.get("baseline_part_rmse", ()))), part, one)
             named[r["seed"]] = eff
             gains[r["seed"]] = 1.0 if w is None else Gain(
                 inf(r["baseline_rmse"]), inf(cs[tested.index(w)]["measure_rmse"])).ratio
         h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
-        rows.append(f"| {share:g} | {part:g} | {_rate(sum(map(h, ident)), len(ident))} | "
+        rows.append(f"| {share:g} | {part:g} | {'yes' if one else 'no'} | "
+                    f"{_rate(sum(map(h, ident)), len(ident))} | "
                     f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
                     f"{_rate(sum(gains[r['seed']] >= 1.5 for r in ident), len(ident))} | "
                     f"{_rate(sum(gains[r['seed']] < 0.95 for r in recs), len(recs))} |")
@@ -606,6 +609,9 @@ def _parser():
     r.add_argument("--part-shares", nargs="+", type=float, default=None,
                    help="s values of the part rule (default: the code's PART_SHARE; "
                         "0: no part rule)")
+    r.add_argument("--carry", action="store_true",
+                   help="also replay the part rule without its clause on one part "
+                        "carrying the gain")
     t = sub.add_parser("table", help="Markdown table of a records file")
     t.add_argument("file")
     t.add_argument("--figure", help="PNG of power against false-alarm rate")
@@ -629,7 +635,8 @@ def main(argv=None) -> int:
                 generations=args.generations, jobs=args.jobs)
         elif args.command == "replay":
             recs = [rec for f in args.files for rec in records(f)]
-            print(replay(recs, args.shares, args.part_shares), end="")
+            print(replay(recs, args.shares, args.part_shares,
+                         (False, True) if args.carry else (False,)), end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:

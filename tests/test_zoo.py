@@ -223,9 +223,9 @@ def test_replay_renames_draws_under_each_memory_share():
                                    None, 0.009)])
         return r
     text = replay([rec(0, True, 0.5), rec(1, False, 0.97)], [1.0, 0.2, 0.0])
-    assert "| 1 | 0.85 | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
-    assert "| 0.2 | 0.85 | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
-    assert "| 0 | 0.85 | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    assert "| 1 | 0.85 | no | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
+    assert "| 0.2 | 0.85 | no | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    assert "| 0 | 0.85 | no | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
     with pytest.raises(ValueError, match="candidates"):
         replay([_record(2, "play", True, [], 1.0, True, 0.1)], [0.2])
 
@@ -233,8 +233,9 @@ def test_replay_renames_draws_under_each_memory_share():
 def test_replay_renames_draws_under_each_part_share():
     """A control whose only winner beats the baseline overall through one
     part (the baseline's excursion) and loses the other by a third: with
-    the part rule at 0.85 nothing wins and the baseline is kept (gain 1);
-    without it (0) the candidate wins and measures 0.8 times the
+    the part rule at 0.85, or with its clause that one part may not carry
+    the gain, nothing wins and the baseline is kept (gain 1); without
+    both (0, carry) the candidate wins and measures 0.8 times the
     baseline."""
     from benchmarks.zoo import replay
     r = _record(0, "linear", False, [], 1.0, True, 0.1)
@@ -242,9 +243,11 @@ def test_replay_renames_draws_under_each_part_share():
              baseline_part_rmse=[0.01, 0.2],
              candidates=[dict(_cand("more lags", "unmodelled-dynamics", 0.02, 1e-4, None,
                                     0.0125), part_rmse=[0.015, 0.02])])
-    text = replay([r], [0.15], [0.0, 0.85])
-    assert "| 0.15 | 0 | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in text, text
-    assert "| 0.15 | 0.85 | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
+    text = replay([r], [0.15], [0.0, 0.85], (False, True))
+    assert "| 0.15 | 0 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in text, text
+    # its gain rests on the excursion's part alone: the other clause bars it too
+    assert "| 0.15 | 0 | no | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
 
 
 @pytest.mark.slow

@@ -46,7 +46,9 @@ the winning memory-free candidate (p-value at most α, RMSE
 below the baseline's) with the smallest selection RMSE; otherwise nothing.
 A candidate more than 15 % worse than the baseline on one part of the
 selection samples (the training record's tail, a selection block of the
-validation record; :func:`holds_up`, :data:`PART_SHARE`) cannot win.
+validation record; :func:`holds_up`, :data:`PART_SHARE`) cannot win,
+and neither can one whose gain one part carries alone (without that
+part it no longer beats the baseline).
 The winner is then the extension; a candidate whose free run leaves the
 output's range on probe inputs (:func:`~.candidates.stays_bounded`) is
 tested and compared like the others but cannot win (the comparator of
@@ -195,7 +197,8 @@ class Verdict:
     #: the baseline's free-run RMSE on each part of the selection samples
     baseline_part_rmse: Tuple[float, ...] = ()
     #: names of the candidates that could not win because they lose a
-    #: part of the selection samples to the baseline (:func:`holds_up`)
+    #: part of the selection samples to the baseline, or gain on one part
+    #: alone (:func:`holds_up`)
     uneven: Tuple[str, ...] = ()
 
     def unnamed_rival(self) -> Optional[Tested]:
@@ -230,8 +233,11 @@ class Verdict:
                      if hist not in (None, "rest") else "")
             bar = start + ("; leaves the output's range on the probe inputs, cannot win"
                            if t.structure.name in self.barred else
-                           f"; worse than the baseline by more than {1 - PART_SHARE:.0%} on a "
-                           f"part of the selection samples, cannot win"
+                           (f"; worse than the baseline by more than {1 - PART_SHARE:.0%} on a "
+                            f"part of the selection samples, cannot win"
+                            if not holds_up(t.part_rmse, self.baseline_part_rmse, carry=True)
+                            else "; its gain rests on one part of the selection samples "
+                            "alone, cannot win")
                            if t.structure.name in self.uneven else "")
             out.append(f"{mark} {t.effect:<24s} {t.structure.name:<28s} RMSE "
                        f"{number_text(t.selection_rmse):>9s}  {p}{bar}")
@@ -371,25 +377,43 @@ def versus_free_floor(free_rmse: float, floor: Optional[float],
 
 
 def holds_up(part_rmse: Sequence[float], base_parts: Sequence[float],
-             share: float = PART_SHARE) -> bool:
+             share: float = PART_SHARE, carry: bool = False) -> bool:
     r"""Whether a candidate's free-run RMSE :math:`r_j` on each part *j* of
-    the selection samples stays within the baseline's :math:`b_j`:
+    the selection samples holds up against the baseline's :math:`b_j`:
 
     .. math:: b_j \ge s\, r_j \quad \text{for every } j,
+              \qquad \sum_{j \ne j^*} \left(b_j^2 - r_j^2\right) > 0,
 
-    s = ``share`` (:data:`PART_SHARE`); a part where both diverge counts
-    as a tie, one where only the candidate diverges as a loss. True when
-    the parts are not known (empty)."""
-    for r, b in zip(part_rmse, base_parts):
-        if np.isfinite(b) and not b >= share * r:
+    s = ``share`` (:data:`PART_SHARE`) and :math:`j^*` the part where the
+    candidate gains most, :math:`b_j^2 - r_j^2` largest. The first bars a
+    candidate much worse than the baseline on one part; the second, with
+    two parts or more, a gain that one part carries alone: without its
+    best part (each part weighing alike, a condition the selection samples
+    show) the candidate must still beat the baseline. ``carry`` True
+    leaves the second out (``python -m benchmarks.zoo replay --carry``).
+    A part where both diverge counts as a tie, one where only the
+    candidate diverges as a loss, one where only the baseline does as an
+    unbounded gain. True when the parts are not known (empty)."""
+    n = min(len(part_rmse), len(base_parts))
+    r = np.asarray(part_rmse, dtype=float)[:n]
+    b = np.asarray(base_parts, dtype=float)[:n]
+    for rj, bj in zip(r, b):
+        if np.isfinite(bj) and not (bj >= share * rj or share == 0.0):
             return False
-    return True
+    if carry or r.size < 2:
+        return True
+    both = np.isfinite(r) & np.isfinite(b)
+    gain = np.where(np.isfinite(r), np.inf, 0.0)
+    gain[both] = b[both] ** 2 - r[both] ** 2
+    rest = np.delete(gain, int(np.argmax(gain)))
+    return bool(np.sum(rest) > 0.0)
 
 
 def choose(tested: Sequence[Tested], base_rmse: float, alpha: float,
            floor: Optional[float] = None, eligible: Optional[Sequence[bool]] = None,
            share: float = MEMORY_SHARE, base_parts: Sequence[float] = (),
-           part_share: float = PART_SHARE) -> Tuple[Tuple[str, ...], Optional[Tested]]:
+           part_share: float = PART_SHARE,
+           carry: bool = False) -> Tuple[Tuple[str, ...], Optional[Tested]]:
     """``(named, winner)`` from the tested candidates (the rule of the
     module doc; :func:`decide` runs the tests, this names): ``tested`` as
     :attr:`Verdict.tested`, ``base_rmse`` the baseline's selection RMSE,
@@ -397,9 +421,9 @@ def choose(tested: Sequence[Tested], base_rmse: float, alpha: float,
     ``share`` the ρ of :func:`worth_naming`, ``base_parts`` the
     baseline's RMSE on each part of the selection samples (a candidate
     that does not :func:`holds_up` against it, at ``part_share``, cannot
-    win either)."""
+    win either; ``carry`` as there)."""
     ok_to_win = [(True if eligible is None else bool(eligible[i]))
-                 and holds_up(t.part_rmse, base_parts, part_share)
+                 and holds_up(t.part_rmse, base_parts, part_share, carry)
                  for i, t in enumerate(tested)]
     free = [i for i, t in enumerate(tested) if t.effect in MEMORY_FREE and t.model is not None]
     best_free = _best_free(tested)
