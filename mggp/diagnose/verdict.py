@@ -398,7 +398,7 @@ def holds_up(part_rmse: Sequence[float], base_parts: Sequence[float],
     r = np.asarray(part_rmse, dtype=float)[:n]
     b = np.asarray(base_parts, dtype=float)[:n]
     for rj, bj in zip(r, b):
-        if np.isfinite(bj) and not (bj >= share * rj or share == 0.0):
+        if np.isfinite(bj) and not (share == 0.0 or bj >= share * rj):
             return False
     if carry or r.size < 2:
         return True
