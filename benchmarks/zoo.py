@@ -312,13 +312,16 @@ def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[flo
             [rmse(block_mask(validation.n, [b], sp.scored_from)) for b in sp.blocks])
 
 
-def replay(recs: List[dict], shares, part_shares=None, carry=(False,)) -> str:
+def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
+           free_test=(True,)) -> str:
     """The headline rates of ``recs`` (records with ``candidates``) renamed
     by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
     :func:`~mggp.diagnose.verdict.worth_naming` and each share s of
     :func:`~mggp.diagnose.verdict.holds_up` (default: the code's), with
-    and without its clause on one part carrying the gain (``carry``), in a
-    Markdown table: how the study chose
+    and without its clause on one part carrying the gain (``carry``), and
+    with and without the memory candidates' test against the best
+    memory-free candidate (``free_test``), in a Markdown table: how the
+    study chose
     :data:`~mggp.diagnose.verdict.MEMORY_SHARE` and
     :data:`~mggp.diagnose.verdict.PART_SHARE` on development draws
     (records without per-part RMSEs replay without the part rule)."""
@@ -331,19 +334,22 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,)) -> str:
     recs = [r for r in recs if "candidates" in r]
     if not recs:
         raise ValueError("no records with a candidates table (run evaluate on this code)")
-    rows = ["| memory share ρ | part share s | one part may carry | named / identifiable | "
-            "false alarms | gain ≥ 1.5 | gain < 0.95 |", "|---|---|---|---|---|---|---|"]
+    rows = ["| memory share ρ | part share s | one part may carry | test against memory-free | "
+            "named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
+            "|---|---|---|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
-    for share, part, one in ((a, b, c) for a in shares for b in (part_shares or [PART_SHARE])
-                             for c in carry):
+    for share, part, one, vs in ((a, b, c, f) for a in shares
+                                 for b in (part_shares or [PART_SHARE])
+                                 for c in carry for f in free_test):
         named, gains = {}, {}
         for r in recs:
             cs = r["candidates"]
             tested = [Tested(Structure(c["effect"], c["name"], "", (), ()),
                              c["name"] if c["fitted"] else None, inf(c["selection_rmse"]),
                              None, inf(c["p"]),
-                             PairedTest(math.nan, 0.0, 0, 0) if c["effect"] == MEMORY else None,
+                             PairedTest(math.nan, 0.0, 0, 0) if c["effect"] == MEMORY and vs
+                             else None,
                              math.nan if c["p_free"] is None else float(c["p_free"]),
                              tuple(map(inf, c.get("part_rmse", ()))))
                       for c in cs]
@@ -355,6 +361,7 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,)) -> str:
                 inf(r["baseline_rmse"]), inf(cs[tested.index(w)]["measure_rmse"])).ratio
         h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
         rows.append(f"| {share:g} | {part:g} | {'yes' if one else 'no'} | "
+                    f"{'yes' if vs else 'no'} | "
                     f"{_rate(sum(map(h, ident)), len(ident))} | "
                     f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
                     f"{_rate(sum(gains[r['seed']] >= 1.5 for r in ident), len(ident))} | "
@@ -612,6 +619,9 @@ def _parser():
     r.add_argument("--carry", action="store_true",
                    help="also replay the part rule without its clause on one part "
                         "carrying the gain")
+    r.add_argument("--without-free-test", action="store_true",
+                   help="also replay without the memory candidates' test against the "
+                        "best memory-free candidate")
     t = sub.add_parser("table", help="Markdown table of a records file")
     t.add_argument("file")
     t.add_argument("--figure", help="PNG of power against false-alarm rate")
@@ -636,7 +646,8 @@ def main(argv=None) -> int:
         elif args.command == "replay":
             recs = [rec for f in args.files for rec in records(f)]
             print(replay(recs, args.shares, args.part_shares,
-                         (False, True) if args.carry else (False,)), end="")
+                         (False, True) if args.carry else (False,),
+                         (True, False) if args.without_free_test else (True,)), end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:
