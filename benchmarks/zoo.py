@@ -250,11 +250,8 @@ def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dic
     base = doc["baseline"]["validation"]["rmse"]
     base = math.inf if base is None else float(base)
     if dx.split.measure[0] and orc.model is not None:  # scored where the diagnosis measures
-        from mggp.diagnose.run import _score
         rec.update(oracle_rmse_whole=rec["oracle_rmse"],
-                   oracle_rmse=_num(_score(orc.model, d.validation, 0,
-                                           dx.split.measure_mask(d.validation.n),
-                                           "estimate")[0]))
+                   oracle_rmse=_measured(orc.model, dx, d.validation)[0])
     o_rmse = math.nan if rec["oracle_rmse"] is None else float(rec["oracle_rmse"])
     og = oracle_gain(base, o_rmse)
     rec.update(baseline_rmse=_num(base),

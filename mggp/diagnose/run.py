@@ -631,14 +631,14 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     # starts from its estimated history, as in the selection samples
     record, first, history = ((train, meas_rng[0], None) if validation is None
                               else (validation, meas_rng[0], "estimate"))
-    scored_from = first + start if validation is None else start
-    mask = block_mask(record.n, mblocks, scored_from)
+    split = Split(fit_name, fit_rng, meas_name, meas_rng,
+                  first + start if validation is None else max(first, start),
+                  (n_fit, n_pre), n_fit + s_start, tuple(vsel), s_start if vsel else 0,
+                  tuple(mblocks))
+    mask = split.measure_mask(record.n)
     b_rmse, b_mape, b_hat = _score(base, record, first, mask, history)
     e_rmse, e_mape, e_hat = _score(ext_model, record, first, mask,
                                    history or ext_model.meta.get("history"))
-    split = Split(fit_name, fit_rng, meas_name, meas_rng, max(first, scored_from),
-                  (n_fit, n_pre), n_fit + s_start, tuple(vsel), s_start if vsel else 0,
-                  tuple(mblocks))
     ext_source = ("the baseline (no candidate won the test, nothing changed)" if winner is None
                   else f"{winner.structure.name}: {winner.structure.changes}")
     findings = [Finding(t.effect, f"{t.structure.name}: {t.structure.changes}; free-run RMSE "
