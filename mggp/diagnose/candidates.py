@@ -104,7 +104,7 @@ from .simulation import freerun_rmse
 
 __all__ = ["Structure", "MEMORY", "MEMORY_FREE", "candidate_structures", "fit_structure",
            "late_lags", "HEAD", "MAX_NEW", "MIN_FIT", "MIN_SELECT", "probe_inputs",
-           "stays_bounded", "HISTORY_SHARE", "refitted"]
+           "stays_bounded", "HISTORY_SHARE"]
 
 #: the class of the memory candidates
 MEMORY = "hysteresis"
@@ -471,29 +471,6 @@ def _fit_structure(s: Structure, data: Data, registry=None,
                           registry=registry)
             final, best_rmse = _refined(start, data) or final, r
     return final, float(best_rmse)
-
-
-def refitted(model: Optional[Model], data: Data,
-             constraints: Optional[str] = None) -> Optional[Model]:
-    """``model``'s terms estimated again on ``data``, a longer record that
-    starts where its fitting samples start, by the method that gave its θ:
-    least squares (CLS under ``constraints``), then, when its θ was refined
-    by free-run simulation error (``'refined'`` in its meta), refined so on
-    ``data`` from its own θ; its memory operators start from the history it
-    was fitted from, and its meta is kept. None when there is no model or
-    the estimate fails (not estimable, non-finite θ, a diverging refinement).
-    """
-    if model is None:
-        return None
-    history = model.meta.get("history")
-    d = data if history is None else data.with_history(history)
-    out = _estimate(model.terms, d, constraints, model.registry)
-    if out is not None and "refined" in model.meta:
-        out = _refined(Model(list(model.terms), np.array(model.theta, dtype=float),
-                             inputs=d.inputs, output=d.output, registry=model.registry), d)
-    if out is not None:
-        out.meta.update({k: v for k, v in model.meta.items() if k not in out.meta})
-    return out
 
 
 def _refined(model: Optional[Model], data: Data) -> Optional[Model]:

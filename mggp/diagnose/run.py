@@ -18,12 +18,9 @@ head, then every other block of its rest: :func:`validation_blocks`; the
 *selection* samples, :func:`_selection_errors`), and the gain is measured
 on the validation record's other blocks; without one, the last
 ``holdout`` of the training record measures and the samples before it are
-cut the same way. The structure recommended is the one the test chose;
-before the gain is measured, it and the baseline's structure are
-estimated again on the fitting and selection samples together, by the
-method each was fitted with (:func:`~.candidates.refitted`; the user's own
-model keeps its θ), so the model recommended uses every sample the
-measurement leaves free. The selection samples are
+cut the same way. The
+models measured are those fitted on the fitting samples (no refit: the
+model recommended is the one the test chose). The selection samples are
 scored on a free run of the training record from its first sample (every
 state of a model, the memory operators of the output included, is its
 own when the selection samples begin; :func:`_errors`), and so are the
@@ -54,12 +51,11 @@ from narx.simulation.metrics import mape
 from narx.records.outliers import find_spikes, repaired
 
 from .context import Context
-from .candidates import (MIN_FIT, MIN_SELECT, candidate_structures, fit_structure, refitted,
-                         stays_bounded)
+from .candidates import MIN_FIT, MIN_SELECT, candidate_structures, fit_structure, stays_bounded
 from .extend import Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
-from .simulation import freerun_after, freerun_rmse
+from .simulation import freerun_after
 from .verdict import Verdict, decide, loss_floor, separation_note
 
 __all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data",
@@ -91,9 +87,6 @@ class Split:
     validation_select: Tuple[Tuple[int, int], ...] = ()
     validation_select_scored_from: int = 0
     measure_blocks: Tuple[Tuple[int, int], ...] = ()
-    #: the samples of the fitting record on which the models measured were
-    #: estimated again (:func:`~.candidates.refitted`; (0, 0): not)
-    refit: Tuple[int, int] = (0, 0)
 
     @property
     def blocks(self) -> Tuple[Tuple[int, int], ...]:
@@ -119,12 +112,8 @@ class Split:
                 sel += (f" and {spans(self.validation_select, self.validation_select_scored_from)}"
                         f" of {self.measure_record}")
             sel += "; "
-        again = ""
-        if self.refit[1] > self.refit[0]:
-            again = (f"the models measured estimated again on samples {self.refit[0]}-"
-                     f"{self.refit[1] - 1} of {self.fit_record}; ")
         return (f"fitted on samples {self.fit[0]}-{self.fit[1] - 1} of {self.fit_record}; "
-                + sel + again + f"gain measured on samples {spans(self.blocks, self.scored_from)} of "
+                + sel + f"gain measured on samples {spans(self.blocks, self.scored_from)} of "
                 f"{self.measure_record}, in a free run from the record's first sample")
 
     def to_dict(self) -> dict:
@@ -135,9 +124,6 @@ class Split:
              "measure": {"record": self.measure_record, "first": self.measure[0],
                          "last": self.measure[1] - 1, "scored_from": self.scored_from,
                          "blocks": [[a, b - 1] for a, b in self.blocks]}}
-        if self.refit[1] > self.refit[0]:
-            d["refit"] = {"record": self.fit_record, "first": self.refit[0],
-                          "last": self.refit[1] - 1}
         if self.validation_select:
             d["select_validation"] = {"record": self.measure_record,
                                       "blocks": [[a, b - 1] for a, b in self.validation_select],
@@ -465,19 +451,6 @@ def _score(model: Model, record: Data, first: int, mask: np.ndarray,
     return float(np.sqrt(np.mean(err * err))), mape(y, yh), r.y_hat[first:]
 
 
-def _refit(model: Model, pre: Data, fit: Data, constraints: Optional[str] = None) -> Model:
-    """``model`` estimated again on ``pre`` (:func:`~.candidates.refitted`),
-    or ``model`` itself when that estimate fails, its free run on ``pre``
-    diverges, or it leaves the output's range on the probe inputs where
-    ``model`` did not (:func:`~.candidates.stays_bounded`)."""
-    again = refitted(model, pre, constraints)
-    if again is None or not np.isfinite(freerun_rmse(again, pre)):
-        return model
-    if not stays_bounded(again, pre) and stays_bounded(model, fit):
-        return model
-    return again
-
-
 def outside_fit_range(fit: Data, measure: Data, start: int = 0,
                       mask: Optional[np.ndarray] = None) -> Dict[str, float]:
     """Share of the measuring samples (those of ``measure`` from ``start``
@@ -649,14 +622,6 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
         ext_model.meta.update({"source": "mggp diagnose extension",
                                "estimation": "cls" if winner.structure.constraints else "ls",
                                "changes": [winner.structure.changes]})
-    # the models measured, and the one recommended, are estimated again on
-    # every training sample before the measuring samples (the fitting and the
-    # selection samples), by the method each was fitted with; the user's own
-    # model keeps its θ
-    if model is None:
-        base = _refit(base, pre, fit)
-    ext_model = (base if winner is None else
-                 _refit(ext_model, pre, fit, winner.structure.constraints))
     start = max(base.max_lag, ext_model.max_lag)
     if measure.n <= start + 10:
         raise DataError(f"{rec_names[1]}: {measure.n} samples are too few to measure models "
@@ -669,7 +634,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     split = Split(fit_name, fit_rng, meas_name, meas_rng,
                   first + start if validation is None else max(first, start),
                   (n_fit, n_pre), n_fit + s_start, tuple(vsel), s_start if vsel else 0,
-                  tuple(mblocks), (0, n_pre))
+                  tuple(mblocks))
     mask = split.measure_mask(record.n)
     b_rmse, b_mape, b_hat = _score(base, record, first, mask, history)
     e_rmse, e_mape, e_hat = _score(ext_model, record, first, mask,
