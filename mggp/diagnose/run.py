@@ -572,6 +572,8 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
             f"{budget.generations} generations)")
         base, base_setting = baseline_search(fit, budget, seed, jobs, search_callbacks)
         base_source = "MGGP baseline (" + base_setting.describe() + ")"
+        if base.meta.get("bounded", "the search's model") != "the search's model":
+            base_source += "; " + base.meta["bounded"]
     else:
         base, base_setting = model, user_setting(model, budget)
         base_source = f"user model {model_name}"
