@@ -241,8 +241,7 @@ def bounded_baseline(model: Model, front, data: Data) -> Model:
     if not why:
         model.meta["bounded"] = "the search's model"
         return model
-    rows = sorted(front, key=lambda r: r["loss"])
-    for i, r in enumerate(rows):
+    for r in sorted(front, key=lambda r: r["loss"]):
         if sorted(r["terms"]) == sorted(model.term_texts) or check(tuple(r["terms"])):
             continue
         try:
