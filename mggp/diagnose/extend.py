@@ -193,57 +193,71 @@ def _fit_window(window: int, data: Data) -> int:
 
 
 def baseline_search(data: Data, budget: Budget, seed=0, jobs=1,
-                    callbacks=None) -> Tuple[Model, Setting]:
-    """MGGP with MS fitness and no Φ on ``data``; returns the LS model.
+                    callbacks=None, records: Sequence[Data] = ()) -> Tuple[Model, Setting]:
+    """MGGP with MS fitness and no Φ on ``data``; returns the LS model,
+    bounded on ``records`` (:func:`bounded_baseline`; default ``data``).
 
     ``callbacks(generations)``, if given, returns the search's per-generation
     callbacks (:class:`~mggp.fit.estimator.MGGPRegressor` ``callbacks``)."""
     setting = Setting("ms", _fit_window(budget.window, data), False, None, budget.max_degree,
                       budget.max_height, budget.max_terms)
     est = _regressor(setting, budget, seed, jobs, data, callbacks).fit(data)
-    model = bounded_baseline(est.model_, est.pareto_front_, data)
+    model = bounded_baseline(est.model_, est.pareto_front_, data, records)
     model.meta.update({"source": "mggp diagnose baseline", "fitness": "ms",
                        "use_phi": False})
     return model, setting
 
 
-def bounded_baseline(model: Model, front, data: Data) -> Model:
-    """The search's model when its free run stays bounded beyond the
-    fitting samples, else the least-loss structure of the search's Pareto
-    ``front`` whose free run does, estimated by LS on ``data``; the search's
-    model when none does. ``meta['bounded']`` says which and why.
+def _unbounded(model: Model, data: Data, records: Sequence[Data]) -> str:
+    """Why the free run of ``model`` over one of ``records`` diverges or
+    leaves the fitting output's mean ± :data:`~mggp.fit.extrapolation.STRESS_BAND`
+    ranges (the band of the stress rule), else ``''``."""
+    from ..fit.extrapolation import STRESS_BAND
+    y = np.asarray(data.y, dtype=float)
+    mid, span = float(np.mean(y)), float(np.ptp(y))
+    for i, rec in enumerate(records):
+        try:
+            with np.errstate(all="ignore"):
+                sim = model.simulate(rec, mode="freerun")
+        except (ValueError, FloatingPointError):
+            return f"cannot be run over record {i + 1} of the diagnosis"
+        out = np.asarray(sim.y_hat, dtype=float)[sim.valid]
+        if sim.diverged or not np.all(np.isfinite(out)):
+            return f"diverges over record {i + 1} of the diagnosis"
+        if out.size and (out.min() < mid - STRESS_BAND * span
+                         or out.max() > mid + STRESS_BAND * span):
+            return (f"leaves the fitting output's mean ± {STRESS_BAND:g} ranges over record "
+                    f"{i + 1} of the diagnosis")
+    return ""
 
-    Bounded: the free run passes the stress inputs of ``mggp fit``
-    (:class:`mggp.fit.extrapolation.StressCheck`: the input scaled 1.5×,
-    reversed, held) and stays within the output's range widened by its span
-    on the probe inputs (:func:`~.candidates.stays_bounded`, the rule every
-    candidate must pass to win). Every candidate and the test compare free
-    runs with the baseline's; a baseline whose free run diverges on the
-    selection samples makes every finite candidate win there, and the
-    candidates built on its terms inherit its instability. On 55 of the
-    900 development draws of the zoo (seeds 0-899) the search's model
-    diverged on the selection samples; on the shared MR damper (x, v, E ->
-    f) the 15-term search model simulated the fitting samples at 55 N and
-    diverged on the rest of the training record, where the voltage falls
-    below the fitting samples' range (with this rule: hysteresis named,
-    Φ of the inputs, 51.7 N on the measuring samples; with the probes
-    alone the 9-term baseline still diverged there and more lags won at
-    132 N). On the 900 development draws the baselines diverging on the
-    selection samples went from 55 to 2 and the recommended model came
-    within 1.5x of the oracle on 655 of 889 draws against 641; hysteresis
-    was named on 305/332 identifiable draws (309/340 before) and on 20/463
-    controls (14 before).
+
+def bounded_baseline(model: Model, front, data: Data, records: Sequence[Data] = ()) -> Model:
+    """The search's model when its free run stays bounded over the records
+    the diagnosis runs it on, else the least-loss structure of the search's
+    Pareto ``front`` whose free run does, estimated by LS on ``data``; the
+    search's model when none does. ``meta['bounded']`` says which and why.
+
+    Bounded: the free run over each of ``records`` (the whole training
+    record and the validation record; default ``data``), from its first
+    samples, stays finite and within the fitting output's mean ± 3 ranges
+    (the band of the stress rule of ``mggp fit``). Only the records'
+    inputs and first samples enter; nothing is scored. Every candidate and
+    the test compare free runs with the baseline's there: a baseline whose
+    free run diverges on the selection samples makes every finite
+    candidate win, and the candidates built on its terms inherit its
+    instability. On 55 of the 900 development draws of the zoo (seeds
+    0-899) the search's model diverged on the selection samples; on the
+    shared MR damper (x, v, E -> f) the 15-term search model simulated the
+    fitting samples at 55 N and diverged over the rest of the training
+    record, where the voltage falls below the fitting samples' range.
     """
-    from ..fit.extrapolation import StressCheck
-    from .candidates import stays_bounded
-    check = StressCheck(data, model.registry)
-    why = check(tuple(model.terms)) or ("" if stays_bounded(model, data)
-                                       else "leaves the output's range on the probe inputs")
+    records = tuple(records) or (data,)
+    why = _unbounded(model, data, records)
     if not why:
         model.meta["bounded"] = "the search's model"
         return model
     for r in sorted(front, key=lambda r: r["loss"]):
-        if sorted(r["terms"]) == sorted(model.term_texts) or check(tuple(r["terms"])):
+        if sorted(r["terms"]) == sorted(model.term_texts):
             continue
         try:
             with ignore_rank_warnings(), np.errstate(all="ignore"):
@@ -251,12 +265,12 @@ def bounded_baseline(model: Model, front, data: Data) -> Model:
                           registry=model.registry).fit(data)
         except (ValueError, np.linalg.LinAlgError):
             continue
-        if m.theta is None or not np.all(np.isfinite(m.theta)) or not stays_bounded(m, data):
+        if m.theta is None or not np.all(np.isfinite(m.theta)) or _unbounded(m, data, records):
             continue
         m.meta.update({k: v for k, v in model.meta.items() if k not in m.meta})
         m.meta["bounded"] = (f"the search's {model.n_terms}-term model {why}, so the "
                              f"baseline is the least-loss structure of its front that stays "
-                             f"bounded")
+                             f"bounded there")
         return m
     model.meta["bounded"] = (f"the search's model {why}, and so does every structure of its "
                              f"front; kept")
