@@ -210,25 +210,12 @@ def baseline_search(data: Data, budget: Budget, seed=0, jobs=1,
 
 def _unbounded(model: Model, data: Data, records: Sequence[Data]) -> str:
     """Why the free run of ``model`` over one of ``records`` diverges or
-    leaves the fitting output's mean ± :data:`~mggp.fit.extrapolation.STRESS_BAND`
-    ranges (the band of the stress rule), else ``''``."""
-    from ..fit.extrapolation import STRESS_BAND
-    y = np.asarray(data.y, dtype=float)
-    mid, span = float(np.mean(y)), float(np.ptp(y))
-    for i, rec in enumerate(records):
-        try:
-            with np.errstate(all="ignore"):
-                sim = model.simulate(rec, mode="freerun")
-        except (ValueError, FloatingPointError):
-            return f"cannot be run over record {i + 1} of the diagnosis"
-        out = np.asarray(sim.y_hat, dtype=float)[sim.valid]
-        if sim.diverged or not np.all(np.isfinite(out)):
-            return f"diverges over record {i + 1} of the diagnosis"
-        if out.size and (out.min() < mid - STRESS_BAND * span
-                         or out.max() > mid + STRESS_BAND * span):
-            return (f"leaves the fitting output's mean ± {STRESS_BAND:g} ranges over record "
-                    f"{i + 1} of the diagnosis")
-    return ""
+    leaves the fitting output's mean ± 3 ranges (the band of the stress
+    rule, :func:`mggp.fit.extrapolation.band_verdict`), else ``''``."""
+    from ..fit.extrapolation import band_verdict, output_band
+    with np.errstate(all="ignore"):
+        return band_verdict(model, [(f"over record {i + 1} of the diagnosis", rec)
+                                    for i, rec in enumerate(records)], *output_band(data))
 
 
 def bounded_baseline(model: Model, front, data: Data, records: Sequence[Data] = ()) -> Model:

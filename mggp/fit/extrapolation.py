@@ -66,7 +66,8 @@ from narx.model import ignore_rank_warnings
 from narx.language.terms import Lag
 
 __all__ = ["STRESS_SCALE", "STRESS_BAND", "HOLD_SAMPLES", "POWER_CAP", "signal_power",
-           "stress_records", "StressCheck", "bounded_first", "power_words",
+           "stress_records", "StressCheck", "bounded_first", "power_words", "band_verdict",
+           "output_band",
            "stress_words"]
 
 #: the scaled stress input: each input scaled by this factor about its mean
@@ -141,9 +142,7 @@ class StressCheck:
     def __init__(self, data: Data, registry=None):
         self.data, self.registry = data, registry
         self.records = stress_records(data)
-        y = np.asarray(data.y, dtype=float)
-        mid, span = float(np.mean(y)), float(np.ptp(y))
-        self.lo, self.hi = mid - STRESS_BAND * span, mid + STRESS_BAND * span
+        self.lo, self.hi = output_band(data)
         self._seen: Dict[frozenset, str] = {}
 
     @property
@@ -183,18 +182,32 @@ class StressCheck:
     def model_verdict(self, model) -> str:
         """The test of a fitted ``model`` with its own θ (not cached): ``''``
         when its free run stays bounded on every stress input, else why not."""
-        for label, rec in self.records:
-            try:
-                sim = model.simulate(rec, mode="freerun")
-            except (ValueError, FloatingPointError):
-                return f"cannot be simulated when the input is {label}"
-            out = np.asarray(sim.y_hat, dtype=float)[sim.valid]
-            if sim.diverged or not np.all(np.isfinite(out)):
-                return f"diverges when the input is {label}"
-            if out.size and (out.min() < self.lo or out.max() > self.hi):
-                return (f"leaves the output's mean ± {STRESS_BAND:g} ranges when the input "
-                        f"is {label}")
-        return ""
+        return band_verdict(model, [(f"when the input is {label}", rec)
+                                    for label, rec in self.records], self.lo, self.hi)
+
+
+def output_band(data: Data):
+    """``(lo, hi)``: the training output's mean ± :data:`STRESS_BAND` ranges."""
+    y = np.asarray(data.y, dtype=float)
+    mid, span = float(np.mean(y)), float(np.ptp(y))
+    return mid - STRESS_BAND * span, mid + STRESS_BAND * span
+
+
+def band_verdict(model, records, lo: float, hi: float) -> str:
+    """``''`` when the free run of the fitted ``model`` over each record of
+    ``records`` (``[(where, Data)]``, ``where`` a phrase such as 'when the
+    input is held') stays finite and inside ``[lo, hi]``, else why not."""
+    for where, rec in records:
+        try:
+            sim = model.simulate(rec, mode="freerun")
+        except (ValueError, FloatingPointError):
+            return f"cannot be simulated {where}"
+        out = np.asarray(sim.y_hat, dtype=float)[sim.valid]
+        if sim.diverged or not np.all(np.isfinite(out)):
+            return f"diverges {where}"
+        if out.size and (out.min() < lo or out.max() > hi):
+            return f"leaves the output's mean ± {STRESS_BAND:g} ranges {where}"
+    return ""
 
 
 def bounded_first(rows, order, tol: float, check: Optional[StressCheck]):
