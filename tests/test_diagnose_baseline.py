@@ -38,15 +38,15 @@ def test_a_baseline_that_diverges_on_a_record_gives_way_to_a_bounded_one():
     d, other = _record(), _record(seed=1, amplitude=0.9)   # the other record reaches 1.5x
     cubic = Model(CUBIC, inputs=["u"], output="y").fit(d)
     assert np.isfinite(cubic.simulate(d, mode="freerun").rmse)   # fine on its own samples
-    got = bounded_baseline(cubic, _front(d), d, (d, other))
+    got = bounded_baseline(cubic, _front(d), d, [("train", d), ("other", other)])
     assert sorted(got.term_texts) == sorted(LINEAR)             # the least-loss bounded row
-    assert "record 2" in got.meta["bounded"] and "front" in got.meta["bounded"]
+    assert "diverges over other" in got.meta["bounded"] and "front" in got.meta["bounded"]
 
 
 def test_a_baseline_bounded_on_its_records_is_kept_as_searched():
     d = _record()
     cubic = Model(CUBIC, inputs=["u"], output="y").fit(d)
-    got = bounded_baseline(cubic, _front(d), d, (d, _record(seed=1)))
+    got = bounded_baseline(cubic, _front(d), d, [("train", d), ("other", _record(seed=1))])
     assert got is cubic and got.meta["bounded"] == "the search's model"
 
 
@@ -54,5 +54,5 @@ def test_when_no_structure_is_bounded_the_search_model_is_kept_and_said():
     d, other = _record(), _record(seed=1, amplitude=0.9)
     cubic = Model(CUBIC, inputs=["u"], output="y").fit(d)
     front = [r for r in _front(d) if r["terms"] == CUBIC]
-    got = bounded_baseline(cubic, front, d, (d, other))
+    got = bounded_baseline(cubic, front, d, [("train", d), ("other", other)])
     assert got is cubic and "every structure of its front; kept" in got.meta["bounded"]

@@ -193,9 +193,11 @@ def _fit_window(window: int, data: Data) -> int:
 
 
 def baseline_search(data: Data, budget: Budget, seed=0, jobs=1,
-                    callbacks=None, records: Sequence[Data] = ()) -> Tuple[Model, Setting]:
+                    callbacks=None, records: Sequence[Tuple[str, Data]] = ()
+                    ) -> Tuple[Model, Setting]:
     """MGGP with MS fitness and no Φ on ``data``; returns the LS model,
-    bounded on ``records`` (:func:`bounded_baseline`; default ``data``).
+    bounded over ``records`` ``[(name, Data)]`` (:func:`bounded_baseline`;
+    default ``data``).
 
     ``callbacks(generations)``, if given, returns the search's per-generation
     callbacks (:class:`~mggp.fit.estimator.MGGPRegressor` ``callbacks``)."""
@@ -208,24 +210,27 @@ def baseline_search(data: Data, budget: Budget, seed=0, jobs=1,
     return model, setting
 
 
-def _unbounded(model: Model, data: Data, records: Sequence[Data]) -> str:
-    """Why the free run of ``model`` over one of ``records`` diverges or
-    leaves the fitting output's mean ± 3 ranges (the band of the stress
-    rule, :func:`mggp.fit.extrapolation.band_verdict`), else ``''``."""
+def _unbounded(model: Model, data: Data, records) -> str:
+    """Why the free run of ``model`` over one of ``records`` (``[(name,
+    Data)]``) diverges or leaves the fitting output's mean ± 3 ranges (the
+    band of the stress rule, :func:`mggp.fit.extrapolation.band_verdict`),
+    else ``''``."""
     from ..fit.extrapolation import band_verdict, output_band
     with np.errstate(all="ignore"):
-        return band_verdict(model, [(f"over record {i + 1} of the diagnosis", rec)
-                                    for i, rec in enumerate(records)], *output_band(data))
+        return band_verdict(model, [(f"over {name}", rec) for name, rec in records],
+                            *output_band(data))
 
 
-def bounded_baseline(model: Model, front, data: Data, records: Sequence[Data] = ()) -> Model:
+def bounded_baseline(model: Model, front, data: Data,
+                     records: Sequence[Tuple[str, Data]] = ()) -> Model:
     """The search's model when its free run stays bounded over the records
     the diagnosis runs it on, else the least-loss structure of the search's
     Pareto ``front`` whose free run does, estimated by LS on ``data``; the
     search's model when none does. ``meta['bounded']`` says which and why.
 
-    Bounded: the free run over each of ``records`` (the whole training
-    record and the validation record; default ``data``), from its first
+    Bounded: the free run over each of ``records`` (``[(name, Data)]``:
+    the whole training record and the validation record; default
+    ``data``), from its first
     samples, stays finite and within the fitting output's mean ± 3 ranges
     (the band of the stress rule of ``mggp fit``). Only the records'
     inputs and first samples enter; nothing is scored. Every candidate and
@@ -238,7 +243,7 @@ def bounded_baseline(model: Model, front, data: Data, records: Sequence[Data] = 
     fitting samples at 55 N and diverged over the rest of the training
     record, where the voltage falls below the fitting samples' range.
     """
-    records = tuple(records) or (data,)
+    records = tuple(records) or (("the fitting samples", data),)
     why = _unbounded(model, data, records)
     if not why:
         model.meta["bounded"] = "the search's model"

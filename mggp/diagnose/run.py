@@ -570,8 +570,9 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     if model is None:
         say(f"baseline: MGGP search, MS fitness, no Φ (population {budget.population}, "
             f"{budget.generations} generations)")
-        base, base_setting = baseline_search(fit, budget, seed, jobs, search_callbacks,
-                                             (train,) + ((validation,) if validation is not None else ()))
+        runs_on = [(names[0], train)] + ([(names[1], validation)] if validation is not None
+                                         else [])
+        base, base_setting = baseline_search(fit, budget, seed, jobs, search_callbacks, runs_on)
         base_source = "MGGP baseline (" + base_setting.describe() + ")"
         if base.meta.get("bounded", "the search's model") != "the search's model":
             base_source += "; " + base.meta["bounded"]
