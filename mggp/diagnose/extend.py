@@ -86,6 +86,7 @@ from .holds import probe_holds
 from .simulation import freerun_rmse
 
 __all__ = ["Budget", "Setting", "ExtensionPlan", "Extension", "baseline_search", "bounded_baseline",
+           "SEARCH_MODEL_KEPT",
            "user_setting", "plan_extension", "fit_extension", "candidate_changes",
            "operator_terms", "operator_dynamics_terms", "bouc_wen_dynamics_terms",
            "OPERATORS"]
@@ -210,6 +211,11 @@ def baseline_search(data: Data, budget: Budget, seed=0, jobs=1,
     return model, setting
 
 
+#: ``meta['bounded']`` of a baseline that is the search's own model
+#: (:func:`bounded_baseline`)
+SEARCH_MODEL_KEPT = "the search's model"
+
+
 def _unbounded(model: Model, data: Data, records) -> str:
     """Why the free run of ``model`` over one of ``records`` (``[(name,
     Data)]``) diverges or leaves the fitting output's mean ± 3 ranges (the
@@ -243,21 +249,17 @@ def bounded_baseline(model: Model, front, data: Data,
     fitting samples at 55 N and diverged over the rest of the training
     record, where the voltage falls below the fitting samples' range.
     """
+    from .candidates import _estimate
     records = tuple(records) or (("the fitting samples", data),)
     why = _unbounded(model, data, records)
     if not why:
-        model.meta["bounded"] = "the search's model"
+        model.meta["bounded"] = SEARCH_MODEL_KEPT
         return model
     for r in sorted(front, key=lambda r: r["loss"]):
         if sorted(r["terms"]) == sorted(model.term_texts):
             continue
-        try:
-            with ignore_rank_warnings(), np.errstate(all="ignore"):
-                m = Model(list(r["terms"]), inputs=data.inputs, output=data.output,
-                          registry=model.registry).fit(data)
-        except (ValueError, np.linalg.LinAlgError):
-            continue
-        if m.theta is None or not np.all(np.isfinite(m.theta)) or _unbounded(m, data, records):
+        m = _estimate(r["terms"], data, None, model.registry)
+        if m is None or _unbounded(m, data, records):
             continue
         m.meta.update({k: v for k, v in model.meta.items() if k not in m.meta})
         m.meta["bounded"] = (f"the search's {model.n_terms}-term model {why}, so the "

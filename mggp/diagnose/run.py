@@ -52,7 +52,7 @@ from narx.records.outliers import find_spikes, repaired
 
 from .context import Context
 from .candidates import MIN_FIT, MIN_SELECT, candidate_structures, fit_structure, stays_bounded
-from .extend import Budget, baseline_search, user_setting
+from .extend import SEARCH_MODEL_KEPT, Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
 from .simulation import freerun_after
@@ -574,7 +574,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                                          else [])
         base, base_setting = baseline_search(fit, budget, seed, jobs, search_callbacks, runs_on)
         base_source = "MGGP baseline (" + base_setting.describe() + ")"
-        if base.meta.get("bounded", "the search's model") != "the search's model":
+        if base.meta.get("bounded", SEARCH_MODEL_KEPT) != SEARCH_MODEL_KEPT:
             base_source += "; " + base.meta["bounded"]
     else:
         base, base_setting = model, user_setting(model, budget)
