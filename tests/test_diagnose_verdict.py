@@ -12,7 +12,7 @@ from narx.records.data import Data
 from narx.systems import piezo_bouc_wen, sine_input, training_input
 
 from mggp.diagnose import Budget, diagnose
-from mggp.diagnose.candidates import MEMORY, Structure
+from mggp.diagnose.candidates import BAR_HOLDS, MEMORY, Structure
 from mggp.diagnose.verdict import PART_SHARE, decide, holds_up, separation_note
 from test_diagnose import _play_record
 from test_paired import ALPHA, _ar1, _interval
@@ -150,7 +150,13 @@ def test_a_barred_rival_leaves_the_memory_extension_unnamed():
     worse = [(_s(MEMORY, "plays"), M, _ar1(rng, n, scale=2.0), 1.0), cands[1]]
     v = decide(base, worse, ALPHA, rng, eligible=[True, False])  # control: no memory win
     assert v.named == () and v.winner is None
-    assert "(more degree) leave the output's range on the probe inputs" in _nothing_why(v)
+    assert "(more degree leaves the output's range on the probe inputs)" in _nothing_why(v)
+    v = decide(base, worse, ALPHA, rng, eligible=[True, False],
+               bar_reasons=[None, BAR_HOLDS])                # the reason given is said
+    assert "(more degree moves by itself while the input is held)" in _nothing_why(v)
+    assert v.to_dict()["bar_reasons"] == {"more degree": BAR_HOLDS}
+    assert any("moves by itself while the input is held, cannot win" in line
+               for line in v.lines())
 
 
 def test_nothing_is_named_when_no_candidate_beats_the_baseline():

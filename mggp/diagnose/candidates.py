@@ -100,11 +100,13 @@ from narx.records.regressors import regressor_matrix
 from narx.language.terms import Signals, parse_term
 
 from .augmentation import bouc_wen_grid, direction_terms
+from .holds import self_motion
 from .simulation import freerun_rmse
 
 __all__ = ["Structure", "MEMORY", "MEMORY_FREE", "candidate_structures", "fit_structure",
            "late_lags", "HEAD", "MAX_NEW", "MIN_FIT", "MIN_SELECT", "probe_inputs",
-           "stays_bounded", "HISTORY_SHARE"]
+           "stays_bounded", "why_barred", "HOLD_MOTION", "BAR_RANGE", "BAR_HOLDS",
+           "HISTORY_SHARE"]
 
 #: the class of the memory candidates
 MEMORY = "hysteresis"
@@ -538,3 +540,42 @@ def stays_bounded(model: Optional[Model], data: Data, margin: float = 1.0) -> bo
                 or np.max(yh) > hi + margin * span:
             return False
     return True
+
+
+#: :func:`why_barred`: the largest motion late in a hold that a candidate
+#: may show beyond its own early motion there and the baseline's late
+#: motion (:func:`~.holds.self_motion`), as a share of the fitting
+#: output's range
+HOLD_MOTION = 0.1
+
+#: why a candidate cannot win (:attr:`~.verdict.Verdict.bar_reasons`)
+BAR_RANGE = "leaves the output's range on the probe inputs"
+BAR_HOLDS = "moves by itself while the input is held"
+
+
+def why_barred(model: Optional[Model], baseline: Model, data: Data, held) -> Optional[str]:
+    r"""Why ``model`` may not be the extension (None: it may).
+
+    - :data:`BAR_RANGE` when :func:`stays_bounded` on ``data`` (the
+      fitting samples) fails;
+    - :data:`BAR_HOLDS` when, in a held-input segment of a record of
+      ``held`` (``(data, history, segments)`` triples of
+      :func:`~.holds.self_motion`; inputs only, no measured output
+      enters), its free run moves late in the hold by more than
+      :data:`HOLD_MOTION` of the fitting output's range beyond what it
+      moved early in the hold and what ``baseline`` moves late in it.
+
+    Under a held input a stable system comes to rest; motion that starts
+    late in a hold is the model's own. A candidate with Φ of the output
+    lags and plays of the output can fit the selection samples 3 times
+    better than the baseline and still, when the input stops, swing by
+    half the output's range and back: such a model is worse than the
+    baseline wherever the record holds its input, and the selection
+    samples, which may hold it nowhere, do not show it.
+    """
+    if not stays_bounded(model, data):
+        return BAR_RANGE
+    span = float(np.ptp(data.y)) or 1.0
+    if self_motion(model, baseline, held) > HOLD_MOTION * span:
+        return BAR_HOLDS
+    return None

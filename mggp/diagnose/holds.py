@@ -53,6 +53,7 @@ from narx.records.data import Data
 
 
 __all__ = ["find_holds", "input_noise", "difference_noise", "HoldResponse", "hold_responses",
+           "hold_motion", "self_motion", "record_holds",
            "steady_rate", "continuum_violations", "probe_holds"]
 
 
@@ -382,3 +383,83 @@ def probe_holds(model: Model, data: Data, n_holds: int = 4, length: Optional[int
     if r.diverged or not np.all(np.isfinite(r.y_hat)):
         return float("inf")
     return float(max(np.ptp(r.y_hat[a:b]) for a, b in spans))
+
+
+def hold_motion(model: Optional[Model], data: Data, segments, history: Optional[str] = None,
+                lag: int = 0) -> np.ndarray:
+    r"""How far ``model``'s free run moves early and late in each hold.
+
+    The free run covers the whole of ``data`` from its first sample
+    (:func:`~.simulation.freerun_after`, ``history`` starting its memory
+    operators), each input inside a hold ``[a, b)`` of ``segments`` set
+    to its median there (noise on a measured input must not drive the
+    model's Φ-terms). After L samples (the larger of ``lag`` and the
+    model's largest lag), the hold's
+    remaining samples ``a + L + 1 .. b - 1`` are cut in halves; the
+    result has one row per hold long enough for two halves of 8 samples
+    or more: ``(early, late)``, the range (max − min) of the free run over
+    each half (``inf`` when it diverges).
+
+    Under a held input a stable system's deviation from its rest decays
+    (first-order creep and second-order ringing alike move less in the
+    second half than in the first): late motion beyond the early motion
+    is the model's own, a self-excited mode.
+    """
+    from .simulation import freerun_after
+    if model is None:
+        return np.full((sum(b - a - lag - 1 >= 16 for a, b in segments), 2), np.inf)
+    L = max(model.max_lag, lag)
+    U = data.U.copy()
+    for a, b in segments:
+        U[:, a:b] = np.median(data.U[:, a:b], axis=1)[:, None]
+    probe = Data(U.T, data.y, inputs=data.inputs, output=data.output)
+    r = freerun_after(model, probe, 0, model.meta.get("history") if history == "own"
+                      else history)
+    yh = np.where(np.isfinite(r.y_hat), r.y_hat, np.inf)
+    rows = []
+    for a, b in segments:
+        c = a + L + 1
+        if b - c < 16:
+            continue
+        m = (c + b) // 2
+        rows.append((float(np.ptp(yh[c:m])) if np.all(np.isfinite(yh[c:m])) else np.inf,
+                     float(np.ptp(yh[m:b])) if np.all(np.isfinite(yh[m:b])) else np.inf))
+    return np.array(rows, dtype=float).reshape(-1, 2)
+
+
+def self_motion(model: Optional[Model], reference: Model, records) -> float:
+    r"""The largest motion of ``model`` late in a hold of ``records`` that
+    neither its own early motion in that hold nor ``reference`` (the
+    baseline) late in it shows:
+
+    .. math:: \max_h \left( m^{\text{late}}_h - \max(m^{\text{early}}_h,\
+              m^{\text{late, ref}}_h) \right)^+ ,
+
+    with :func:`hold_motion`'s ranges of the free runs; ``records`` are
+    ``(data, history, segments)`` triples (segments: :func:`find_holds`
+    of the record; history ``'own'``: each model's ``meta['history']``,
+    as the training record's selection samples are run). 0 when no record has a usable hold; ``inf`` when the
+    model diverges in one."""
+    worst = 0.0
+    for data, history, segs in records:
+        if not segs:
+            continue
+        lag = max(reference.max_lag, 0 if model is None else model.max_lag)
+        own = hold_motion(model, data, segs, history, lag)
+        ref = hold_motion(reference, data, segs, history, lag)
+        if own.size == 0:
+            continue
+        ref = np.where(np.isfinite(ref), ref, 0.0)
+        excess = own[:, 1] - np.maximum(own[:, 0], ref[:, 1])
+        worst = max(worst, float(np.max(np.where(np.isnan(excess), np.inf, excess))))
+    return worst
+
+
+def record_holds(train: Data, validation: Optional[Data], lag: int):
+    """The ``records`` of :func:`self_motion` for a diagnosis: the training
+    record (each model's own history) and the validation record (history
+    estimated), each with its holds of at least max(20, 2 ``lag`` + 12)
+    samples (:func:`find_holds`; ``lag`` the baseline's largest lag)."""
+    min_len = max(20, 2 * lag + 12)
+    return [(d, h, find_holds(d, min_len)) for d, h in
+            ((train, "own"), (validation, "estimate")) if d is not None]

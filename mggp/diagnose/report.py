@@ -41,17 +41,17 @@ def _nothing_why(v) -> str:
         return (f"{w.structure.name} beats the baseline (RMSE {_g(w.selection_rmse)} against "
                 f"{_g(v.baseline_rmse)}, p {_g(w.p_adjusted)}) and is the extension, but the "
                 f"memory-free {rival.structure.name} fits the selection samples as well or "
-                f"better (RMSE {_g(rival.selection_rmse)}) and is ruled out only because its "
-                f"free run leaves the output's range on the probe inputs: memory is not told "
+                f"better (RMSE {_g(rival.selection_rmse)}) and is ruled out only because it "
+                f"{v.bar_reason(rival.structure.name)}: memory is not told "
                 f"from a memoryless nonlinearity")
     barred = v.barred_winners()
     if not barred:
         return (f"no candidate extension beat the baseline at level {v.level:g}, "
                 "Holm-corrected")
-    names = ", ".join(t.structure.name for t in barred)
-    return (f"the candidates that beat the baseline at level {v.level:g} ({names}) leave "
-            "the output's range on the probe inputs, and no other candidate qualified (a memory "
-            "candidate must also beat the best candidate without memory)")
+    names = "; ".join(f"{t.structure.name} {v.bar_reason(t.structure.name)}" for t in barred)
+    return (f"the candidates that beat the baseline at level {v.level:g} cannot win ({names}), "
+            "and no other candidate qualified (a memory candidate must also beat the best "
+            "candidate without memory)")
 
 
 def _g(v) -> str:

@@ -51,7 +51,9 @@ from narx.simulation.metrics import mape
 from narx.records.outliers import find_spikes, repaired
 
 from .context import Context
-from .candidates import MIN_FIT, MIN_SELECT, candidate_structures, fit_structure, stays_bounded
+from .candidates import (MIN_FIT, MIN_SELECT, candidate_structures, fit_structure,
+                         stays_bounded, why_barred)
+from .holds import record_holds
 from .extend import SEARCH_MODEL_KEPT, Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
@@ -610,13 +612,16 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     cands = [(st, m, _selection_errors(m, pre, n_fit, validation, vsel, s_start), score)
              for st, m, score in fitted]
     # a candidate whose free run leaves the output's range on probe inputs
-    # (:func:`~.candidates.stays_bounded`) cannot win
-    eligible = [stays_bounded(m, fit) for _, m, _ in fitted]
+    # (:func:`~.candidates.stays_bounded`), or moves by itself while the
+    # inputs of either record are held, cannot win (:func:`~.candidates.why_barred`)
+    held = record_holds(train, validation, base.max_lag)
+    bars = [why_barred(m, base, fit, held) for _, m, _ in fitted]
+    eligible = [b is None for b in bars]
     floor = loss_floor(fit.y, resolution)
     segments = [n_pre - n_fit - s_start] + [b - max(a, s_start) for a, b in vsel
                                             if b > max(a, s_start)]
     vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]), floor,
-                eligible, segments=segments)
+                eligible, segments=segments, bar_reasons=bars)
     timings["test"] = time.perf_counter() - t3
     winner = vd.winner
     ext_model = winner.model if winner is not None else base

@@ -81,7 +81,7 @@ from narx import Model
 from narx.records.data import Data
 from narx.analysis.paired import PairedTest, holm, paired_test
 
-from .candidates import MEMORY, MEMORY_FREE, Structure
+from .candidates import BAR_RANGE, MEMORY, MEMORY_FREE, Structure
 from .findings import json_number, number_text
 
 __all__ = ["Tested", "Verdict", "decide", "choose", "worth_naming", "versus_free_floor",
@@ -196,8 +196,8 @@ class Verdict:
     best_free: Optional[Tested]
     baseline_rmse: float
     p_values: Dict[str, float] = field(default_factory=dict)
-    #: names of the candidates that could not win: their free run leaves
-    #: the output's range on the probe inputs
+    #: names of the candidates that could not win
+    #: (:func:`~.candidates.why_barred`)
     barred: Tuple[str, ...] = ()
     #: the baseline's free-run RMSE on each part of the selection samples
     baseline_part_rmse: Tuple[float, ...] = ()
@@ -205,6 +205,13 @@ class Verdict:
     #: part of the selection samples to the baseline, or gain on one part
     #: alone (:func:`holds_up`)
     uneven: Tuple[str, ...] = ()
+    #: why each barred candidate could not win, by name
+    #: (:data:`~.candidates.BAR_RANGE` when not given)
+    bar_reasons: Dict[str, str] = field(default_factory=dict)
+
+    def bar_reason(self, name: str) -> str:
+        """Why the barred candidate ``name`` could not win."""
+        return self.bar_reasons.get(name, BAR_RANGE)
 
     def unnamed_rival(self) -> Optional[Tested]:
         """The barred memory-free candidate that kept an extension from
@@ -223,7 +230,8 @@ class Verdict:
                 "p_values": {k: json_number(v) for k, v in self.p_values.items()},
                 "baseline_selection_rmse": json_number(self.baseline_rmse),
                 "winner": None if self.winner is None else self.winner.structure.name,
-                "barred": list(self.barred), "uneven": list(self.uneven)}
+                "barred": list(self.barred), "uneven": list(self.uneven),
+                "bar_reasons": {k: self.bar_reason(k) for k in self.barred}}
 
     def lines(self) -> List[str]:
         """The tests in words, one line per candidate."""
@@ -236,7 +244,7 @@ class Verdict:
             hist = None if t.model is None else t.model.meta.get("history", "rest")
             start = (f"; operators started from history '{hist}'"
                      if hist not in (None, "rest") else "")
-            bar = start + ("; leaves the output's range on the probe inputs, cannot win"
+            bar = start + (f"; {self.bar_reason(t.structure.name)}, cannot win"
                            if t.structure.name in self.barred else
                            (f"; worse than the baseline by more than {1 - PART_SHARE:.0%} on a "
                             f"part of the selection samples, cannot win"
@@ -262,7 +270,8 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
            alpha: float, rng: np.random.Generator, floor: Optional[float] = None,
            eligible: Optional[Sequence[bool]] = None, share: float = MEMORY_SHARE,
            free_floor: Optional[float] = None,
-           segments: Optional[Sequence[int]] = None) -> Verdict:
+           segments: Optional[Sequence[int]] = None,
+           bar_reasons: Optional[Sequence[Optional[str]]] = None) -> Verdict:
     """Test every candidate against the baseline and name the effect.
 
     Parameters
@@ -300,6 +309,9 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
         on 546 development draws (zoo seeds 0-749 and 850-999), 2 more
         false alarms and 5 more extensions worse than the baseline out
         of sample.
+    bar_reasons : sequence of str or None, optional
+        Why each ineligible candidate cannot win, in words
+        (:func:`~.candidates.why_barred`; :attr:`Verdict.bar_reasons`).
     """
     e_base = np.asarray(e_base, dtype=float)
     cuts = np.cumsum([0] + list(segments if segments is not None else [e_base.size]))
@@ -331,11 +343,13 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
     base_parts = parts(e_base)
     named, winner = choose(tested, base_rmse, alpha, floor, ok_to_win, share, base_parts)
     barred = tuple(t.structure.name for t, ok_ in zip(tested, ok_to_win) if not ok_)
+    reasons = {t.structure.name: why for t, ok_, why in
+               zip(tested, ok_to_win, bar_reasons or [None] * len(tested)) if not ok_ and why}
     uneven = tuple(t.structure.name for t in tested
                    if t.model is not None and not holds_up(t.part_rmse, base_parts))
     return Verdict(float(alpha), tuple(tested), named, winner,
                    tested[best_free] if best_free is not None else None, base_rmse,
-                   p_values, barred, base_parts, uneven)
+                   p_values, barred, base_parts, uneven, reasons)
 
 
 def _best_free(tested) -> Optional[int]:
