@@ -345,15 +345,17 @@ def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[flo
 
 
 def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
-           free_test=(True,)) -> str:
+           free_test=(True,), hold_motions=(None,)) -> str:
     """The headline rates of ``recs`` (records with ``candidates``) renamed
     by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
     :func:`~mggp.diagnose.verdict.worth_naming` and each share s of
     :func:`~mggp.diagnose.verdict.holds_up` (default: the code's), with
     and without its clause on one part carrying the gain (``carry``), and
     with and without the memory candidates' test against the best
-    memory-free candidate (``free_test``), in a Markdown table: how the
-    study chose
+    memory-free candidate (``free_test``), and for each hold-motion
+    threshold (``hold_motions``, shares of the output's range; None: the
+    eligibility as recorded; :data:`~mggp.diagnose.candidates.HOLD_MOTION`),
+    in a Markdown table: how the study chose
     :data:`~mggp.diagnose.verdict.MEMORY_SHARE` and
     :data:`~mggp.diagnose.verdict.PART_SHARE` on development draws
     (records without per-part RMSEs replay without the part rule)."""
@@ -367,13 +369,13 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     if not recs:
         raise ValueError("no records with a candidates table (run evaluate on this code)")
     rows = ["| memory share ρ | part share s | one part may carry | test against memory-free | "
-            "named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
-            "|---|---|---|---|---|---|---|---|"]
+            "hold motion | named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
+            "|---|---|---|---|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
-    for share, part, one, vs in ((a, b, c, f) for a in shares
-                                 for b in (part_shares or [PART_SHARE])
-                                 for c in carry for f in free_test):
+    for share, part, one, vs, hm in ((a, b, c, f, h) for a in shares
+                                     for b in (part_shares or [PART_SHARE])
+                                     for c in carry for f in free_test for h in hold_motions):
         named, gains = {}, {}
         for r in recs:
             cs = r["candidates"]
@@ -386,20 +388,31 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
                              tuple(map(inf, c.get("part_rmse", ()))))
                       for c in cs]
             eff, w = choose(tested, inf(r["baseline_selection_rmse"]), level,
-                            r["resolution_floor"], [c["eligible"] for c in cs], share,
+                            r["resolution_floor"], [_eligible(c, hm) for c in cs], share,
                             tuple(map(inf, r.get("baseline_part_rmse", ()))), part, one)
             named[r["seed"]] = eff
             gains[r["seed"]] = 1.0 if w is None else Gain(
                 inf(r["baseline_rmse"]), inf(cs[tested.index(w)]["measure_rmse"])).ratio
         h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
         rows.append(f"| {share:g} | {part:g} | {'yes' if one else 'no'} | "
-                    f"{'yes' if vs else 'no'} | "
+                    f"{'yes' if vs else 'no'} | {'as run' if hm is None else f'{hm:g}'} | "
                     f"{_rate(sum(map(h, ident)), len(ident))} | "
                     f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
                     f"{_rate(sum(gains[r['seed']] >= 1.5 for r in ident), len(ident))} | "
                     f"{_rate(sum(gains[r['seed']] < 0.95 for r in recs), len(recs))} |")
     return (f"{len(recs)} draws, seeds {min(r['seed'] for r in recs)}–"
             f"{max(r['seed'] for r in recs)}; level {level:g}.\n\n" + "\n".join(rows) + "\n")
+
+
+def _eligible(c: dict, hold_motion: Optional[float]) -> bool:
+    """Whether the recorded candidate ``c`` may win with the hold-motion
+    threshold ``hold_motion`` (None: as recorded): not barred for leaving
+    the range, and its recorded hold motion within the threshold."""
+    from mggp.diagnose.candidates import BAR_RANGE
+    if hold_motion is None or "hold_motion" not in c:
+        return bool(c["eligible"])
+    motion = math.inf if c["hold_motion"] is None else float(c["hold_motion"])
+    return c.get("bar_reason") != BAR_RANGE and motion <= hold_motion
 
 
 def records(path) -> List[dict]:
@@ -651,6 +664,9 @@ def _parser():
     r.add_argument("--carry", action="store_true",
                    help="also replay the part rule without its clause on one part "
                         "carrying the gain")
+    r.add_argument("--hold-motions", nargs="+", type=float, default=None,
+                   help="hold-motion thresholds (shares of the output's range) to replay "
+                        "(default: the eligibility as run)")
     r.add_argument("--without-free-test", action="store_true",
                    help="also replay without the memory candidates' test against the "
                         "best memory-free candidate")
@@ -679,7 +695,8 @@ def main(argv=None) -> int:
             recs = [rec for f in args.files for rec in records(f)]
             print(replay(recs, args.shares, args.part_shares,
                          (False, True) if args.carry else (False,),
-                         (True, False) if args.without_free_test else (True,)), end="")
+                         (True, False) if args.without_free_test else (True,),
+                         args.hold_motions or (None,)), end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:

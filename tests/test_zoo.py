@@ -223,9 +223,9 @@ def test_replay_renames_draws_under_each_memory_share():
                                    None, 0.009)])
         return r
     text = replay([rec(0, True, 0.5), rec(1, False, 0.97)], [1.0, 0.2, 0.0])
-    assert "| 1 | 0.85 | no | yes | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
-    assert "| 0.2 | 0.85 | no | yes | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
-    assert "| 0 | 0.85 | no | yes | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    assert "| 1 | 0.85 | no | yes | as run | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
+    assert "| 0.2 | 0.85 | no | yes | as run | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    assert "| 0 | 0.85 | no | yes | as run | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
     with pytest.raises(ValueError, match="candidates"):
         replay([_record(2, "play", True, [], 1.0, True, 0.1)], [0.2])
 
@@ -244,10 +244,10 @@ def test_replay_renames_draws_under_each_part_share():
              candidates=[dict(_cand("more lags", "unmodelled-dynamics", 0.02, 1e-4, None,
                                     0.0125), part_rmse=[0.015, 0.02])])
     text = replay([r], [0.15], [0.0, 0.85], (False, True))
-    assert "| 0.15 | 0 | yes | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in text, text
+    assert "| 0.15 | 0 | yes | yes | as run | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in text, text
     # its gain rests on the excursion's part alone: the other clause bars it too
-    assert "| 0.15 | 0 | no | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
-    assert "| 0.15 | 0.85 | no | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0 | no | yes | as run | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | yes | as run | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
 
 
 def test_replay_without_the_test_against_memory_free_names_more():
@@ -266,10 +266,32 @@ def test_replay_without_the_test_against_memory_free_names_more():
                                    None, 0.01)])
         return r
     text = replay([rec(0, 0.3)], [0.15], None, (False,), (True, False))
-    assert "| 0.15 | 0.85 | no | yes | 0/1 (0 %) |" in text, text
-    assert "| 0.15 | 0.85 | no | no | 1/1 (100 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | yes | as run | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | no | as run | 1/1 (100 %) |" in text, text
     text = replay([rec(1, 1e-4)], [0.15], None, (False,), (True, False))
-    assert "| 0.15 | 0.85 | no | yes | 1/1 (100 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | yes | as run | 1/1 (100 %) |" in text, text
+
+
+def test_replay_bars_candidates_by_their_recorded_hold_motion():
+    """A hysteretic draw whose better memory candidate moved by itself in
+    a hold (30 % of the output's range) and measures worse than the
+    baseline: at a threshold of 0.2 the other memory candidate wins and
+    the gain is 1.5; at 0.5 the mover wins and the gain is 0.6. A
+    candidate barred for the range stays barred at any threshold."""
+    from benchmarks.zoo import replay
+    from mggp.diagnose.candidates import BAR_RANGE
+    r = _record(0, "play", True, [], 1.0, True, 0.1)
+    mover = dict(_cand("Φ of the output lags", "hysteresis", 0.004, 1e-6, 1e-4, 0.02),
+                 hold_motion=0.3, bar_reason=None)
+    steady = dict(_cand("plays", "hysteresis", 0.005, 1e-6, 1e-4, 0.008),
+                  hold_motion=0.0, bar_reason=None)
+    wild = dict(_cand("more degree", "unmodelled-nonlinearity", 0.009, 1e-3, None, 0.009),
+                hold_motion=0.0, bar_reason=BAR_RANGE, eligible=False)
+    r.update(baseline_rmse=0.012, baseline_selection_rmse=0.01, resolution_floor=0.001,
+             candidates=[mover, steady, wild])
+    text = replay([r], [0.15], None, (False,), (True,), (0.2, 0.5))
+    assert "| 0.2 | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) | 0/1 (0 %) |" in text, text
+    assert "| 0.5 | 1/1 (100 %) | 0/0 (–) | 0/1 (0 %) | 1/1 (100 %) |" in text, text
 
 
 @pytest.mark.slow
