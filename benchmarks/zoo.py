@@ -345,7 +345,7 @@ def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[flo
 
 
 def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
-           free_test=(True,), hold_motions=(None,)) -> str:
+           free_test=(True,), hold_motions=(None,), rest_margins=None) -> str:
     """The headline rates of ``recs`` (records with ``candidates``) renamed
     by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
     :func:`~mggp.diagnose.verdict.worth_naming` and each share s of
@@ -354,7 +354,9 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     with and without the memory candidates' test against the best
     memory-free candidate (``free_test``), and for each hold-motion
     threshold (``hold_motions``, shares of the output's range; None: the
-    eligibility as recorded; :data:`~mggp.diagnose.candidates.HOLD_MOTION`),
+    eligibility as recorded; :data:`~mggp.diagnose.candidates.HOLD_MOTION`)
+    and each margin m of the part rule (``rest_margins``; default the
+    code's :data:`~mggp.diagnose.verdict.REST_MARGIN`),
     in a Markdown table: how the study chose
     :data:`~mggp.diagnose.verdict.MEMORY_SHARE` and
     :data:`~mggp.diagnose.verdict.PART_SHARE` on development draws
@@ -362,20 +364,23 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     from narx.analysis.paired import PairedTest
     from mggp.diagnose.candidates import MEMORY, Structure
     from mggp.diagnose.run import Gain
-    from mggp.diagnose.verdict import PART_SHARE, Tested, choose
+    from mggp.diagnose.verdict import PART_SHARE, REST_MARGIN, Tested, choose
     level = ALPHA
     inf = lambda v: math.inf if v is None else float(v)          # noqa: E731
     recs = [r for r in recs if "candidates" in r]
     if not recs:
         raise ValueError("no records with a candidates table (run evaluate on this code)")
     rows = ["| memory share ρ | part share s | one part may carry | test against memory-free | "
-            "hold motion | named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
-            "|---|---|---|---|---|---|---|---|---|"]
+            "hold motion | margin without the best part | named / identifiable | "
+            "false alarms | gain ≥ 1.5 | gain < 0.95 |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
-    for share, part, one, vs, hm in ((a, b, c, f, h) for a in shares
-                                     for b in (part_shares or [PART_SHARE])
-                                     for c in carry for f in free_test for h in hold_motions):
+    for share, part, one, vs, hm, mg in ((a, b, c, f, h, g) for a in shares
+                                         for b in (part_shares or [PART_SHARE])
+                                         for c in carry for f in free_test
+                                         for h in hold_motions
+                                         for g in (rest_margins or [REST_MARGIN])):
         named, gains = {}, {}
         for r in recs:
             cs = r["candidates"]
@@ -389,13 +394,14 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
                       for c in cs]
             eff, w = choose(tested, inf(r["baseline_selection_rmse"]), level,
                             r["resolution_floor"], [_eligible(c, hm) for c in cs], share,
-                            tuple(map(inf, r.get("baseline_part_rmse", ()))), part, one)
+                            tuple(map(inf, r.get("baseline_part_rmse", ()))), part, one, mg)
             named[r["seed"]] = eff
             gains[r["seed"]] = 1.0 if w is None else Gain(
                 inf(r["baseline_rmse"]), inf(cs[tested.index(w)]["measure_rmse"])).ratio
         h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
         rows.append(f"| {share:g} | {part:g} | {'yes' if one else 'no'} | "
                     f"{'yes' if vs else 'no'} | {'as run' if hm is None else f'{hm:g}'} | "
+                    f"{mg:g} | "
                     f"{_rate(sum(map(h, ident)), len(ident))} | "
                     f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
                     f"{_rate(sum(gains[r['seed']] >= 1.5 for r in ident), len(ident))} | "
@@ -667,6 +673,9 @@ def _parser():
     r.add_argument("--hold-motions", nargs="+", type=float, default=None,
                    help="hold-motion thresholds (shares of the output's range) to replay "
                         "(default: the eligibility as run)")
+    r.add_argument("--rest-margins", nargs="+", type=float, default=None,
+                   help="margins m of the part rule without the best part (default: the "
+                        "code's REST_MARGIN)")
     r.add_argument("--without-free-test", action="store_true",
                    help="also replay without the memory candidates' test against the "
                         "best memory-free candidate")
@@ -696,7 +705,7 @@ def main(argv=None) -> int:
             print(replay(recs, args.shares, args.part_shares,
                          (False, True) if args.carry else (False,),
                          (True, False) if args.without_free_test else (True,),
-                         args.hold_motions or (None,)), end="")
+                         args.hold_motions or (None,), args.rest_margins), end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:
