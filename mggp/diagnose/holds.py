@@ -450,7 +450,8 @@ def self_motion(model: Optional[Model], reference: Model, records) -> float:
         if own.size == 0:
             continue
         ref = np.where(np.isfinite(ref), ref, 0.0)
-        excess = own[:, 1] - np.maximum(own[:, 0], ref[:, 1])
+        with np.errstate(invalid="ignore"):            # inf - inf: diverged in the hold
+            excess = own[:, 1] - np.maximum(own[:, 0], ref[:, 1])
         worst = max(worst, float(np.max(np.where(np.isnan(excess), np.inf, excess))))
     return worst
 
