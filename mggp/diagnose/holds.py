@@ -438,8 +438,8 @@ def self_motion(model: Optional[Model], reference: Model, records) -> float:
     with :func:`hold_motion`'s ranges of the free runs; ``records`` are
     ``(data, history, segments)`` triples (segments: :func:`find_holds`
     of the record; history ``'own'``: each model's ``meta['history']``,
-    as the training record's selection samples are run). 0 when no record has a usable hold; ``inf`` when the
-    model diverges in one."""
+    as the training record's selection samples are run). 0 when no
+    record has a usable hold; ``inf`` when the model diverges in one."""
     worst = 0.0
     for data, history, segs in records:
         if not segs:

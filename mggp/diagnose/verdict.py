@@ -47,8 +47,8 @@ below the baseline's) with the smallest selection RMSE; otherwise nothing.
 A candidate more than 15 % worse than the baseline on one part of the
 selection samples (the training record's tail, a selection block of the
 validation record; :func:`holds_up`, :data:`PART_SHARE`) cannot win,
-and neither can one whose gain one part carries alone (without that
-part it no longer beats the baseline).
+and neither can one whose gain one part carries (without that part it
+no longer beats the baseline by :data:`REST_MARGIN`).
 The winner is then the extension; a candidate whose free run leaves the
 output's range on probe inputs (:func:`~.candidates.stays_bounded`), or
 moves by itself while the input of a record is held
