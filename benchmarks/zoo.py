@@ -279,7 +279,6 @@ def _candidates(dx, train, validation) -> List[dict]:
     naming rule without running it again."""
     from mggp.diagnose.holds import record_holds, self_motion
     out = []
-    base = _freerun(dx.baseline.model, validation)
     held = record_holds(train, validation, dx.baseline.model.max_lag)
     span = float(np.ptp(dx.fit_data.y)) or 1.0
     for t in dx.verdict.tested:
@@ -292,36 +291,8 @@ def _candidates(dx, train, validation) -> List[dict]:
                     "measure_rmse": meas, "measure_block_rmse": blocks,
                     "bar_reason": (dx.verdict.bar_reason(t.structure.name)
                                    if t.structure.name in dx.verdict.barred else None),
-                    "hold_motion": _num(self_motion(t.model, dx.baseline.model, held) / span),
-                    **_disagreement(_freerun(t.model, validation), base, dx, validation.n)})
+                    "hold_motion": _num(self_motion(t.model, dx.baseline.model, held) / span)})
     return out
-
-
-def _freerun(model, validation) -> Optional[np.ndarray]:
-    """The free-run output of ``model`` over ``validation`` from its first
-    sample (as the diagnosis scores it; None: no model, or it diverged)."""
-    from mggp.diagnose.simulation import freerun_after
-    if model is None:
-        return None
-    r = freerun_after(model, validation, 0, "estimate")
-    return None if r.diverged else np.asarray(r.y_hat, dtype=float)
-
-
-def _disagreement(y_a, y_b, dx, n: int) -> dict:
-    """RMS of the difference of two free runs on each selection block and
-    each measuring block of the validation record (inputs only: no
-    measured output enters; None when either run is missing)."""
-    from mggp.diagnose.run import block_mask
-    sp = dx.split
-    if y_a is None or y_b is None or not sp.validation_select:
-        return {"disagree_select": None, "disagree_measure": None}
-    d = y_a - y_b
-
-    def rms(blocks, start):
-        return [_num(float(np.sqrt(np.mean(d[m] ** 2)))) if m.any() else None
-                for m in (block_mask(n, [b], start) for b in blocks)]
-    return {"disagree_select": rms(sp.validation_select, sp.validation_select_scored_from),
-            "disagree_measure": rms(sp.blocks, sp.scored_from)}
 
 
 def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[float]]]:

@@ -51,8 +51,7 @@ from narx.simulation.metrics import mape
 from narx.records.outliers import find_spikes, repaired
 
 from .context import Context
-from .candidates import (MIN_FIT, MIN_SELECT, candidate_structures, fit_structure,
-                         stays_bounded, why_barred)
+from .candidates import MIN_FIT, MIN_SELECT, candidate_structures, fit_structure, why_barred
 from .holds import record_holds
 from .extend import SEARCH_MODEL_KEPT, Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
