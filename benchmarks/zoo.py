@@ -316,7 +316,8 @@ def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[flo
 
 
 def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
-           free_test=(True,), hold_motions=(None,), rest_margins=None) -> str:
+           free_test=(True,), hold_motions=(None,), rest_margins=None,
+           unseparated_shares=None) -> str:
     """The headline rates of ``recs`` (records with ``candidates``) renamed
     by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
     :func:`~mggp.diagnose.verdict.worth_naming` and each share s of
@@ -327,7 +328,10 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     threshold (``hold_motions``, shares of the output's range; None: the
     eligibility as recorded; :data:`~mggp.diagnose.candidates.HOLD_MOTION`)
     and each margin m of the part rule (``rest_margins``; default the
-    code's :data:`~mggp.diagnose.verdict.REST_MARGIN`),
+    code's :data:`~mggp.diagnose.verdict.REST_MARGIN`) and each share ρ₁
+    of :func:`~mggp.diagnose.verdict.separated_worth` on records that
+    cannot separate memory from dynamics (``unseparated_shares``; default
+    the code's :data:`~mggp.diagnose.verdict.UNSEPARATED_SHARE`),
     in a Markdown table: how the study chose
     :data:`~mggp.diagnose.verdict.MEMORY_SHARE` and
     :data:`~mggp.diagnose.verdict.PART_SHARE` on development draws
@@ -335,23 +339,24 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     from narx.analysis.paired import PairedTest
     from mggp.diagnose.candidates import MEMORY, Structure
     from mggp.diagnose.run import Gain
-    from mggp.diagnose.verdict import PART_SHARE, REST_MARGIN, Tested, choose
+    from mggp.diagnose.verdict import (PART_SHARE, REST_MARGIN, UNSEPARATED_SHARE, Tested,
+                                       choose)
     level = ALPHA
     inf = lambda v: math.inf if v is None else float(v)          # noqa: E731
     recs = [r for r in recs if "candidates" in r]
     if not recs:
         raise ValueError("no records with a candidates table (run evaluate on this code)")
     rows = ["| memory share ρ | part share s | one part may carry | test against memory-free | "
-            "hold motion | margin without the best part | named / identifiable | "
-            "false alarms | gain ≥ 1.5 | gain < 0.95 |",
-            "|---|---|---|---|---|---|---|---|---|---|"]
+            "hold motion | margin without the best part | ρ₁ (records that cannot separate) | "
+            "named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
-    for share, part, one, vs, hm, mg in ((a, b, c, f, h, g) for a in shares
-                                         for b in (part_shares or [PART_SHARE])
-                                         for c in carry for f in free_test
-                                         for h in hold_motions
-                                         for g in (rest_margins or [REST_MARGIN])):
+    for share, part, one, vs, hm, mg, us in (
+            (a, b, c, f, h, g, n) for a in shares for b in (part_shares or [PART_SHARE])
+            for c in carry for f in free_test for h in hold_motions
+            for g in (rest_margins or [REST_MARGIN])
+            for n in (unseparated_shares or [UNSEPARATED_SHARE])):
         named, gains = {}, {}
         for r in recs:
             cs = r["candidates"]
@@ -365,14 +370,15 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
                       for c in cs]
             eff, w = choose(tested, inf(r["baseline_selection_rmse"]), level,
                             r["resolution_floor"], [_eligible(c, hm) for c in cs], share,
-                            tuple(map(inf, r.get("baseline_part_rmse", ()))), part, one, mg)
+                            tuple(map(inf, r.get("baseline_part_rmse", ()))), part, one, mg,
+                            bool(r.get("separates", True)), us)
             named[r["seed"]] = eff
             gains[r["seed"]] = 1.0 if w is None else Gain(
                 inf(r["baseline_rmse"]), inf(cs[tested.index(w)]["measure_rmse"])).ratio
         h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
         rows.append(f"| {share:g} | {part:g} | {'yes' if one else 'no'} | "
                     f"{'yes' if vs else 'no'} | {'as run' if hm is None else f'{hm:g}'} | "
-                    f"{mg:g} | "
+                    f"{mg:g} | {us:g} | "
                     f"{_rate(sum(map(h, ident)), len(ident))} | "
                     f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
                     f"{_rate(sum(gains[r['seed']] >= 1.5 for r in ident), len(ident))} | "
@@ -647,6 +653,10 @@ def _parser():
     r.add_argument("--rest-margins", nargs="+", type=float, default=None,
                    help="margins m of the part rule without the best part (default: the "
                         "code's REST_MARGIN)")
+    r.add_argument("--unseparated-shares", nargs="+", type=float, default=None,
+                   help="shares ρ₁ a memory winner must beat the best memory-free "
+                        "candidate by to be named on records that cannot separate memory "
+                        "from dynamics (default: the code's UNSEPARATED_SHARE)")
     r.add_argument("--without-free-test", action="store_true",
                    help="also replay without the memory candidates' test against the "
                         "best memory-free candidate")
@@ -676,7 +686,8 @@ def main(argv=None) -> int:
             print(replay(recs, args.shares, args.part_shares,
                          (False, True) if args.carry else (False,),
                          (True, False) if args.without_free_test else (True,),
-                         args.hold_motions or (None,), args.rest_margins), end="")
+                         args.hold_motions or (None,), args.rest_margins,
+                         args.unseparated_shares), end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:

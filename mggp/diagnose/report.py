@@ -28,6 +28,7 @@ from ..report.quasistatic import diagnosis_figure
 from ..report.summary import figure_lines
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
+from .verdict import UNSEPARATED_SHARE
 from .simulation import direction_of_change, simulation_residual
 
 __all__ = ["terminal_summary", "write_report", "verdict"]
@@ -36,6 +37,13 @@ __all__ = ["terminal_summary", "write_report", "verdict"]
 def _nothing_why(v) -> str:
     """Why the verdict named nothing, in words."""
     rival = v.unnamed_rival()
+    if rival is not None and rival.structure.name not in v.barred:
+        w = v.winner
+        return (f"{w.structure.name} beats the baseline (RMSE {_g(w.selection_rmse)} against "
+                f"{_g(v.baseline_rmse)}, p {_g(w.p_adjusted)}) and is the extension, but "
+                f"this record cannot separate memory from dynamics and it beats the "
+                f"memory-free {rival.structure.name} (RMSE {_g(rival.selection_rmse)}) by "
+                f"less than {UNSEPARATED_SHARE:.0%}: memory is not told from a lag")
     if rival is not None:
         w = v.winner
         return (f"{w.structure.name} beats the baseline (RMSE {_g(w.selection_rmse)} against "

@@ -619,8 +619,11 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     floor = loss_floor(fit.y, resolution)
     segments = [n_pre - n_fit - s_start] + [b - max(a, s_start) for a, b in vsel
                                             if b > max(a, s_start)]
+    # on a record that cannot separate memory from dynamics a memory winner
+    # must win by a wider margin to be named (:func:`~.verdict.choose`)
+    separation = separation_note(pre)
     vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]), floor,
-                eligible, segments=segments, bar_reasons=bars)
+                eligible, segments=segments, bar_reasons=bars, separates=separation is None)
     timings["test"] = time.perf_counter() - t3
     winner = vd.winner
     ext_model = winner.model if winner is not None else base
@@ -655,7 +658,6 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                         f"{number_text(t.p_value)} (paired block bootstrap of the log-loss differences, "
                         f"Holm) <= level "
                         f"{level:g}", t.p_value, level) for t in ([winner] if vd.named else [])]
-    separation = separation_note(pre)
     settings = {"seed": int(seed), "jobs": int(jobs), "alpha": alpha, "level": level,
                 "user_model": model is not None,
                 "resolution": resolution, "holdout": None if validation is not None
