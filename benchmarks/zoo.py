@@ -533,10 +533,13 @@ def table(recs: List[dict], figure: Optional[str] = None) -> str:
                          f"draws and on {_rate(sum(map(named_h, pc)), len(pc))} controls; gain "
                          f"≥ 1.5 on {_rate(sum(_gain(r) >= 1.5 for r in pi), len(pi))}; gain "
                          f"< 0.95 on {_rate(sum(_gain(r) < 0.95 for r in part), len(part))}")
-        unnamed = sum(1 for r in ok if r.get("winner") and not r["named"])
+        unnamed = [r for r in ok if r.get("winner") and not r["named"]]
         lines += [f"- an extension recommended with its cause not named (a memory candidate "
-                  f"whose memory-free rival leaves the range on the probes): {unnamed} draws",
-                  ""]
+                  f"whose memory-free rival leaves the range on the probes, or, on a record "
+                  f"that cannot separate, beats that rival by less than the share "
+                  f"`UNSEPARATED_SHARE`): {len(unnamed)} draws "
+                  f"({sum(not r['separates'] for r in unnamed)} on records that cannot "
+                  f"separate)", ""]
     non = [r for r in hy if not r["identifiable"]]
     lines += [f"**Non-identifiable hysteretic draws** (oracle gain < {IDENTIFIABLE}): "
               f"{len(non)}; hysteresis named on {_rate(sum(map(named_h, non)), len(non))}.", ""]
