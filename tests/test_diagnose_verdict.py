@@ -169,11 +169,12 @@ def test_a_record_that_cannot_separate_needs_a_wider_memory_win_to_name_it():
     from mggp.diagnose.verdict import UNSEPARATED_SHARE
     assert 0.7 >= 1 - UNSEPARATED_SHARE > 0.4
     rng = np.random.default_rng(11)
-    n = 1500
-    base = _ar1(rng, n, scale=3.0)
-    free = _ar1(rng, n)
-    cands = [(_s(MEMORY, "plays"), M, 0.7 * free, 1.0),
-             (_s("unmodelled-dynamics", "more lags"), M, free, 1.0)]
+    base, free = _ar1(rng, 1500, scale=3.0), _ar1(rng, 1500)
+
+    def pair(ratio):                       # memory at `ratio` of the memory-free errors
+        return [(_s(MEMORY, "plays"), M, ratio * free, 1.0),
+                (_s("unmodelled-dynamics", "more lags"), M, free, 1.0)]
+    cands = pair(0.7)
     v = decide(base, cands, ALPHA, rng)
     assert v.named == ("hysteresis",) and v.winner.structure.name == "plays"
     v = decide(base, cands, ALPHA, rng, separates=False)
@@ -181,8 +182,7 @@ def test_a_record_that_cannot_separate_needs_a_wider_memory_win_to_name_it():
     assert v.unnamed_rival().structure.name == "more lags"
     why = _nothing_why(v)
     assert "cannot separate memory from dynamics" in why and "more lags" in why, why
-    cands[0] = (_s(MEMORY, "plays"), M, 0.4 * free, 1.0)     # control: a wide win
-    v = decide(base, cands, ALPHA, rng, separates=False)
+    v = decide(base, pair(0.4), ALPHA, rng, separates=False)  # control: a wide win
     assert v.named == ("hysteresis",)
 
 
