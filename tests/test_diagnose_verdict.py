@@ -180,6 +180,7 @@ def test_a_record_that_cannot_separate_needs_a_wider_memory_win_to_name_it():
     v = decide(base, cands, ALPHA, rng, separates=False)
     assert v.named == () and v.winner.structure.name == "plays"
     assert v.unnamed_rival().structure.name == "more lags"
+    assert v.to_dict()["separates"] is False
     why = _nothing_why(v)
     assert "cannot separate memory from dynamics" in why and "more lags" in why, why
     v = decide(base, pair(0.4), ALPHA, rng, separates=False)  # control: a wide win

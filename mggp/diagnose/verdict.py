@@ -279,7 +279,8 @@ class Verdict:
                 "baseline_selection_rmse": json_number(self.baseline_rmse),
                 "winner": None if self.winner is None else self.winner.structure.name,
                 "barred": list(self.barred), "uneven": list(self.uneven),
-                "bar_reasons": {k: self.bar_reason(k) for k in self.barred}}
+                "bar_reasons": {k: self.bar_reason(k) for k in self.barred},
+                "separates": self.separates}
 
     def lines(self) -> List[str]:
         """The tests in words, one line per candidate."""
