@@ -187,6 +187,27 @@ def test_a_record_that_cannot_separate_needs_a_wider_memory_win_to_name_it():
     assert v.named == ("hysteresis",)
 
 
+def test_a_rival_that_loses_a_part_is_named_as_such_in_the_nothing_line():
+    """The memory-free candidate that beats a memory candidate overall but
+    loses the second part of the selection samples to the baseline by
+    more than the part rule allows cannot win; the memory candidate, 20 %
+    better than the baseline on both parts, is the extension, unnamed, and
+    the line gives the part, not a probe or the separation."""
+    from mggp.diagnose.report import _nothing_why
+    rng = np.random.default_rng(13)
+    x = _ar1(rng, 1500)
+    h = x.size // 2
+    scale = lambda a, b: np.concatenate([a * x[:h], b * x[h:]])   # noqa: E731
+    cands = [(_s(MEMORY, "plays"), M, scale(1.6, 2.0), 1.0),
+             (_s("unmodelled-dynamics", "more lags"), M, scale(0.2, 3.0), 1.0)]
+    v = decide(scale(2.0, 2.5), cands, ALPHA, rng, floor=1.0, segments=[h, x.size - h])
+    assert v.named == () and v.winner.structure.name == "plays", v.lines()
+    assert v.uneven == ("more lags",) and v.barred == ()
+    why = _nothing_why(v)
+    assert "more lags" in why and "loses a part of the selection samples" in why, why
+    assert "probe" not in why and "cannot separate" not in why
+
+
 def test_nothing_is_named_when_no_candidate_beats_the_baseline():
     rng = np.random.default_rng(5)
     n = 1500
