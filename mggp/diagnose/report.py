@@ -37,24 +37,19 @@ __all__ = ["terminal_summary", "write_report", "verdict"]
 def _nothing_why(v) -> str:
     """Why the verdict named nothing, in words."""
     rival = v.unnamed_rival()
-    if rival is None:
-        pass
-    elif not v.separates and rival.structure.name not in v.barred:
-        w = v.winner
-        return (f"{w.structure.name} beats the baseline (RMSE {_g(w.selection_rmse)} against "
-                f"{_g(v.baseline_rmse)}, p {_g(w.p_adjusted)}) and is the extension, but "
-                f"this record cannot separate memory from dynamics and it beats the "
-                f"memory-free {rival.structure.name} (RMSE {_g(rival.selection_rmse)}) by "
-                f"less than {UNSEPARATED_SHARE:.0%}: memory is not told from a lag")
-    else:
-        w = v.winner
-        why = (v.bar_reason(rival.structure.name) if rival.structure.name in v.barred else
+    if rival is not None:
+        w, name = v.winner, rival.structure.name
+        won = (f"{w.structure.name} beats the baseline (RMSE {_g(w.selection_rmse)} against "
+               f"{_g(v.baseline_rmse)}, p {_g(w.p_adjusted)}) and is the extension, but ")
+        if not v.separates and name not in v.barred:
+            return (won + f"this record cannot separate memory from dynamics and it beats the "
+                    f"memory-free {name} (RMSE {_g(rival.selection_rmse)}) by less than "
+                    f"{UNSEPARATED_SHARE:.0%}: memory is not told from a lag")
+        why = (v.bar_reason(name) if name in v.barred else
                "loses a part of the selection samples to the baseline")
-        return (f"{w.structure.name} beats the baseline (RMSE {_g(w.selection_rmse)} against "
-                f"{_g(v.baseline_rmse)}, p {_g(w.p_adjusted)}) and is the extension, but the "
-                f"memory-free {rival.structure.name} fits the selection samples as well or "
-                f"better (RMSE {_g(rival.selection_rmse)}) and is ruled out only because it "
-                f"{why}: memory is not told from a memoryless nonlinearity")
+        return (won + f"the memory-free {name} fits the selection samples as well or better "
+                f"(RMSE {_g(rival.selection_rmse)}) and is ruled out only because it {why}: "
+                f"memory is not told from a memoryless nonlinearity")
     barred = v.barred_winners()
     if not barred:
         return (f"no candidate extension beat the baseline at level {v.level:g}, "
