@@ -142,6 +142,8 @@ def terminal_summary(dx) -> str:
         lines.append(f"extension ({v.winner.structure.name}, {e.model.n_terms} terms"
                      + ("" if v.named else "; its cause not named") + "):")
         lines += [f"  {c}" for c in dx.changes]
+        if dx.operator_params:
+            lines.append(f"  {dx.operator_params['words']}")
     if not np.isfinite(g.baseline):
         lines.append("warning: the baseline's free run diverges on the measuring samples, "
                      "so no gain can be measured against it")

@@ -51,13 +51,14 @@ from narx.simulation.metrics import mape
 from narx.records.outliers import find_spikes, repaired
 
 from .context import Context
-from .candidates import MIN_FIT, MIN_SELECT, candidate_structures, fit_structure, why_barred
+from .candidates import (MIN_FIT, MIN_SELECT, candidate_structures, estimate_operators,
+                         fit_structure, why_barred)
 from .holds import record_holds
 from .extend import SEARCH_MODEL_KEPT, Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
 from .simulation import freerun_after
-from .verdict import Verdict, decide, loss_floor, separation_note
+from .verdict import Verdict, decide, loss_floor, rmse_of, separation_note
 
 __all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data",
            "outside_fit_range"]
@@ -214,6 +215,9 @@ class Diagnosis:
     #: (``measure_holds``, in its own numbering from ``second_offset``)
     second_data: Optional[Data] = None
     second_offset: int = 0
+    #: the estimate of the winner's memory-operator parameters
+    #: (:func:`_estimated_operators`; None when the winner has none)
+    operator_params: Optional[dict] = None
 
     @property
     def effects(self) -> List[str]:
@@ -235,6 +239,7 @@ class Diagnosis:
                 "evidence": [f.to_dict() for f in self.evidence_findings],
                 "verdict": self.verdict.to_dict(),
                 "separation": self.separation,
+                "operator_params": self.operator_params,
                 "settings": self.settings}
 
     def recommended_model(self, command: str = "") -> Model:
@@ -434,6 +439,40 @@ def _selection_errors(model: Optional[Model], pre: Data, n_fit: int,
                                              "estimate")])
 
 
+def _estimated_operators(winner, fit: Data, base: Model, held, selection_rmse):
+    """``(model, note)``: the extension, with its memory operators'
+    parameters estimated (:func:`~.candidates.estimate_operators`, on
+    the fitting samples) when that lowers its free-run RMSE on the
+    selection samples (``selection_rmse(model)``) and it may still be the
+    extension (:func:`~.candidates.why_barred`); else the winner's model
+    as tested. The two are estimates of one structure, so the lower
+    selection error decides with no margin, as for the θ of the
+    candidates (:func:`~.candidates.fit_structure`) and the
+    ``operator_params`` choice of ``mggp fit``. The test and the named
+    effect are the grid model's; the measuring samples take no part.
+    ``note`` is None when the winner has no operator with a parameter,
+    else a dict: ``kept``, ``moved`` (old → new operator), the selection
+    RMSE with the grid's and with the estimated parameters, ``words``."""
+    r = estimate_operators(winner.model, fit)
+    if r is None:
+        return winner.model, None
+    grid, est = float(winner.selection_rmse), selection_rmse(r.model)
+    barred = why_barred(r.model, base, fit, held)
+    kept = bool(est < grid and barred is None)
+    moved = ", ".join(f"{k} -> {v}" for k, v in r.moved.items())
+    words = (f"operator parameters estimated by free-run error ({moved}): selection RMSE "
+             f"{number_text(est)} against {number_text(grid)} on the grid")
+    if not kept:
+        words = (f"the grid's operator parameters kept: with them estimated by free-run "
+                 f"error ({moved}) the model " + (
+                     barred if barred is not None else
+                     f"simulates the selection samples at RMSE {number_text(est)} against "
+                     f"{number_text(grid)}"))
+    note = {"kept": kept, "moved": dict(r.moved), "selection_rmse_grid": _num(grid),
+            "selection_rmse_estimated": _num(est), "barred": barred, "words": words}
+    return (r.model if kept else winner.model), note
+
+
 def _score(model: Model, record: Data, first: int, mask: np.ndarray,
            history: Optional[str]) -> Tuple[float, float, np.ndarray]:
     """Free-run RMSE and MAPE of ``model`` on the samples of ``record``
@@ -627,6 +666,11 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     timings["test"] = time.perf_counter() - t3
     winner = vd.winner
     ext_model = winner.model if winner is not None else base
+    operators = None
+    if winner is not None and winner.structure.constraints is None:
+        ext_model, operators = _estimated_operators(
+            winner, fit, base, held,
+            lambda m: rmse_of(_selection_errors(m, pre, n_fit, validation, vsel, s_start)))
     if winner is not None:
         say(f"verdict: {winner.effect if vd.named else 'effect not named'} "
             f"({winner.structure.name})")
@@ -651,7 +695,8 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     e_rmse, e_mape, e_hat = _score(ext_model, record, first, mask,
                                    history or ext_model.meta.get("history"))
     ext_source = ("the baseline (no candidate won the test, nothing changed)" if winner is None
-                  else f"{winner.structure.name}: {winner.structure.changes}")
+                  else f"{winner.structure.name}: {winner.structure.changes}"
+                  + (f"; {operators['words']}" if operators and operators["kept"] else ""))
     findings = [Finding(t.effect, f"{t.structure.name}: {t.structure.changes}; free-run RMSE "
                         f"on the selection samples {number_text(vd.baseline_rmse)} (baseline) "
                         f"-> {number_text(t.selection_rmse)}, one-sided p-value "
@@ -674,4 +719,4 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                      Scored(ext_model, ext_source, e_rmse, e_mape, e_hat), vd,
                      Gain(b_rmse, e_rmse, won=winner is not None), split, fit, measure,
                      ctx.measure_holds, rec_names, settings, timings, evidence_findings,
-                     separation, second, second_at)
+                     separation, second, second_at, operators)

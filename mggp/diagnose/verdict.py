@@ -175,7 +175,8 @@ REST_MARGIN = 0.2
 UNSEPARATED_SHARE = 0.25
 
 
-def _rmse(e) -> float:
+def rmse_of(e) -> float:
+    """Root mean square of the errors ``e`` (inf when any is not finite or there are none)."""
     e = np.asarray(e, dtype=float)
     return float(np.sqrt(np.mean(e * e))) if e.size and np.all(np.isfinite(e)) else np.inf
 
@@ -371,10 +372,10 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
     cuts = np.cumsum([0] + list(segments if segments is not None else [e_base.size]))
 
     def parts(e):
-        return tuple(_rmse(e[a:b]) for a, b in zip(cuts[:-1], cuts[1:]))
+        return tuple(rmse_of(e[a:b]) for a, b in zip(cuts[:-1], cuts[1:]))
     ok_to_win = list(eligible) if eligible is not None else [True] * len(candidates)
-    base_rmse = _rmse(e_base)
-    rm = [_rmse(e) for _, _, e, _ in candidates]
+    base_rmse = rmse_of(e_base)
+    rm = [rmse_of(e) for _, _, e, _ in candidates]
     tests = [paired_test(e_base, e, rng, floor=floor) for _, _, e, _ in candidates]
     adj = holm([t.p_value for t in tests])
     tested = [Tested(st, m, r, t, float(a), part_rmse=parts(np.asarray(e, dtype=float)))
