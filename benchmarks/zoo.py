@@ -261,6 +261,7 @@ def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dic
                recommended=dx.gain.recommended,
                p_values=doc.get("verdict", {}).get("p_values", {}),
                separates=dx.separation is None, winner=_winner(dx),
+               operator_params=_operator_params(dx, d.validation),
                candidates=_candidates(dx, d.train, d.validation),
                baseline_part_rmse=[_num(v) for v in dx.verdict.baseline_part_rmse],
                baseline_measure_block_rmse=_measured(dx.baseline.model, dx, d.validation)[1],
@@ -269,6 +270,21 @@ def evaluate_one(seed: int, population: int, generations: int, jobs: int) -> dic
                diagnose_seconds=float(dx.timings.get("total", math.nan)),
                seconds=time.perf_counter() - t0)
     return rec
+
+
+def _operator_params(dx, validation) -> Optional[dict]:
+    """The estimate of the winner's operator parameters
+    (:func:`mggp.diagnose.run._estimated_operators`): whether it was kept,
+    the selection RMSE with the grid's and the estimated parameters, and
+    the grid model's RMSE on the measuring samples (``grid_rmse``, beside
+    ``extended_rmse``; None when the winner has no operator)."""
+    note = dx.operator_params
+    if note is None:
+        return None
+    return {"kept": note["kept"], "barred": note["barred"],
+            "selection_rmse_grid": note["selection_rmse_grid"],
+            "selection_rmse_estimated": note["selection_rmse_estimated"],
+            "grid_rmse": _measured(dx.verdict.winner.model, dx, validation)[0]}
 
 
 def _candidates(dx, train, validation) -> List[dict]:

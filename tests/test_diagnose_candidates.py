@@ -196,3 +196,33 @@ def test_a_record_that_starts_in_motion_fits_its_plays_from_their_history():
     assert score < 0.5 * score_rest
     at_rest = Data(u, prandtl_ishlinskii(u, z0=u[0]))
     assert fit_structure(plays, at_rest)[0].meta["history"] == "rest"
+
+
+@pytest.mark.parametrize("seed, kept", [(227, True), (146, True), (62, False)])
+def test_the_winners_operator_parameters_are_estimated_when_they_select_better(seed, kept):
+    """Development draws of the zoo at a small budget. 227, a static
+    Bouc–Wen element, and 146, a static Dahl element: the winner's
+    Bouc–Wen variables on the grid of shapes, estimated by free-run error,
+    simulate the selection samples and the validation record several
+    times better, and the extension takes them. 62, a static Preisach
+    element (control): the estimate fits the fitting samples better, but
+    the model then leaves the output's range on the probe inputs, so the
+    winner is kept as tested."""
+    with zoo.tuning():
+        d = zoo.draw(seed)
+    dx = diagnose(d.train, validation=d.validation, budget=SMALL, seed=0)
+    w, note = dx.verdict.winner, dx.operator_params
+    assert w is not None and note is not None, dx.verdict.lines()
+    assert note["kept"] is kept, note
+    val = d.validation
+
+    def rmse(m):
+        return np.sqrt(np.mean(_errors(m, val, 0, 10, val.n) ** 2))
+    if kept:
+        assert note["selection_rmse_estimated"] < note["selection_rmse_grid"]
+        assert dx.extended.model.term_texts != w.model.term_texts
+        assert rmse(dx.extended.model) < 0.2 * rmse(w.model)
+        assert "operator parameters estimated by free-run error" in dx.summary()
+    else:
+        assert dx.extended.model is w.model
+        assert "the grid's operator parameters kept" in dx.summary()
