@@ -439,6 +439,10 @@ def _selection_errors(model: Optional[Model], pre: Data, n_fit: int,
                                              "estimate")])
 
 
+#: most moved operators the summary line lists (the JSON has them all)
+SHOWN_MOVES = 3
+
+
 def _estimated_operators(winner, fit: Data, base: Model, held, selection_rmse):
     """``(model, note)``: the extension, with its memory operators'
     parameters estimated (:func:`~.candidates.estimate_operators`, on
@@ -459,7 +463,9 @@ def _estimated_operators(winner, fit: Data, base: Model, held, selection_rmse):
     grid, est = float(winner.selection_rmse), selection_rmse(r.model)
     barred = why_barred(r.model, base, fit, held)
     kept = bool(est < grid and barred is None)
-    moved = ", ".join(f"{k} -> {v}" for k, v in r.moved.items())
+    pairs = [f"{k} -> {v}" for k, v in r.moved.items()]
+    moved = ", ".join(pairs[:SHOWN_MOVES]) + (f" and {len(pairs) - SHOWN_MOVES} more"
+                                              if len(pairs) > SHOWN_MOVES else "")
     words = (f"operator parameters estimated by free-run error ({moved}): selection RMSE "
              f"{number_text(est)} against {number_text(grid)} on the grid")
     if not kept:
