@@ -333,7 +333,7 @@ def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[flo
 
 def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
            free_test=(True,), hold_motions=(None,), rest_margins=None,
-           unseparated_shares=None) -> str:
+           unseparated_shares=None, part_floors=None) -> str:
     """The headline rates of ``recs`` (records with ``candidates``) renamed
     by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
     :func:`~mggp.diagnose.verdict.worth_naming` and each share s of
@@ -347,7 +347,9 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     code's :data:`~mggp.diagnose.verdict.REST_MARGIN`) and each share ρ₁
     of :func:`~mggp.diagnose.verdict.separated_worth` on records that
     cannot separate memory from dynamics (``unseparated_shares``; default
-    the code's :data:`~mggp.diagnose.verdict.UNSEPARATED_SHARE`),
+    the code's :data:`~mggp.diagnose.verdict.UNSEPARATED_SHARE`), and with
+    and without the parts' RMSEs floored at the resolution (``part_floors``;
+    default the code's :data:`~mggp.diagnose.verdict.PART_FLOOR`),
     in a Markdown table: how the study chose
     :data:`~mggp.diagnose.verdict.MEMORY_SHARE` and
     :data:`~mggp.diagnose.verdict.PART_SHARE` on development draws
@@ -355,8 +357,8 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     from narx.analysis.paired import PairedTest
     from mggp.diagnose.candidates import MEMORY, Structure
     from mggp.diagnose.run import Gain
-    from mggp.diagnose.verdict import (PART_SHARE, REST_MARGIN, UNSEPARATED_SHARE, Tested,
-                                       choose)
+    from mggp.diagnose.verdict import (PART_FLOOR, PART_SHARE, REST_MARGIN,
+                                       UNSEPARATED_SHARE, Tested, choose)
     level = ALPHA
     inf = lambda v: math.inf if v is None else float(v)          # noqa: E731
     recs = [r for r in recs if "candidates" in r]
@@ -364,15 +366,16 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
         raise ValueError("no records with a candidates table (run evaluate on this code)")
     rows = ["| memory share ρ | part share s | one part may carry | test against memory-free | "
             "hold motion | margin without the best part | ρ₁ (records that cannot separate) | "
-            "named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
-            "|---|---|---|---|---|---|---|---|---|---|---|"]
+            "parts floored | named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
-    for share, part, one, vs, hm, mg, us in (
-            (a, b, c, f, h, g, n) for a in shares for b in (part_shares or [PART_SHARE])
+    for share, part, one, vs, hm, mg, us, pf in (
+            (a, b, c, f, h, g, n, fl) for a in shares for b in (part_shares or [PART_SHARE])
             for c in carry for f in free_test for h in hold_motions
             for g in (rest_margins or [REST_MARGIN])
-            for n in (unseparated_shares or [UNSEPARATED_SHARE])):
+            for n in (unseparated_shares or [UNSEPARATED_SHARE])
+            for fl in (part_floors or [PART_FLOOR])):
         named, gains = {}, {}
         for r in recs:
             cs = r["candidates"]
@@ -387,14 +390,14 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
             eff, w = choose(tested, inf(r["baseline_selection_rmse"]), level,
                             r["resolution_floor"], [_eligible(c, hm) for c in cs], share,
                             tuple(map(inf, r.get("baseline_part_rmse", ()))), part, one, mg,
-                            bool(r.get("separates", True)), us)
+                            bool(r.get("separates", True)), us, pf)
             named[r["seed"]] = eff
             gains[r["seed"]] = 1.0 if w is None else Gain(
                 inf(r["baseline_rmse"]), inf(cs[tested.index(w)]["measure_rmse"])).ratio
         h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
         rows.append(f"| {share:g} | {part:g} | {'yes' if one else 'no'} | "
                     f"{'yes' if vs else 'no'} | {'as run' if hm is None else f'{hm:g}'} | "
-                    f"{mg:g} | {us:g} | "
+                    f"{mg:g} | {us:g} | {'yes' if pf else 'no'} | "
                     f"{_rate(sum(map(h, ident)), len(ident))} | "
                     f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
                     f"{_rate(sum(gains[r['seed']] >= 1.5 for r in ident), len(ident))} | "
@@ -676,6 +679,9 @@ def _parser():
                    help="shares ρ₁ a memory winner must beat the best memory-free "
                         "candidate by to be named on records that cannot separate memory "
                         "from dynamics (default: the code's UNSEPARATED_SHARE)")
+    r.add_argument("--part-floors", nargs="+", type=int, choices=(0, 1), default=None,
+                   help="1: the parts' RMSEs floored at the resolution in the part rule, "
+                        "0: not (default: the code's PART_FLOOR)")
     r.add_argument("--without-free-test", action="store_true",
                    help="also replay without the memory candidates' test against the "
                         "best memory-free candidate")
@@ -706,7 +712,9 @@ def main(argv=None) -> int:
                          (False, True) if args.carry else (False,),
                          (True, False) if args.without_free_test else (True,),
                          args.hold_motions or (None,), args.rest_margins,
-                         args.unseparated_shares), end="")
+                         args.unseparated_shares,
+                         None if args.part_floors is None else [bool(v) for v in args.part_floors]),
+          end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:

@@ -415,3 +415,15 @@ def test_probe_inputs_rule_out_a_model_that_leaves_the_range_off_its_own_input()
                      theta=[1.0, 0.05, 40.0 / np.ptp(d.y) ** 2])
     assert not stays_bounded(bad, d)
     assert not stays_bounded(None, d)
+
+
+def test_a_part_both_models_keep_within_the_resolution_is_a_tie():
+    """The part rule at the resolution δ = 0.03: a candidate 44 % worse
+    than the baseline on a part where both stay below δ (0.0124 against
+    0.0086, zoo development draw 99) may still win; the same loss above
+    δ (0.124 against 0.086) still bars it, and without δ both bar it."""
+    cand, base = (0.031, 0.0185, 0.0237, 0.0124), (0.0931, 0.1036, 0.065, 0.0086)
+    assert holds_up(cand, base, floor=0.03)
+    assert not holds_up(cand, base)
+    worse_above = (0.31, 0.185, 0.237, 0.124)
+    assert not holds_up(worse_above, (0.931, 1.036, 0.65, 0.086), floor=0.03)

@@ -223,9 +223,9 @@ def test_replay_renames_draws_under_each_memory_share():
                                    None, 0.009)])
         return r
     text = replay([rec(0, True, 0.5), rec(1, False, 0.97)], [1.0, 0.2, 0.0])
-    assert "| 1 | 0.85 | no | yes | as run | 0.2 | 0.25 | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
-    assert "| 0.2 | 0.85 | no | yes | as run | 0.2 | 0.25 | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
-    assert "| 0 | 0.85 | no | yes | as run | 0.2 | 0.25 | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    assert "| 1 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
+    assert "| 0.2 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    assert "| 0 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
     with pytest.raises(ValueError, match="candidates"):
         replay([_record(2, "play", True, [], 1.0, True, 0.1)], [0.2])
 
@@ -244,10 +244,10 @@ def test_replay_renames_draws_under_each_part_share():
              candidates=[dict(_cand("more lags", "unmodelled-dynamics", 0.02, 1e-4, None,
                                     0.0125), part_rmse=[0.015, 0.02])])
     text = replay([r], [0.15], [0.0, 0.85], (False, True))
-    assert "| 0.15 | 0 | yes | yes | as run | 0.2 | 0.25 | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in text, text
+    assert "| 0.15 | 0 | yes | yes | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in text, text
     # its gain rests on the excursion's part alone: the other clause bars it too
-    assert "| 0.15 | 0 | no | yes | as run | 0.2 | 0.25 | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
-    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0 | no | yes | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
 
 
 def test_replay_without_the_test_against_memory_free_names_more():
@@ -266,10 +266,10 @@ def test_replay_without_the_test_against_memory_free_names_more():
                                    None, 0.01)])
         return r
     text = replay([rec(0, 0.3)], [0.15], None, (False,), (True, False))
-    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | 0/1 (0 %) |" in text, text
-    assert "| 0.15 | 0.85 | no | no | as run | 0.2 | 0.25 | 1/1 (100 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | no | as run | 0.2 | 0.25 | yes | 1/1 (100 %) |" in text, text
     text = replay([rec(1, 1e-4)], [0.15], None, (False,), (True, False))
-    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | 1/1 (100 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 1/1 (100 %) |" in text, text
 
 
 def test_replay_bars_candidates_by_their_recorded_hold_motion():
@@ -290,8 +290,8 @@ def test_replay_bars_candidates_by_their_recorded_hold_motion():
     r.update(baseline_rmse=0.012, baseline_selection_rmse=0.01, resolution_floor=0.001,
              candidates=[mover, steady, wild])
     text = replay([r], [0.15], None, (False,), (True,), (0.2, 0.5))
-    assert "| 0.2 | 0.2 | 0.25 | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) | 0/1 (0 %) |" in text, text
-    assert "| 0.5 | 0.2 | 0.25 | 1/1 (100 %) | 0/0 (–) | 0/1 (0 %) | 1/1 (100 %) |" in text, text
+    assert "| 0.2 | 0.2 | 0.25 | yes | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) | 0/1 (0 %) |" in text, text
+    assert "| 0.5 | 0.2 | 0.25 | yes | 1/1 (100 %) | 0/0 (–) | 0/1 (0 %) | 1/1 (100 %) |" in text, text
 
 
 @pytest.mark.slow
@@ -345,8 +345,8 @@ def test_replay_withholds_the_name_on_records_that_cannot_separate():
                                    0.009)])
         return r
     sep = replay([rec(0, True)], [0.15], unseparated_shares=[0.2, 0.4])
-    assert "| 0.2 | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in sep, sep
-    assert "| 0.4 | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in sep, sep
+    assert "| 0.2 | yes | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in sep, sep
+    assert "| 0.4 | yes | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in sep, sep
     nosep = replay([rec(1, False)], [0.15], unseparated_shares=[0.2, 0.4])
-    assert "| 0.2 | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in nosep, nosep
-    assert "| 0.4 | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in nosep, nosep
+    assert "| 0.2 | yes | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in nosep, nosep
+    assert "| 0.4 | yes | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in nosep, nosep
