@@ -496,9 +496,11 @@ def holds_up(part_rmse: Sequence[float], base_parts: Sequence[float],
     A part where both diverge counts as a tie, one where only the
     candidate diverges as a loss, one where only the baseline does as an
     unbounded gain. True when the parts are not known (empty).
-    ``floor`` δ (the resolution, :func:`loss_floor`): RMSEs below it
-    count as δ, so two models that both keep a part within the resolution
-    tie there, as in the paired test's log loss."""
+    ``floor`` δ (the resolution, :func:`loss_floor`): the first clause
+    reads :math:`\max(b_j, δ) \ge s \max(r_j, δ)`, so a part that both
+    models keep within the resolution is a tie, as in the paired test's
+    log loss; the second clause compares the RMSEs as measured (a gain
+    below the resolution still counts there, :data:`PART_FLOOR`)."""
     n = min(len(part_rmse), len(base_parts))
     r = np.asarray(part_rmse, dtype=float)[:n]
     b = np.asarray(base_parts, dtype=float)[:n]
