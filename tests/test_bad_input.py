@@ -483,3 +483,24 @@ def test_a_gap_or_a_backward_step_in_the_time_column_is_named(tmp_path, capsys):
     code = main(["estimate", str(tmp_path / "gap.csv"), "--terms", "y[k-1]", "u[k-1]"])
     err = capsys.readouterr().err
     assert code == 0 and err.count("warning:") == 1 and "gap.csv: column 'time'" in err
+
+
+def test_an_error_after_a_warning_is_still_one_line(files):
+    """Found by the property test above: a CSV whose time column has a gap
+    (a warning) and an unstable model (an error) gave two lines. The
+    warnings are held and printed when the command ends, unless it ends in
+    an error; control: with a stable model the same file exits 0 and the
+    gap's warning is printed."""
+    gap = csv_with(3, "")                       # data row 2 left out: t jumps 1 -> 3
+    d = _write(gap, ".csv")
+    unstable = _write(json.dumps({"output": "y", "inputs": ["u"], "terms": ["y[k-1]"],
+                                  "theta": [5]}), ".json")
+    try:
+        code, err = run("simulate", unstable, d)
+        assert code == 2 and "diverged" in one_line(err), err
+        code, err = run("simulate", files / "model.json", d)
+        assert code == 0, err
+        assert any(ln.startswith("warning: ") and "gap" in ln for ln in err.splitlines()), err
+    finally:
+        os.unlink(d)
+        os.unlink(unstable)

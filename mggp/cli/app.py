@@ -434,14 +434,23 @@ def _import_plugin(spec: str) -> None:
                        f"({type(exc).__name__}: {exc})") from None
 
 
-def _one_line_warning(message, category, filename, lineno, file=None, line=None):
-    print("warning: " + " ".join(str(message).split()), file=sys.stderr)
-
-
 def main(argv: Optional[List[str]] = None) -> int:
+    """Run the command ``argv``; its warnings (``warnings.warn`` from the
+    library: a gap in a time column, inputs beyond the training range)
+    are held, one line each, and printed when the command ends, unless it
+    ends in an error: bad input then gets its one ``error:`` line alone
+    (exit code 2), and the warnings come with the rerun."""
+    held: List[str] = []
+
+    def hold(message, category, filename, lineno, file=None, line=None):
+        held.append("warning: " + " ".join(str(message).split()))
     with warnings.catch_warnings():             # restores showwarning on return
-        warnings.showwarning = _one_line_warning
-        return _main(argv)
+        warnings.showwarning = hold
+        code = _main(argv)
+    if code != 2:
+        for text in held:
+            print(text, file=sys.stderr)
+    return code
 
 
 def add_refine_args(p, window_default: str) -> None:
