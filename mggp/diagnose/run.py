@@ -681,7 +681,9 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
         say(f"verdict: {winner.effect if vd.named else 'effect not named'} "
             f"({winner.structure.name})")
         ext_model.meta.update({"source": "mggp diagnose extension",
-                               "estimation": "cls" if winner.structure.constraints else "ls",
+                               "estimation": "cls" if winner.structure.constraints else (
+                                   "ls+operators-freerun" if operators and operators["kept"]
+                                   else "ls"),
                                "changes": [winner.structure.changes]})
     start = max(base.max_lag, ext_model.max_lag)
     if measure.n <= start + 10:
