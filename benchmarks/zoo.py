@@ -494,6 +494,14 @@ def _gain(r) -> float:
     return 0.0 if e is None and b is not None else math.nan
 
 
+def _faithful(r: dict, within: float = 1.5) -> bool:
+    """Whether the recommended model's RMSE on the measuring samples is
+    within ``within`` times the oracle's (the truth's structure fitted)."""
+    rec = r.get("extended_rmse" if r.get("recommended") == "extended" else "baseline_rmse")
+    o = r.get("oracle_rmse")
+    return bool(rec is not None and o is not None and np.isfinite(o) and rec <= within * o)
+
+
 def table(recs: List[dict], figure: Optional[str] = None) -> str:
     """The Markdown report of ``recs`` (conclusion, confusion table by family,
     headline rates, non-identifiable draws) and the power figure."""
@@ -538,7 +546,9 @@ def table(recs: List[dict], figure: Optional[str] = None) -> str:
               f"- hysteresis named on controls: {_rate(alarms, len(ctrl))}",
               f"- recommended gain ≥ 1.5 on identifiable hysteretic draws: "
               f"{_rate(good, len(ident))}",
-              f"- any gain < 0.95 (all draws): {_rate(worse, len(ok))}", ""]
+              f"- any gain < 0.95 (all draws): {_rate(worse, len(ok))}",
+              f"- the recommended model within 1.5× of the oracle's RMSE on identifiable "
+              f"hysteretic draws: {_rate(sum(_faithful(r) for r in ident), len(ident))}", ""]
     if all("separates" in r for r in ok):
         lines += ["**By what the training record can show** (the summary's separation line, "
                   "`mggp.diagnose.verdict.separation_note`):", ""]

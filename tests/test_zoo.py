@@ -191,8 +191,12 @@ def test_table_counts_and_figure(tmp_path):
             _record(2, "bouc-wen", True, ["hysteresis"], 0.9, False, 0.004),
             _record(3, "linear", False, ["unmodelled-dynamics"], 1.0, False, 0.5),
             _record(4, "wiener", False, ["hysteresis"], 0.5, False, 0.003)]
+    recs[0].update(extended_rmse=0.1, oracle_rmse=0.08)      # within 1.5x of the oracle
+    recs[1].update(baseline_rmse=0.5, oracle_rmse=0.1)       # the baseline kept, 5x
     fig = tmp_path / "power.png"
     text = table(recs, str(fig))
+    assert "within 1.5× of the oracle's RMSE on identifiable hysteretic draws: 1/2 (50 %)" \
+        in text
     assert text.startswith("**Conclusion.**")
     assert "hysteresis named on identifiable hysteretic draws: 1/2 (50 %)" in text
     assert "hysteresis named on controls: 1/2 (50 %)" in text
