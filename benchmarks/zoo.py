@@ -723,8 +723,8 @@ def main(argv=None) -> int:
                          (True, False) if args.without_free_test else (True,),
                          args.hold_motions or (None,), args.rest_margins,
                          args.unseparated_shares,
-                         None if args.part_floors is None else [bool(v) for v in args.part_floors]),
-          end="")
+                         None if args.part_floors is None
+                         else [bool(v) for v in args.part_floors]), end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:

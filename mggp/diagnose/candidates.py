@@ -525,8 +525,7 @@ def estimate_operators(model: Optional[Model], data: Data):
         return None
     if not r.improved or not np.all(np.isfinite(r.model.theta)):
         return None
-    r.model.meta["history"] = model.meta.get("history", "rest")
-    return r
+    return r                            # the model's meta, its history with it, is copied
 
 
 def probe_inputs(data: Data) -> List[Data]:

@@ -677,13 +677,13 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
         ext_model, operators = _estimated_operators(
             winner, fit, base, held,
             lambda m: rmse_of(_selection_errors(m, pre, n_fit, validation, vsel, s_start)))
+    estimated = bool(operators and operators["kept"])
     if winner is not None:
         say(f"verdict: {winner.effect if vd.named else 'effect not named'} "
             f"({winner.structure.name})")
         ext_model.meta.update({"source": "mggp diagnose extension",
                                "estimation": "cls" if winner.structure.constraints else (
-                                   "ls+operators-freerun" if operators and operators["kept"]
-                                   else "ls"),
+                                   "ls+operators-freerun" if estimated else "ls"),
                                "changes": [winner.structure.changes]})
     start = max(base.max_lag, ext_model.max_lag)
     if measure.n <= start + 10:
@@ -704,7 +704,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
                                    history or ext_model.meta.get("history"))
     ext_source = ("the baseline (no candidate won the test, nothing changed)" if winner is None
                   else f"{winner.structure.name}: {winner.structure.changes}"
-                  + (f"; {operators['words']}" if operators and operators["kept"] else ""))
+                  + (f"; {operators['words']}" if estimated else ""))
     findings = [Finding(t.effect, f"{t.structure.name}: {t.structure.changes}; free-run RMSE "
                         f"on the selection samples {number_text(vd.baseline_rmse)} (baseline) "
                         f"-> {number_text(t.selection_rmse)}, one-sided p-value "
