@@ -302,6 +302,11 @@ def _candidates(dx, train, validation) -> List[dict]:
         out.append({"name": t.structure.name, "effect": t.effect,
                     "selection_rmse": _num(t.selection_rmse), "p": _num(t.p_adjusted),
                     "p_free": _num(t.p_free_adjusted), "fitted": t.model is not None,
+                    "p_raw": _num(t.test.p_value),
+                    "p_raw_squared": None if t.squared is None else _num(t.squared.p_value),
+                    "p_free_raw": None if t.versus_free is None else _num(t.versus_free.p_value),
+                    "p_free_raw_squared": (None if t.free_squared is None
+                                           else _num(t.free_squared.p_value)),
                     "eligible": t.structure.name not in dx.verdict.barred,
                     "part_rmse": [_num(v) for v in t.part_rmse],
                     "measure_rmse": meas, "measure_block_rmse": blocks,
@@ -333,7 +338,7 @@ def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[flo
 
 def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
            free_test=(True,), hold_motions=(None,), rest_margins=None,
-           unseparated_shares=None, part_floors=None) -> str:
+           unseparated_shares=None, part_floors=None, losses=("log",)) -> str:
     """The headline rates of ``recs`` (records with ``candidates``) renamed
     by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
     :func:`~mggp.diagnose.verdict.worth_naming` and each share s of
@@ -350,6 +355,10 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     the code's :data:`~mggp.diagnose.verdict.UNSEPARATED_SHARE`), and with
     and without the parts' RMSEs floored at the resolution (``part_floors``;
     default the code's :data:`~mggp.diagnose.verdict.PART_FLOOR`),
+    and for each loss of the paired tests (``losses``: ``"log"`` the
+    p-values as recorded, ``"either"`` the log and squared losses'
+    unadjusted p-values combined by :func:`~mggp.diagnose.verdict.either_p`,
+    records with both),
     in a Markdown table: how the study chose
     :data:`~mggp.diagnose.verdict.MEMORY_SHARE` and
     :data:`~mggp.diagnose.verdict.PART_SHARE` on development draws
@@ -366,27 +375,34 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
         raise ValueError("no records with a candidates table (run evaluate on this code)")
     rows = ["| memory share ρ | part share s | one part may carry | test against memory-free | "
             "hold motion | margin without the best part | ρ₁ (records that cannot separate) | "
-            "parts floored | named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "parts floored | loss | named / identifiable | false alarms | gain ≥ 1.5 | "
+            "gain < 0.95 |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
-    for share, part, one, vs, hm, mg, us, pf in (
-            (a, b, c, f, h, g, n, fl) for a in shares for b in (part_shares or [PART_SHARE])
+    if "either" in losses and not all("p_raw_squared" in c for r in recs
+                                      for c in r["candidates"]):
+        raise ValueError("the loss 'either' needs records with unadjusted p-values "
+                         "(p_raw, p_raw_squared: run calibrate on this code)")
+    for share, part, one, vs, hm, mg, us, pf, loss in (
+            (a, b, c, f, h, g, n, fl, lo) for a in shares
+            for b in (part_shares or [PART_SHARE])
             for c in carry for f in free_test for h in hold_motions
             for g in (rest_margins or [REST_MARGIN])
             for n in (unseparated_shares or [UNSEPARATED_SHARE])
-            for fl in (part_floors or [PART_FLOOR])):
+            for fl in (part_floors or [PART_FLOOR]) for lo in losses):
         named, gains = {}, {}
         for r in recs:
             cs = r["candidates"]
+            p, p_free = _replayed_p(cs, loss)
             tested = [Tested(Structure(c["effect"], c["name"], "", (), ()),
                              c["name"] if c["fitted"] else None, inf(c["selection_rmse"]),
-                             None, inf(c["p"]),
+                             None, inf(pc),
                              PairedTest(math.nan, 0.0, 0, 0) if c["effect"] == MEMORY and vs
                              else None,
-                             math.nan if c["p_free"] is None else float(c["p_free"]),
+                             math.nan if pf_ is None else float(pf_),
                              tuple(map(inf, c.get("part_rmse", ()))))
-                      for c in cs]
+                      for c, pc, pf_ in zip(cs, p, p_free)]
             eff, w = choose(tested, inf(r["baseline_selection_rmse"]), level,
                             r["resolution_floor"], [_eligible(c, hm) for c in cs], share,
                             tuple(map(inf, r.get("baseline_part_rmse", ()))), part, one, mg,
@@ -397,13 +413,36 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
         h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
         rows.append(f"| {share:g} | {part:g} | {'yes' if one else 'no'} | "
                     f"{'yes' if vs else 'no'} | {'as run' if hm is None else f'{hm:g}'} | "
-                    f"{mg:g} | {us:g} | {'yes' if pf else 'no'} | "
+                    f"{mg:g} | {us:g} | {'yes' if pf else 'no'} | {loss} | "
                     f"{_rate(sum(map(h, ident)), len(ident))} | "
                     f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
                     f"{_rate(sum(gains[r['seed']] >= 1.5 for r in ident), len(ident))} | "
                     f"{_rate(sum(gains[r['seed']] < 0.95 for r in recs), len(recs))} |")
     return (f"{len(recs)} draws, seeds {min(r['seed'] for r in recs)}–"
             f"{max(r['seed'] for r in recs)}; level {level:g}.\n\n" + "\n".join(rows) + "\n")
+
+
+def _replayed_p(cs: List[dict], loss: str) -> Tuple[list, list]:
+    """The recorded candidates' Holm-adjusted p-values against the
+    baseline and against the best memory-free candidate under ``loss``
+    (:func:`replay`): as recorded for ``"log"``; for ``"either"`` each
+    raw pair combined by :func:`~mggp.diagnose.verdict.either_p`, then adjusted by Holm over the
+    candidates (and over the memory candidates tested against the
+    memory-free one)."""
+    from narx.analysis.paired import holm
+    from mggp.diagnose.verdict import either_p
+
+    def _either(p_log, p_squared) -> float:         # a candidate without them: 1
+        return 1.0 if p_log is None or p_squared is None else either_p(p_log, p_squared)
+    if loss == "log":
+        return [c["p"] for c in cs], [c["p_free"] for c in cs]
+    p = list(holm([_either(c["p_raw"], c["p_raw_squared"]) for c in cs]))
+    mem = [i for i, c in enumerate(cs) if c.get("p_free_raw") is not None]
+    p_free: list = [None] * len(cs)
+    for i, a in zip(mem, holm([_either(cs[i]["p_free_raw"], cs[i]["p_free_raw_squared"])
+                               for i in mem])):
+        p_free[i] = float(a)
+    return p, p_free
 
 
 def _eligible(c: dict, hold_motion: Optional[float]) -> bool:
@@ -692,6 +731,9 @@ def _parser():
     r.add_argument("--part-floors", nargs="+", type=int, choices=(0, 1), default=None,
                    help="1: the parts' RMSEs floored at the resolution in the part rule, "
                         "0: not (default: the code's PART_FLOOR)")
+    r.add_argument("--losses", nargs="+", choices=("log", "either"), default=["log"],
+                   help="losses of the paired tests: log (as recorded) or either (log "
+                        "or squared, Bonferroni over the two)")
     r.add_argument("--without-free-test", action="store_true",
                    help="also replay without the memory candidates' test against the "
                         "best memory-free candidate")
@@ -724,7 +766,7 @@ def main(argv=None) -> int:
                          args.hold_motions or (None,), args.rest_margins,
                          args.unseparated_shares,
                          None if args.part_floors is None
-                         else [bool(v) for v in args.part_floors]), end="")
+                         else [bool(v) for v in args.part_floors], args.losses), end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:

@@ -418,12 +418,14 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
     v = dx.verdict
     L += [f"Candidates, each fitted on the fitting samples and simulated in free run on the "
           f"selection samples; p: one-sided paired block-bootstrap p-value that it beats "
-          f"the baseline (log loss, Holm-adjusted over the candidates); a memory candidate "
-          f"must also beat the best memory-free one. "
-          f"Level {v.level:g}; baseline RMSE {_g(v.baseline_rmse)}.", ""]
+          f"the baseline ({v.loss_words()}, Holm-adjusted over the candidates)"
+          + ("; a memory candidate must also beat the best memory-free one. " if v.free_test
+             else "; a memory candidate must beat the best memory-free one's RMSE by the "
+                  "margin. ")
+          + f"Level {v.level:g}; baseline RMSE {_g(v.baseline_rmse)}.", ""]
     L += _table([[t.effect, t.structure.name, str(0 if t.model is None else t.model.n_terms),
                   _g(t.selection_rmse), _g(t.p_adjusted),
-                  _g(t.p_free_adjusted) if t.effect == "hysteresis" else "-",
+                  _g(t.p_free_adjusted) if t.versus_free is not None else "-",
                   "**yes**" if t is v.winner else ""]
                  for t in sorted(v.tested, key=lambda t: t.selection_rmse)],
                 ["effect", "candidate", "terms", "selection RMSE", "p vs baseline",

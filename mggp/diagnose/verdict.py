@@ -94,6 +94,7 @@ from .candidates import BAR_RANGE, MEMORY, MEMORY_FREE, Structure
 from .findings import json_number, number_text
 
 __all__ = ["Tested", "Verdict", "decide", "choose", "worth_naming", "versus_free_floor",
+           "either_p", "LOSS", "FREE_TEST",
            "MEMORY_SHARE", "PART_SHARE", "REST_MARGIN", "UNSEPARATED_SHARE", "holds_up",
            "separated_worth",
            "loss_floor", "separation_note", "reversals",
@@ -186,6 +187,29 @@ REST_MARGIN = 0.2
 UNSEPARATED_SHARE = 0.25
 
 
+#: the loss of the paired tests of :func:`decide` in ``mggp diagnose``:
+#: ``"log"``, the log loss with the resolution floor alone; ``"either"``,
+#: the log loss or the squared error, whichever shows the candidate
+#: better (:func:`either_p`)
+LOSS = "log"
+
+#: whether a memory candidate must also beat the best memory-free
+#: candidate in a paired test (:func:`decide`) in ``mggp diagnose``,
+#: beside the RMSE margin of :func:`worth_naming` that it must clear in
+#: any case
+FREE_TEST = True
+
+
+def either_p(p_log: float, p_squared: float) -> float:
+    r"""One candidate's p-value when either loss may show it better:
+    :math:`\min(1,\ 2 \min(p_L, p_S))`, Bonferroni over the log-loss and
+    squared-error p-values :math:`p_L, p_S` of the same comparison (valid
+    at any dependence between the two). The log loss weighs the ratio of
+    the errors at most samples; the squared error weighs the few largest
+    excursions, where the RMSE the study measures is made."""
+    return float(min(1.0, 2.0 * min(float(p_log), float(p_squared))))
+
+
 def rmse_of(e) -> float:
     """Root mean square of the errors ``e`` (inf when any is not finite or there are none)."""
     e = np.asarray(e, dtype=float)
@@ -211,6 +235,10 @@ class Tested:
     #: free-run RMSE on each part of the selection samples (``segments``
     #: of :func:`decide`; one part when not given)
     part_rmse: Tuple[float, ...] = ()
+    #: the same two tests under the squared loss (unadjusted; recorded
+    #: beside the log-loss tests, :func:`decide`)
+    squared: Optional[PairedTest] = None
+    free_squared: Optional[PairedTest] = None
 
     @property
     def effect(self) -> str:
@@ -267,6 +295,16 @@ class Verdict:
     separates: bool = True
     #: errors below this count as equal in :func:`holds_up` (None: as measured)
     part_floor: Optional[float] = None
+    #: the loss of the paired tests (``loss`` of :func:`decide`)
+    loss: str = "log"
+    #: whether the memory candidates were also tested against the best
+    #: memory-free candidate (``free_test`` of :func:`decide`)
+    free_test: bool = True
+
+    def loss_words(self) -> str:
+        """The loss of the paired tests, in words."""
+        return ("the log loss" if self.loss == "log" else
+                "the log loss or the squared error, the smaller p-value doubled")
 
     def bar_reason(self, name: str) -> str:
         """Why the barred candidate ``name`` could not win."""
@@ -294,7 +332,7 @@ class Verdict:
                 "winner": None if self.winner is None else self.winner.structure.name,
                 "barred": list(self.barred), "uneven": list(self.uneven),
                 "bar_reasons": {k: self.bar_reason(k) for k in self.barred},
-                "separates": self.separates}
+                "separates": self.separates, "loss": self.loss, "free_test": self.free_test}
 
     def lines(self) -> List[str]:
         """The tests in words, one line per candidate."""
@@ -303,7 +341,7 @@ class Verdict:
             mark = "*" if t is self.winner else " "
             p = f"p {number_text(t.p_adjusted)}" + (
                 f", vs best memory-free p {number_text(t.p_free_adjusted)}"
-                if t.effect == MEMORY else "")
+                if t.effect == MEMORY and t.versus_free is not None else "")
             hist = None if t.model is None else t.model.meta.get("history", "rest")
             start = (f"; operators started from history '{hist}'"
                      if hist not in (None, "rest") else "")
@@ -336,7 +374,7 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
            free_floor: Optional[float] = None,
            segments: Optional[Sequence[int]] = None,
            bar_reasons: Optional[Sequence[Optional[str]]] = None,
-           separates: bool = True) -> Verdict:
+           separates: bool = True, loss: str = "log", free_test: bool = True) -> Verdict:
     """Test every candidate against the baseline and name the effect.
 
     Parameters
@@ -381,7 +419,20 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
         False when the fitting record cannot separate memory from dynamics
         (:func:`separation_note`): a memory winner must clear
         :func:`separated_worth` to be named (:func:`choose`).
+    loss : {"log", "either"}
+        ``"log"``: the p-values of the tests under the loss ``floor``
+        gives; ``"either"``: each combined with the squared-error test of
+        the same pair by :func:`either_p` before Holm's adjustment. The
+        squared-error tests are run and kept in any case
+        (:attr:`Tested.squared`), drawn from a child of ``rng`` so that
+        the other tests' draws do not move.
+    free_test : bool
+        False: the memory candidates are not tested against the best
+        memory-free candidate (their p-value is the one against the
+        baseline; :func:`worth_naming` still applies).
     """
+    if loss not in ("log", "either"):
+        raise ValueError(f"loss must be 'log' or 'either', got {loss!r}")
     e_base = np.asarray(e_base, dtype=float)
     cuts = np.cumsum([0] + list(segments if segments is not None else [e_base.size]))
 
@@ -391,11 +442,19 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
     base_rmse = rmse_of(e_base)
     rm = [rmse_of(e) for _, _, e, _ in candidates]
     tests = [paired_test(e_base, e, rng, floor=floor) for _, _, e, _ in candidates]
-    adj = holm([t.p_value for t in tests])
-    tested = [Tested(st, m, r, t, float(a), part_rmse=parts(np.asarray(e, dtype=float)))
-              for (st, m, e, _), r, t, a in zip(candidates, rm, tests, adj)]
+    # the squared-error tests draw from a child generator: the log-loss
+    # tests' draws stay those of ``rng``
+    rng_sq = rng.spawn(1)[0]
+    squared = [paired_test(e_base, e, rng_sq, floor=None) for _, _, e, _ in candidates]
+
+    def p_of(t, q):
+        return either_p(t.p_value, q.p_value) if loss == "either" else t.p_value
+    adj = holm([p_of(t, q) for t, q in zip(tests, squared)])
+    tested = [Tested(st, m, r, t, float(a), part_rmse=parts(np.asarray(e, dtype=float)),
+                     squared=q)
+              for (st, m, e, _), r, t, a, q in zip(candidates, rm, tests, adj, squared)]
     best_free = _best_free(tested)
-    mem = [i for i, t in enumerate(tested) if t.effect == MEMORY]
+    mem = [i for i, t in enumerate(tested) if t.effect == MEMORY] if free_test else []
     if mem:
         if best_free is None:
             vs = [PairedTest(float("nan"), 0.0, 0, e_base.size)] * len(mem)
@@ -404,7 +463,12 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
                         else free_floor)
             vs = [paired_test(candidates[best_free][2], candidates[i][2], rng, floor=vf_floor)
                   for i in mem]
-        for i, t, a in zip(mem, vs, holm([t.p_value for t in vs])):
+            for i in mem:
+                tested[i] = replace(tested[i], free_squared=paired_test(
+                    candidates[best_free][2], candidates[i][2], rng_sq, floor=None))
+        for i, t, a in zip(mem, vs, holm([t.p_value if tested[i].free_squared is None
+                                          else p_of(t, tested[i].free_squared)
+                                          for i, t in zip(mem, vs)])):
             tested[i] = replace(tested[i], versus_free=t, p_free_adjusted=float(a))
     p_values: Dict[str, float] = {}
     for t in tested:
@@ -420,7 +484,8 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
                    if t.model is not None and not holds_up(t.part_rmse, base_parts, floor=pf))
     return Verdict(float(alpha), tuple(tested), named, winner,
                    tested[best_free] if best_free is not None else None, base_rmse,
-                   p_values, barred, base_parts, uneven, reasons, bool(separates), pf)
+                   p_values, barred, base_parts, uneven, reasons, bool(separates), pf, loss,
+                   bool(free_test))
 
 
 def _best_free(tested) -> Optional[int]:
