@@ -302,11 +302,7 @@ def _candidates(dx, train, validation) -> List[dict]:
         out.append({"name": t.structure.name, "effect": t.effect,
                     "selection_rmse": _num(t.selection_rmse), "p": _num(t.p_adjusted),
                     "p_free": _num(t.p_free_adjusted), "fitted": t.model is not None,
-                    "p_raw": _num(t.test.p_value),
-                    "p_raw_squared": None if t.squared is None else _num(t.squared.p_value),
-                    "p_free_raw": None if t.versus_free is None else _num(t.versus_free.p_value),
-                    "p_free_raw_squared": (None if t.free_squared is None
-                                           else _num(t.free_squared.p_value)),
+
                     "eligible": t.structure.name not in dx.verdict.barred,
                     "part_rmse": [_num(v) for v in t.part_rmse],
                     "measure_rmse": meas, "measure_block_rmse": blocks,
@@ -337,15 +333,17 @@ def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[flo
 
 
 def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
-           free_test=(True,), hold_motions=(None,), rest_margins=None,
-           unseparated_shares=None, part_floors=None, losses=("log",)) -> str:
+           free_test=None, hold_motions=(None,), rest_margins=None,
+           unseparated_shares=None, part_floors=None) -> str:
     """The headline rates of ``recs`` (records with ``candidates``) renamed
     by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
     :func:`~mggp.diagnose.verdict.worth_naming` and each share s of
     :func:`~mggp.diagnose.verdict.holds_up` (default: the code's), with
     and without its clause on one part carrying the gain (``carry``), and
     with and without the memory candidates' test against the best
-    memory-free candidate (``free_test``), and for each hold-motion
+    memory-free candidate (``free_test``; default the code's
+    :data:`~mggp.diagnose.verdict.FREE_TEST`; with it, records of a run
+    with the test), and for each hold-motion
     threshold (``hold_motions``, shares of the output's range; None: the
     eligibility as recorded; :data:`~mggp.diagnose.candidates.HOLD_MOTION`)
     and each margin m of the part rule (``rest_margins``; default the
@@ -355,65 +353,50 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     the code's :data:`~mggp.diagnose.verdict.UNSEPARATED_SHARE`), and with
     and without the parts' RMSEs floored at the resolution (``part_floors``;
     default the code's :data:`~mggp.diagnose.verdict.PART_FLOOR`),
-    and for each loss of the paired tests (``losses``: ``"log"`` the
-    p-values as recorded, ``"either"`` the log and squared losses'
-    unadjusted p-values combined by :func:`~mggp.diagnose.verdict.either_p`,
-    records with both),
     in a Markdown table: how the study chose
     :data:`~mggp.diagnose.verdict.MEMORY_SHARE` and
     :data:`~mggp.diagnose.verdict.PART_SHARE` on development draws
     (records without per-part RMSEs replay without the part rule)."""
-    from narx.analysis.paired import PairedTest
-    from mggp.diagnose.candidates import MEMORY, Structure
+    from mggp.diagnose.candidates import MEMORY
     from mggp.diagnose.run import Gain
-    from mggp.diagnose.verdict import (PART_FLOOR, PART_SHARE, REST_MARGIN,
-                                       UNSEPARATED_SHARE, Tested, choose)
+    from mggp.diagnose.verdict import (FREE_TEST, PART_FLOOR, PART_SHARE, REST_MARGIN,
+                                       UNSEPARATED_SHARE, choose)
     level = ALPHA
-    inf = lambda v: math.inf if v is None else float(v)          # noqa: E731
     recs = [r for r in recs if "candidates" in r]
     if not recs:
         raise ValueError("no records with a candidates table (run evaluate on this code)")
+    free_test = (FREE_TEST,) if free_test is None else tuple(free_test)
+    if True in free_test and any(c["effect"] == MEMORY and c["fitted"] and c["p_free"] is None
+                                 for r in recs for c in r["candidates"]):
+        raise ValueError("the test against the best memory-free candidate needs records of "
+                         "a run with it (p_free of every fitted memory candidate)")
     rows = ["| memory share ρ | part share s | one part may carry | test against memory-free | "
             "hold motion | margin without the best part | ρ₁ (records that cannot separate) | "
-            "parts floored | loss | named / identifiable | false alarms | gain ≥ 1.5 | "
-            "gain < 0.95 |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "parts floored | named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
-    if "either" in losses and not all("p_raw_squared" in c for r in recs
-                                      for c in r["candidates"]):
-        raise ValueError("the loss 'either' needs records with unadjusted p-values "
-                         "(p_raw, p_raw_squared: run calibrate on this code)")
-    for share, part, one, vs, hm, mg, us, pf, loss in (
-            (a, b, c, f, h, g, n, fl, lo) for a in shares
-            for b in (part_shares or [PART_SHARE])
+    for share, part, one, vs, hm, mg, us, pf in (
+            (a, b, c, f, h, g, n, fl) for a in shares for b in (part_shares or [PART_SHARE])
             for c in carry for f in free_test for h in hold_motions
             for g in (rest_margins or [REST_MARGIN])
             for n in (unseparated_shares or [UNSEPARATED_SHARE])
-            for fl in (part_floors or [PART_FLOOR]) for lo in losses):
+            for fl in (part_floors or [PART_FLOOR])):
         named, gains = {}, {}
         for r in recs:
             cs = r["candidates"]
-            p, p_free = _replayed_p(cs, loss)
-            tested = [Tested(Structure(c["effect"], c["name"], "", (), ()),
-                             c["name"] if c["fitted"] else None, inf(c["selection_rmse"]),
-                             None, inf(pc),
-                             PairedTest(math.nan, 0.0, 0, 0) if c["effect"] == MEMORY and vs
-                             else None,
-                             math.nan if pf_ is None else float(pf_),
-                             tuple(map(inf, c.get("part_rmse", ()))))
-                      for c, pc, pf_ in zip(cs, p, p_free)]
-            eff, w = choose(tested, inf(r["baseline_selection_rmse"]), level,
+            tested = _tested(r, vs)
+            eff, w = choose(tested, _inf(r["baseline_selection_rmse"]), level,
                             r["resolution_floor"], [_eligible(c, hm) for c in cs], share,
-                            tuple(map(inf, r.get("baseline_part_rmse", ()))), part, one, mg,
+                            tuple(map(_inf, r.get("baseline_part_rmse", ()))), part, one, mg,
                             bool(r.get("separates", True)), us, pf)
             named[r["seed"]] = eff
             gains[r["seed"]] = 1.0 if w is None else Gain(
-                inf(r["baseline_rmse"]), inf(cs[tested.index(w)]["measure_rmse"])).ratio
+                _inf(r["baseline_rmse"]), _inf(cs[tested.index(w)]["measure_rmse"])).ratio
         h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
         rows.append(f"| {share:g} | {part:g} | {'yes' if one else 'no'} | "
                     f"{'yes' if vs else 'no'} | {'as run' if hm is None else f'{hm:g}'} | "
-                    f"{mg:g} | {us:g} | {'yes' if pf else 'no'} | {loss} | "
+                    f"{mg:g} | {us:g} | {'yes' if pf else 'no'} | "
                     f"{_rate(sum(map(h, ident)), len(ident))} | "
                     f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
                     f"{_rate(sum(gains[r['seed']] >= 1.5 for r in ident), len(ident))} | "
@@ -422,27 +405,54 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
             f"{max(r['seed'] for r in recs)}; level {level:g}.\n\n" + "\n".join(rows) + "\n")
 
 
-def _replayed_p(cs: List[dict], loss: str) -> Tuple[list, list]:
-    """The recorded candidates' Holm-adjusted p-values against the
-    baseline and against the best memory-free candidate under ``loss``
-    (:func:`replay`): as recorded for ``"log"``; for ``"either"`` each
-    raw pair combined by :func:`~mggp.diagnose.verdict.either_p`, then adjusted by Holm over the
-    candidates (and over the memory candidates tested against the
-    memory-free one)."""
-    from narx.analysis.paired import holm
-    from mggp.diagnose.verdict import either_p
+def _inf(v) -> float:
+    """A recorded number; None (not finite when recorded) as inf."""
+    return math.inf if v is None else float(v)
 
-    def _either(p_log, p_squared) -> float:         # a candidate without them: 1
-        return 1.0 if p_log is None or p_squared is None else either_p(p_log, p_squared)
-    if loss == "log":
-        return [c["p"] for c in cs], [c["p_free"] for c in cs]
-    p = list(holm([_either(c["p_raw"], c["p_raw_squared"]) for c in cs]))
-    mem = [i for i, c in enumerate(cs) if c.get("p_free_raw") is not None]
-    p_free: list = [None] * len(cs)
-    for i, a in zip(mem, holm([_either(cs[i]["p_free_raw"], cs[i]["p_free_raw_squared"])
-                               for i in mem])):
-        p_free[i] = float(a)
-    return p, p_free
+
+def _tested(r: dict, free_test: bool) -> list:
+    """The recorded candidates of ``r`` as :class:`~mggp.diagnose.verdict.Tested`
+    (model: the name, or None when not fitted), with the memory candidates'
+    test against the best memory-free one when ``free_test``."""
+    from narx.analysis.paired import PairedTest
+    from mggp.diagnose.candidates import MEMORY, Structure
+    from mggp.diagnose.verdict import Tested
+    return [Tested(Structure(c["effect"], c["name"], "", (), ()),
+                   c["name"] if c["fitted"] else None, _inf(c["selection_rmse"]), None,
+                   _inf(c["p"]),
+                   PairedTest(math.nan, 0.0, 0, 0) if c["effect"] == MEMORY and free_test
+                   else None,
+                   math.nan if c["p_free"] is None else float(c["p_free"]),
+                   tuple(map(_inf, c.get("part_rmse", ()))))
+            for c in r["candidates"]]
+
+
+def naming_level(r: dict) -> float:
+    """The smallest test level α at which the naming rule of the code
+    (:func:`mggp.diagnose.verdict.choose`, every other condition as the
+    code has it) names hysteresis on the record ``r`` — NaN when it names
+    it at no level; for a record without a candidates table, the p-value
+    of hysteresis it recorded. Naming can only start as α grows (a larger
+    α admits more memory candidates), so the record is named at α exactly
+    when α is at least this level."""
+    from mggp.diagnose.candidates import MEMORY
+    from mggp.diagnose.verdict import choose
+    if "candidates" not in r:
+        p = (r.get("p_values") or {}).get("hysteresis")
+        return math.nan if p is None else float(p)
+    free_test = any(c["effect"] == MEMORY and c["p_free"] is not None
+                    for c in r["candidates"])
+    tested = _tested(r, free_test)
+    eligible = [bool(c["eligible"]) for c in r["candidates"]]
+    for a in sorted({t.p_value for t in tested if t.effect == MEMORY
+                     and math.isfinite(t.p_value)}):
+        named, _ = choose(tested, _inf(r["baseline_selection_rmse"]), a,
+                          r["resolution_floor"], eligible,
+                          base_parts=tuple(map(_inf, r.get("baseline_part_rmse", ()))),
+                          separates=bool(r.get("separates", True)))
+        if MEMORY in named:
+            return float(a)
+    return math.nan
 
 
 def _eligible(c: dict, hold_motion: Optional[float]) -> bool:
@@ -639,19 +649,14 @@ def _fmt(x) -> str:
     return "–" if x is None else f"{x:.2f}"
 
 
-def _p(r) -> float:
-    p = (r.get("p_values") or {}).get("hysteresis")
-    return math.nan if p is None else float(p)
-
-
 def _figure(ident, ctrl, path) -> str:
     """Power against false-alarm rate as α varies; returns the caption."""
     from mggp.report.plotting import figure, save
-    ph = np.array([_p(r) for r in ident])
-    pc = np.array([_p(r) for r in ctrl])
+    ph = np.array([naming_level(r) for r in ident])
+    pc = np.array([naming_level(r) for r in ctrl])
     if not (np.isfinite(ph).any() and np.isfinite(pc).any()):
-        return ("No figure: the records hold no p-value of hysteresis (`p_values` of the "
-                "diagnosis's verdict) for both identifiable hysteretic draws and controls.")
+        return ("No figure: hysteresis is named at no level α on either the identifiable "
+                "hysteretic draws or the controls.")
     alphas = np.unique(np.r_[np.logspace(-6, 0, 200), ph[np.isfinite(ph)],
                              pc[np.isfinite(pc)]])
     pw = np.array([np.mean(ph <= a) for a in alphas])          # NaN p: never named
@@ -668,10 +673,11 @@ def _figure(ident, ctrl, path) -> str:
     ax.legend(loc="lower right", fontsize=8)
     save(fig, path)
     return (f"![power against false-alarm rate]({os.path.basename(path)})\n\n*Figure: share "
-            f"of the {len(ph)} identifiable hysteretic draws on which the paired test's "
-            f"p-value of hysteresis is ≤ α (power) against the share of the {len(pc)} controls "
-            f"on which it is (false-alarm rate), as the test level α varies; the dot is the "
-            f"default α = {ALPHA:g}; a missing p-value counts as not named.*")
+            f"of the {len(ph)} identifiable hysteretic draws on which hysteresis is named at "
+            f"test level α (power) against the share of the {len(pc)} controls on which it "
+            f"is (false-alarm rate), as α varies and the naming rule's other conditions stay "
+            f"(`benchmarks.zoo.naming_level`); the dot is the default α = {ALPHA:g}, the "
+            f"table's rates.*")
 
 
 # ------------------------------------------------------------------ show
@@ -731,12 +737,9 @@ def _parser():
     r.add_argument("--part-floors", nargs="+", type=int, choices=(0, 1), default=None,
                    help="1: the parts' RMSEs floored at the resolution in the part rule, "
                         "0: not (default: the code's PART_FLOOR)")
-    r.add_argument("--losses", nargs="+", choices=("log", "either"), default=["log"],
-                   help="losses of the paired tests: log (as recorded) or either (log "
-                        "or squared, Bonferroni over the two)")
     r.add_argument("--without-free-test", action="store_true",
-                   help="also replay without the memory candidates' test against the "
-                        "best memory-free candidate")
+                   help="replay with and without the memory candidates' test against the "
+                        "best memory-free candidate (records of a run with it)")
     t = sub.add_parser("table", help="Markdown table of a records file")
     t.add_argument("file")
     t.add_argument("--figure", help="PNG of power against false-alarm rate")
@@ -762,11 +765,11 @@ def main(argv=None) -> int:
             recs = [rec for f in args.files for rec in records(f)]
             print(replay(recs, args.shares, args.part_shares,
                          (False, True) if args.carry else (False,),
-                         (True, False) if args.without_free_test else (True,),
+                         (True, False) if args.without_free_test else None,
                          args.hold_motions or (None,), args.rest_margins,
                          args.unseparated_shares,
                          None if args.part_floors is None
-                         else [bool(v) for v in args.part_floors], args.losses), end="")
+                         else [bool(v) for v in args.part_floors]), end="")
         elif args.command == "table":
             recs = records(args.file)
             if not recs:

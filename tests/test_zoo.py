@@ -226,10 +226,10 @@ def test_replay_renames_draws_under_each_memory_share():
                              _cand("more degree", "unmodelled-nonlinearity", 0.006, 1e-3,
                                    None, 0.009)])
         return r
-    text = replay([rec(0, True, 0.5), rec(1, False, 0.97)], [1.0, 0.2, 0.0])
-    assert "| 1 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | log | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
-    assert "| 0.2 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | log | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
-    assert "| 0 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | log | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    text = replay([rec(0, True, 0.5), rec(1, False, 0.97)], [1.0, 0.2, 0.0], free_test=(True,))
+    assert "| 1 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
+    assert "| 0.2 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    assert "| 0 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
     with pytest.raises(ValueError, match="candidates"):
         replay([_record(2, "play", True, [], 1.0, True, 0.1)], [0.2])
 
@@ -247,11 +247,11 @@ def test_replay_renames_draws_under_each_part_share():
              baseline_part_rmse=[0.01, 0.2],
              candidates=[dict(_cand("more lags", "unmodelled-dynamics", 0.02, 1e-4, None,
                                     0.0125), part_rmse=[0.015, 0.02])])
-    text = replay([r], [0.15], [0.0, 0.85], (False, True))
-    assert "| 0.15 | 0 | yes | yes | as run | 0.2 | 0.25 | yes | log | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in text, text
+    text = replay([r], [0.15], [0.0, 0.85], (False, True), free_test=(True,))
+    assert "| 0.15 | 0 | yes | yes | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in text, text
     # its gain rests on the excursion's part alone: the other clause bars it too
-    assert "| 0.15 | 0 | no | yes | as run | 0.2 | 0.25 | yes | log | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
-    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | log | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0 | no | yes | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
 
 
 def test_replay_without_the_test_against_memory_free_names_more():
@@ -270,10 +270,10 @@ def test_replay_without_the_test_against_memory_free_names_more():
                                    None, 0.01)])
         return r
     text = replay([rec(0, 0.3)], [0.15], None, (False,), (True, False))
-    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | log | 0/1 (0 %) |" in text, text
-    assert "| 0.15 | 0.85 | no | no | as run | 0.2 | 0.25 | yes | log | 1/1 (100 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | no | as run | 0.2 | 0.25 | yes | 1/1 (100 %) |" in text, text
     text = replay([rec(1, 1e-4)], [0.15], None, (False,), (True, False))
-    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | log | 1/1 (100 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 1/1 (100 %) |" in text, text
 
 
 def test_replay_bars_candidates_by_their_recorded_hold_motion():
@@ -294,8 +294,8 @@ def test_replay_bars_candidates_by_their_recorded_hold_motion():
     r.update(baseline_rmse=0.012, baseline_selection_rmse=0.01, resolution_floor=0.001,
              candidates=[mover, steady, wild])
     text = replay([r], [0.15], None, (False,), (True,), (0.2, 0.5))
-    assert "| 0.2 | 0.2 | 0.25 | yes | log | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) | 0/1 (0 %) |" in text, text
-    assert "| 0.5 | 0.2 | 0.25 | yes | log | 1/1 (100 %) | 0/0 (–) | 0/1 (0 %) | 1/1 (100 %) |" in text, text
+    assert "| 0.2 | 0.2 | 0.25 | yes | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) | 0/1 (0 %) |" in text, text
+    assert "| 0.5 | 0.2 | 0.25 | yes | 1/1 (100 %) | 0/0 (–) | 0/1 (0 %) | 1/1 (100 %) |" in text, text
 
 
 @pytest.mark.slow
@@ -349,35 +349,30 @@ def test_replay_withholds_the_name_on_records_that_cannot_separate():
                                    0.009)])
         return r
     sep = replay([rec(0, True)], [0.15], unseparated_shares=[0.2, 0.4])
-    assert "| 0.2 | yes | log | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in sep, sep
-    assert "| 0.4 | yes | log | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in sep, sep
+    assert "| 0.2 | yes | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in sep, sep
+    assert "| 0.4 | yes | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in sep, sep
     nosep = replay([rec(1, False)], [0.15], unseparated_shares=[0.2, 0.4])
-    assert "| 0.2 | yes | log | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in nosep, nosep
-    assert "| 0.4 | yes | log | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in nosep, nosep
+    assert "| 0.2 | yes | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) |" in nosep, nosep
+    assert "| 0.4 | yes | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in nosep, nosep
 
 
-def test_replay_renames_draws_under_either_loss():
-    """A hysteretic draw whose memory candidate's log-loss p-value (0.4) is
-    not significant and its squared-error p-value (1e-4) is: under the
-    recorded log loss nothing is named, under 'either' (Bonferroni 2e-4,
-    Holm over the two candidates 4e-4) hysteresis is. Control: a second
-    draw whose squared-error p-value is 0.3 is named under neither. A
-    record without the unadjusted p-values cannot be replayed so."""
-    from benchmarks.zoo import replay
+def test_naming_level_is_the_least_level_at_which_hysteresis_is_named():
+    """A draw whose memory candidate (p 0.01) halves the best memory-free
+    candidate's RMSE is named from α = 0.01 on; one whose memory candidate
+    is 3 % better than the memory-free one is named at no level (NaN). A
+    record without a candidates table gives its recorded p-value. Records
+    of a run without the memory-free test cannot replay with it."""
+    from benchmarks.zoo import naming_level, replay
 
-    def rec(seed, p_sq):
-        r = _record(seed, "play", True, [], 1.0, True, 0.1)
-        mem = dict(_cand("plays", "hysteresis", 0.004, 1.0, 0.01, 0.005),
-                   p_raw=0.4, p_raw_squared=p_sq, p_free_raw=0.001, p_free_raw_squared=0.5)
-        free = dict(_cand("more degree", "unmodelled-nonlinearity", 0.009, 1.0, None, 0.011),
-                    p_raw=0.6, p_raw_squared=0.7, p_free_raw=None, p_free_raw_squared=None)
-        r.update(baseline_rmse=0.012, baseline_selection_rmse=0.01, resolution_floor=0.001,
-                 candidates=[mem, free])
+    def rec(seed, mem):
+        r = _record(seed, "play", True, [], 1.0, True, 0.2)
+        r.update(baseline_rmse=0.02, baseline_selection_rmse=0.02, resolution_floor=0.001,
+                 candidates=[_cand("plays", "hysteresis", 0.01 * mem, 0.01, None, 0.01),
+                             _cand("more degree", "unmodelled-nonlinearity", 0.01, 0.001,
+                                   None, 0.011)])
         return r
-    text = replay([rec(0, 1e-4), rec(1, 0.3)], [0.15], losses=("log", "either"))
-    assert "| yes | log | 0/2 (0 %) |" in text, text
-    assert "| yes | either | 1/2 (50 %) |" in text, text
-    bare = rec(2, 1e-4)
-    del bare["candidates"][0]["p_raw_squared"]
-    with pytest.raises(ValueError, match="unadjusted"):
-        replay([bare], [0.15], losses=("either",))
+    assert naming_level(rec(0, 0.5)) == pytest.approx(0.01)
+    assert np.isnan(naming_level(rec(1, 0.97)))
+    assert naming_level(_record(2, "play", True, [], 1.0, True, 0.2)) == pytest.approx(0.2)
+    with pytest.raises(ValueError, match="memory-free"):
+        replay([rec(0, 0.5)], [0.15], free_test=(True,))

@@ -28,7 +28,7 @@ from ..report.quasistatic import diagnosis_figure
 from ..report.summary import figure_lines
 from .findings import EXTENSIONS, VOCABULARY
 from .holds import hold_responses
-from .verdict import UNSEPARATED_SHARE
+from .verdict import MEMORY_SHARE, UNSEPARATED_SHARE
 from .simulation import direction_of_change, simulation_residual
 
 __all__ = ["terminal_summary", "write_report", "verdict"]
@@ -418,18 +418,21 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
     v = dx.verdict
     L += [f"Candidates, each fitted on the fitting samples and simulated in free run on the "
           f"selection samples; p: one-sided paired block-bootstrap p-value that it beats "
-          f"the baseline ({v.loss_words()}, Holm-adjusted over the candidates)"
+          f"the baseline (log loss, Holm-adjusted over the candidates)"
           + ("; a memory candidate must also beat the best memory-free one. " if v.free_test
-             else "; a memory candidate must beat the best memory-free one's RMSE by the "
-                  "margin. ")
+             else f"; a memory candidate is named when its RMSE is also below the best "
+                  f"memory-free one's by more than the resolution or {MEMORY_SHARE:.0%} of "
+                  f"it. ")
           + f"Level {v.level:g}; baseline RMSE {_g(v.baseline_rmse)}.", ""]
+    free = ["p vs memory-free"] if v.free_test else []
     L += _table([[t.effect, t.structure.name, str(0 if t.model is None else t.model.n_terms),
-                  _g(t.selection_rmse), _g(t.p_adjusted),
-                  _g(t.p_free_adjusted) if t.versus_free is not None else "-",
-                  "**yes**" if t is v.winner else ""]
+                  _g(t.selection_rmse), _g(t.p_adjusted)]
+                 + ([_g(t.p_free_adjusted) if t.versus_free is not None else "-"] if free
+                    else [])
+                 + ["**yes**" if t is v.winner else ""]
                  for t in sorted(v.tested, key=lambda t: t.selection_rmse)],
-                ["effect", "candidate", "terms", "selection RMSE", "p vs baseline",
-                 "p vs memory-free", "winner"])
+                ["effect", "candidate", "terms", "selection RMSE", "p vs baseline"] + free
+                + ["winner"])
     L.append("")
     if dx.separation:
         L += [f"Note: {dx.separation}.", ""]

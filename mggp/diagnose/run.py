@@ -58,7 +58,7 @@ from .extend import SEARCH_MODEL_KEPT, Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
 from .simulation import freerun_after
-from .verdict import FREE_TEST, LOSS, Verdict, decide, loss_floor, rmse_of, separation_note
+from .verdict import FREE_TEST, Verdict, decide, loss_floor, rmse_of, separation_note
 
 __all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data",
            "outside_fit_range"]
@@ -669,7 +669,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     separation = separation_note(pre)
     vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]), floor,
                 eligible, segments=segments, bar_reasons=bars, separates=separation is None,
-                loss=LOSS, free_test=FREE_TEST)
+                free_test=FREE_TEST)
     timings["test"] = time.perf_counter() - t3
     winner = vd.winner
     ext_model = winner.model if winner is not None else base
@@ -709,8 +709,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     findings = [Finding(t.effect, f"{t.structure.name}: {t.structure.changes}; free-run RMSE "
                         f"on the selection samples {number_text(vd.baseline_rmse)} (baseline) "
                         f"-> {number_text(t.selection_rmse)}, one-sided p-value "
-                        f"{number_text(t.p_value)} (paired block bootstrap of the differences of "
-                        f"{vd.loss_words()}, "
+                        f"{number_text(t.p_value)} (paired block bootstrap of the log-loss differences, "
                         f"Holm) <= level "
                         f"{level:g}", t.p_value, level) for t in ([winner] if vd.named else [])]
     settings = {"seed": int(seed), "jobs": int(jobs), "alpha": alpha, "level": level,

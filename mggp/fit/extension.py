@@ -201,7 +201,7 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
     refused = {}
     while True:
         vd = decide(e_base, cands, level, np.random.default_rng(seed), floor, eligible,
-                    share=EXTENSION_SHARE, free_floor=floor, loss="log", free_test=True)
+                    share=EXTENSION_SHARE, free_floor=floor, free_test=True)
         w = vd.winner
         why = "" if w is None or check is None else check(tuple(w.model.terms))
         if not why:
