@@ -302,7 +302,6 @@ def _candidates(dx, train, validation) -> List[dict]:
         out.append({"name": t.structure.name, "effect": t.effect,
                     "selection_rmse": _num(t.selection_rmse), "p": _num(t.p_adjusted),
                     "p_free": _num(t.p_free_adjusted), "fitted": t.model is not None,
-
                     "eligible": t.structure.name not in dx.verdict.barred,
                     "part_rmse": [_num(v) for v in t.part_rmse],
                     "measure_rmse": meas, "measure_block_rmse": blocks,
