@@ -200,10 +200,7 @@ UNSEPARATED_SHARE = 0.25
 #: recommendations worse than the baseline (1 of 900) the same. Its log
 #: loss, floored at a share of the memory-free candidate's RMSE, weighs
 #: the typical errors, and a memory candidate whose RMSE was a quarter
-#: lower through smaller excursions failed it (p 1). Both tests by either
-#: loss (the log loss or the squared error, the smaller p-value doubled)
-#: named 307 with this test and 311 without it (``replay --losses``,
-#: commit 1bd59ee).
+#: lower through smaller excursions failed it (p 1).
 FREE_TEST = False
 
 
