@@ -301,7 +301,7 @@ def _candidates(dx, train, validation) -> List[dict]:
         meas, blocks = _measured(t.model, dx, validation)
         out.append({"name": t.structure.name, "effect": t.effect,
                     "selection_rmse": _num(t.selection_rmse), "p": _num(t.p_adjusted),
-                    "p_free": _num(t.p_free_adjusted), "fitted": t.model is not None,
+                    "fitted": t.model is not None,
                     "eligible": t.structure.name not in dx.verdict.barred,
                     "part_rmse": [_num(v) for v in t.part_rmse],
                     "measure_rmse": meas, "measure_block_rmse": blocks,
@@ -332,17 +332,14 @@ def _measured(model, dx, validation) -> Tuple[Optional[float], List[Optional[flo
 
 
 def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
-           free_test=None, hold_motions=(None,), rest_margins=None,
+           hold_motions=(None,), rest_margins=None,
            unseparated_shares=None, part_floors=None) -> str:
     """The headline rates of ``recs`` (records with ``candidates``) renamed
     by :func:`mggp.diagnose.verdict.choose` for each memory share ρ of
     :func:`~mggp.diagnose.verdict.worth_naming` and each share s of
     :func:`~mggp.diagnose.verdict.holds_up` (default: the code's), with
     and without its clause on one part carrying the gain (``carry``), and
-    with and without the memory candidates' test against the best
-    memory-free candidate (``free_test``; default the code's
-    :data:`~mggp.diagnose.verdict.FREE_TEST`; with it, records of a run
-    with the test), and for each hold-motion
+    for each hold-motion
     threshold (``hold_motions``, shares of the output's range; None: the
     eligibility as recorded; :data:`~mggp.diagnose.candidates.HOLD_MOTION`)
     and each margin m of the part rule (``rest_margins``; default the
@@ -358,33 +355,28 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     (records without per-part RMSEs replay without the part rule)."""
     from mggp.diagnose.candidates import MEMORY
     from mggp.diagnose.run import Gain
-    from mggp.diagnose.verdict import (FREE_TEST, PART_FLOOR, PART_SHARE, REST_MARGIN,
+    from mggp.diagnose.verdict import (PART_FLOOR, PART_SHARE, REST_MARGIN,
                                        UNSEPARATED_SHARE, choose)
     level = ALPHA
     recs = [r for r in recs if "candidates" in r]
     if not recs:
         raise ValueError("no records with a candidates table (run evaluate on this code)")
-    free_test = (FREE_TEST,) if free_test is None else tuple(free_test)
-    if True in free_test and any(c["effect"] == MEMORY and c["fitted"] and c["p_free"] is None
-                                 for r in recs for c in r["candidates"]):
-        raise ValueError("the test against the best memory-free candidate needs records of "
-                         "a run with it (p_free of every fitted memory candidate)")
-    rows = ["| memory share ρ | part share s | one part may carry | test against memory-free | "
+    rows = ["| memory share ρ | part share s | one part may carry | "
             "hold motion | margin without the best part | ρ₁ (records that cannot separate) | "
             "parts floored | named / identifiable | false alarms | gain ≥ 1.5 | gain < 0.95 |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
     ident = [r for r in recs if r["hysteretic"] and r["identifiable"]]
     ctrl = [r for r in recs if not r["hysteretic"]]
-    for share, part, one, vs, hm, mg, us, pf in (
-            (a, b, c, f, h, g, n, fl) for a in shares for b in (part_shares or [PART_SHARE])
-            for c in carry for f in free_test for h in hold_motions
+    for share, part, one, hm, mg, us, pf in (
+            (a, b, c, h, g, n, fl) for a in shares for b in (part_shares or [PART_SHARE])
+            for c in carry for h in hold_motions
             for g in (rest_margins or [REST_MARGIN])
             for n in (unseparated_shares or [UNSEPARATED_SHARE])
             for fl in (part_floors or [PART_FLOOR])):
         named, gains = {}, {}
         for r in recs:
             cs = r["candidates"]
-            tested = _tested(r, vs)
+            tested = _tested(r)
             eff, w = choose(tested, _inf(r["baseline_selection_rmse"]), level,
                             r["resolution_floor"], [_eligible(c, hm) for c in cs], share,
                             tuple(map(_inf, r.get("baseline_part_rmse", ()))), part, one, mg,
@@ -394,7 +386,7 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
                 _inf(r["baseline_rmse"]), _inf(cs[tested.index(w)]["measure_rmse"])).ratio
         h = lambda r: MEMORY in named[r["seed"]]                  # noqa: E731
         rows.append(f"| {share:g} | {part:g} | {'yes' if one else 'no'} | "
-                    f"{'yes' if vs else 'no'} | {'as run' if hm is None else f'{hm:g}'} | "
+                    f"{'as run' if hm is None else f'{hm:g}'} | "
                     f"{mg:g} | {us:g} | {'yes' if pf else 'no'} | "
                     f"{_rate(sum(map(h, ident)), len(ident))} | "
                     f"{_rate(sum(map(h, ctrl)), len(ctrl))} | "
@@ -409,20 +401,16 @@ def _inf(v) -> float:
     return math.inf if v is None else float(v)
 
 
-def _tested(r: dict, free_test: bool) -> list:
+def _tested(r: dict) -> list:
     """The recorded candidates of ``r`` as :class:`~mggp.diagnose.verdict.Tested`
-    (model: the name, or None when not fitted), with the memory candidates'
-    test against the best memory-free one when ``free_test``."""
-    from narx.analysis.paired import PairedTest
-    from mggp.diagnose.candidates import MEMORY, Structure
+    (model: the name, or None when not fitted). A record of a code that
+    also tested memory candidates against the best memory-free one
+    (``p_free``) is renamed without that test."""
+    from mggp.diagnose.candidates import Structure
     from mggp.diagnose.verdict import Tested
     return [Tested(Structure(c["effect"], c["name"], "", (), ()),
                    c["name"] if c["fitted"] else None, _inf(c["selection_rmse"]), None,
-                   _inf(c["p"]),
-                   PairedTest(math.nan, 0.0, 0, 0) if c["effect"] == MEMORY and free_test
-                   else None,
-                   math.nan if c["p_free"] is None else float(c["p_free"]),
-                   tuple(map(_inf, c.get("part_rmse", ()))))
+                   _inf(c["p"]), tuple(map(_inf, c.get("part_rmse", ()))))
             for c in r["candidates"]]
 
 
@@ -439,9 +427,7 @@ def naming_level(r: dict) -> float:
     if "candidates" not in r:
         p = (r.get("p_values") or {}).get("hysteresis")
         return math.nan if p is None else float(p)
-    free_test = any(c["effect"] == MEMORY and c["p_free"] is not None
-                    for c in r["candidates"])
-    tested = _tested(r, free_test)
+    tested = _tested(r)
     eligible = [bool(c["eligible"]) for c in r["candidates"]]
     for a in sorted({t.p_value for t in tested if t.effect == MEMORY
                      and math.isfinite(t.p_value)}):
@@ -736,9 +722,6 @@ def _parser():
     r.add_argument("--part-floors", nargs="+", type=int, choices=(0, 1), default=None,
                    help="1: the parts' RMSEs floored at the resolution in the part rule, "
                         "0: not (default: the code's PART_FLOOR)")
-    r.add_argument("--without-free-test", action="store_true",
-                   help="replay with and without the memory candidates' test against the "
-                        "best memory-free candidate (records of a run with it)")
     t = sub.add_parser("table", help="Markdown table of a records file")
     t.add_argument("file")
     t.add_argument("--figure", help="PNG of power against false-alarm rate")
@@ -764,7 +747,6 @@ def main(argv=None) -> int:
             recs = [rec for f in args.files for rec in records(f)]
             print(replay(recs, args.shares, args.part_shares,
                          (False, True) if args.carry else (False,),
-                         (True, False) if args.without_free_test else None,
                          args.hold_motions or (None,), args.rest_margins,
                          args.unseparated_shares,
                          None if args.part_floors is None

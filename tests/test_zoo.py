@@ -226,10 +226,10 @@ def test_replay_renames_draws_under_each_memory_share():
                              _cand("more degree", "unmodelled-nonlinearity", 0.006, 1e-3,
                                    None, 0.009)])
         return r
-    text = replay([rec(0, True, 0.5), rec(1, False, 0.97)], [1.0, 0.2, 0.0], free_test=(True,))
-    assert "| 1 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
-    assert "| 0.2 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
-    assert "| 0 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    text = replay([rec(0, True, 0.5), rec(1, False, 0.97)], [1.0, 0.2, 0.0])
+    assert "| 1 | 0.85 | no | as run | 0.2 | 0.25 | yes | 0/1 (0 %) | 0/1 (0 %) | 0/1 (0 %) | 0/2 (0 %) |" in text, text
+    assert "| 0.2 | 0.85 | no | as run | 0.2 | 0.25 | yes | 1/1 (100 %) | 0/1 (0 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
+    assert "| 0 | 0.85 | no | as run | 0.2 | 0.25 | yes | 1/1 (100 %) | 1/1 (100 %) | 1/1 (100 %) | 0/2 (0 %) |" in text, text
     with pytest.raises(ValueError, match="candidates"):
         replay([_record(2, "play", True, [], 1.0, True, 0.1)], [0.2])
 
@@ -247,33 +247,11 @@ def test_replay_renames_draws_under_each_part_share():
              baseline_part_rmse=[0.01, 0.2],
              candidates=[dict(_cand("more lags", "unmodelled-dynamics", 0.02, 1e-4, None,
                                     0.0125), part_rmse=[0.015, 0.02])])
-    text = replay([r], [0.15], [0.0, 0.85], (False, True), free_test=(True,))
-    assert "| 0.15 | 0 | yes | yes | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in text, text
+    text = replay([r], [0.15], [0.0, 0.85], (False, True))
+    assert "| 0.15 | 0 | yes | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 1/1 (100 %) |" in text, text
     # its gain rests on the excursion's part alone: the other clause bars it too
-    assert "| 0.15 | 0 | no | yes | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
-    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
-
-
-def test_replay_without_the_test_against_memory_free_names_more():
-    """A hysteretic draw whose memory candidate beats the baseline (p
-    1e-6) and the memory-free candidate's RMSE by half, but not that
-    candidate by the test (p 0.3): named only when the replay leaves that
-    test out. Control: with p 1e-4 against memory-free it is named either
-    way."""
-    from benchmarks.zoo import replay
-
-    def rec(seed, p_free):
-        r = _record(seed, "play", True, [], 1.0, True, 0.1)
-        r.update(baseline_rmse=0.02, baseline_selection_rmse=0.02, resolution_floor=0.001,
-                 candidates=[_cand("plays", "hysteresis", 0.005, 1e-6, p_free, 0.005),
-                             _cand("more degree", "unmodelled-nonlinearity", 0.01, 1e-3,
-                                   None, 0.01)])
-        return r
-    text = replay([rec(0, 0.3)], [0.15], None, (False,), (True, False))
-    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 0/1 (0 %) |" in text, text
-    assert "| 0.15 | 0.85 | no | no | as run | 0.2 | 0.25 | yes | 1/1 (100 %) |" in text, text
-    text = replay([rec(1, 1e-4)], [0.15], None, (False,), (True, False))
-    assert "| 0.15 | 0.85 | no | yes | as run | 0.2 | 0.25 | yes | 1/1 (100 %) |" in text, text
+    assert "| 0.15 | 0 | no | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
+    assert "| 0.15 | 0.85 | no | as run | 0.2 | 0.25 | yes | 0/0 (–) | 0/1 (0 %) | 0/0 (–) | 0/1 (0 %) |" in text, text
 
 
 def test_replay_bars_candidates_by_their_recorded_hold_motion():
@@ -293,7 +271,7 @@ def test_replay_bars_candidates_by_their_recorded_hold_motion():
                 hold_motion=0.0, bar_reason=BAR_RANGE, eligible=False)
     r.update(baseline_rmse=0.012, baseline_selection_rmse=0.01, resolution_floor=0.001,
              candidates=[mover, steady, wild])
-    text = replay([r], [0.15], None, (False,), (True,), (0.2, 0.5))
+    text = replay([r], [0.15], None, (False,), (0.2, 0.5))
     assert "| 0.2 | 0.2 | 0.25 | yes | 1/1 (100 %) | 0/0 (–) | 1/1 (100 %) | 0/1 (0 %) |" in text, text
     assert "| 0.5 | 0.2 | 0.25 | yes | 1/1 (100 %) | 0/0 (–) | 0/1 (0 %) | 1/1 (100 %) |" in text, text
 
@@ -360,9 +338,8 @@ def test_naming_level_is_the_least_level_at_which_hysteresis_is_named():
     """A draw whose memory candidate (p 0.01) halves the best memory-free
     candidate's RMSE is named from α = 0.01 on; one whose memory candidate
     is 3 % better than the memory-free one is named at no level (NaN). A
-    record without a candidates table gives its recorded p-value. Records
-    of a run without the memory-free test cannot replay with it."""
-    from benchmarks.zoo import naming_level, replay
+    record without a candidates table gives its recorded p-value."""
+    from benchmarks.zoo import naming_level
 
     def rec(seed, mem):
         r = _record(seed, "play", True, [], 1.0, True, 0.2)
@@ -374,5 +351,3 @@ def test_naming_level_is_the_least_level_at_which_hysteresis_is_named():
     assert naming_level(rec(0, 0.5)) == pytest.approx(0.01)
     assert np.isnan(naming_level(rec(1, 0.97)))
     assert naming_level(_record(2, "play", True, [], 1.0, True, 0.2)) == pytest.approx(0.2)
-    with pytest.raises(ValueError, match="memory-free"):
-        replay([rec(0, 0.5)], [0.15], free_test=(True,))

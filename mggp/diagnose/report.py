@@ -47,7 +47,9 @@ def _nothing_why(v) -> str:
                     f"{UNSEPARATED_SHARE:.0%}: memory is not told from a lag")
         why = (v.bar_reason(name) if name in v.barred else
                "loses a part of the selection samples to the baseline")
-        return (won + f"the memory-free {name} fits the selection samples as well or better "
+        fits = ("as well or better" if rival.selection_rmse <= w.selection_rmse else
+                "nearly as well, within the margin a memory candidate must clear to be named")
+        return (won + f"the memory-free {name} fits the selection samples {fits} "
                 f"(RMSE {_g(rival.selection_rmse)}) and is ruled out only because it {why}: "
                 f"memory is not told from a memoryless nonlinearity")
     barred = v.barred_winners()
@@ -57,7 +59,7 @@ def _nothing_why(v) -> str:
     names = "; ".join(f"{t.structure.name} {v.bar_reason(t.structure.name)}" for t in barred)
     return (f"the candidates that beat the baseline at level {v.level:g} cannot win ({names}), "
             "and no other candidate qualified (a memory candidate must also beat the best "
-            "candidate without memory)")
+            "candidate without memory by a margin)")
 
 
 def _g(v) -> str:
@@ -418,21 +420,14 @@ def write_report(folder, dx, command: Optional[str] = None, title: str = "data",
     v = dx.verdict
     L += [f"Candidates, each fitted on the fitting samples and simulated in free run on the "
           f"selection samples; p: one-sided paired block-bootstrap p-value that it beats "
-          f"the baseline (log loss, Holm-adjusted over the candidates)"
-          + ("; a memory candidate must also beat the best memory-free one. " if v.free_test
-             else f"; a memory candidate is named when its RMSE is also below the best "
-                  f"memory-free one's by more than the resolution or {MEMORY_SHARE:.0%} of "
-                  f"it. ")
-          + f"Level {v.level:g}; baseline RMSE {_g(v.baseline_rmse)}.", ""]
-    free = ["p vs memory-free"] if v.free_test else []
+          f"the baseline (log loss, Holm-adjusted over the candidates); a memory candidate "
+          f"is named when its RMSE is also below the best memory-free one's by more than "
+          f"the resolution or {MEMORY_SHARE:.0%} of it. "
+          f"Level {v.level:g}; baseline RMSE {_g(v.baseline_rmse)}.", ""]
     L += _table([[t.effect, t.structure.name, str(0 if t.model is None else t.model.n_terms),
-                  _g(t.selection_rmse), _g(t.p_adjusted)]
-                 + ([_g(t.p_free_adjusted) if t.versus_free is not None else "-"] if free
-                    else [])
-                 + ["**yes**" if t is v.winner else ""]
+                  _g(t.selection_rmse), _g(t.p_adjusted), "**yes**" if t is v.winner else ""]
                  for t in sorted(v.tested, key=lambda t: t.selection_rmse)],
-                ["effect", "candidate", "terms", "selection RMSE", "p vs baseline"] + free
-                + ["winner"])
+                ["effect", "candidate", "terms", "selection RMSE", "p vs baseline", "winner"])
     L.append("")
     if dx.separation:
         L += [f"Note: {dx.separation}.", ""]

@@ -58,7 +58,7 @@ from .extend import SEARCH_MODEL_KEPT, Budget, baseline_search, user_setting
 from .findings import Check, Finding, json_number as _num, name_findings, number_text
 from .registry import Evidence, registered, run_tests
 from .simulation import freerun_after
-from .verdict import FREE_TEST, Verdict, decide, loss_floor, rmse_of, separation_note
+from .verdict import Verdict, decide, loss_floor, rmse_of, separation_note
 
 __all__ = ["diagnose", "Diagnosis", "Split", "Scored", "Gain", "slice_data",
            "outside_fit_range"]
@@ -668,8 +668,7 @@ def diagnose(train: Data, validation: Optional[Data] = None, model: Optional[Mod
     # must win by a wider margin to be named (:func:`~.verdict.choose`)
     separation = separation_note(pre)
     vd = decide(e_base, cands, level, np.random.default_rng([int(seed), 29]), floor,
-                eligible, segments=segments, bar_reasons=bars, separates=separation is None,
-                free_test=FREE_TEST)
+                eligible, segments=segments, bar_reasons=bars, separates=separation is None)
     timings["test"] = time.perf_counter() - t3
     winner = vd.winner
     ext_model = winner.model if winner is not None else base

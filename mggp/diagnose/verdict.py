@@ -23,14 +23,17 @@ candidate's RMSE must also be materially below the best memory-free
 candidate's (lags, degree, CLS: the one with the smallest selection
 RMSE, the strongest comparator; :func:`worth_naming`), so a baseline too
 weak for a memoryless system (a Wiener saturation, say) that more degree
-fixes as well is not read as hysteresis. ``free_test`` of
-:func:`decide` (``mggp fit``'s extension stage) also asks for a paired
-test against that candidate, Holm-adjusted over the memory candidates,
-its log loss floored at the smaller of δ and the share ρ of that
-candidate's RMSE (:func:`versus_free_floor`); a memory candidate's
-p-value is then the larger of its two adjusted p-values
-(intersection–union). ``mggp diagnose`` leaves it out
-(:data:`FREE_TEST`).
+fixes as well is not read as hysteresis. A second paired test against
+that candidate is not asked: on the 900 development draws 0-899
+(``python -m benchmarks.zoo calibrate``, then the rule replayed over
+``benchmarks/results/zoo/dev_losses.jsonl``) it named 308 of 335
+identifiable hysteretic draws against 312 without it, with the same
+false alarms (11 of 463) and recommendations worse than the baseline (1
+of 900). Its log loss, floored at a share of the memory-free
+candidate's RMSE, weighed the typical errors, and a memory candidate
+whose RMSE was a quarter lower through smaller excursions failed it (p
+1). In ``mggp fit``'s extension stage it decided no extension on the
+44 development draws of its zoo study.
 
 The effect named is ``hysteresis`` when its p-value is at most α and
 the memory candidate's free-run RMSE on the selection samples is below
@@ -84,7 +87,7 @@ metric too.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -96,8 +99,7 @@ from narx.analysis.paired import PairedTest, holm, paired_test
 from .candidates import BAR_RANGE, MEMORY, MEMORY_FREE, Structure
 from .findings import json_number, number_text
 
-__all__ = ["Tested", "Verdict", "decide", "choose", "worth_naming", "versus_free_floor",
-           "FREE_TEST",
+__all__ = ["Tested", "Verdict", "decide", "choose", "worth_naming",
            "MEMORY_SHARE", "PART_SHARE", "REST_MARGIN", "UNSEPARATED_SHARE", "holds_up",
            "separated_worth",
            "loss_floor", "separation_note", "reversals",
@@ -113,12 +115,14 @@ __all__ = ["Tested", "Verdict", "decide", "choose", "worth_naming", "versus_free
 #: development draws 0-749 and 850-999 (``python -m benchmarks.zoo
 #: replay`` over ρ, then ``calibrate``): ρ = 0.15 named 323 of 351
 #: identifiable hysteretic draws with 22 false alarms on 460 controls,
-#: against 318 and 22 at 0.2 (both runs; 0.15 with the floor of
-#: :func:`versus_free_floor`, 0.2 with δ); replayed, 0.1 named 324 with
+#: against 318 and 22 at 0.2 (both runs, with the memory-vs-free test
+#: of the time); replayed, 0.1 named 324 with
 #: 29 false alarms and 0 named 324 with 38. With the linear-dynamics
 #: twin among the candidates (:func:`.candidates.candidate_structures`)
 #: 0.15 named 318 with 12 false alarms; replayed, 0.1 named 319 with 16
-#: and 0.2 named 314 with 12. A gain of a few per
+#: and 0.2 named 314 with 12; without that test (the rule now, on the
+#: development draws of ``dev_losses.jsonl``), 0.1 named 313 with 12
+#: false alarms, 0.15 312 with 11, 0.2 309 with 11. A gain of a few per
 #: cent, such as a dynamics form with plays fitting a dead time 3 %
 #: better than the same form without them, still is not named.
 MEMORY_SHARE = 0.15
@@ -190,20 +194,6 @@ REST_MARGIN = 0.2
 UNSEPARATED_SHARE = 0.25
 
 
-#: whether a memory candidate must also beat the best memory-free
-#: candidate in a paired test (:func:`decide`) in ``mggp diagnose``; it
-#: must clear the RMSE margin of :func:`worth_naming` in any case. Off:
-#: on the 900 development draws 0-899 (``python -m benchmarks.zoo replay
-#: benchmarks/results/zoo/dev_losses.jsonl --shares 0.15
-#: --without-free-test``) the test named 308 of 335 identifiable
-#: hysteretic draws and 312 without it, false alarms (11 of 463) and
-#: recommendations worse than the baseline (1 of 900) the same. Its log
-#: loss, floored at a share of the memory-free candidate's RMSE, weighs
-#: the typical errors, and a memory candidate whose RMSE was a quarter
-#: lower through smaller excursions failed it (p 1).
-FREE_TEST = False
-
-
 def rmse_of(e) -> float:
     """Root mean square of the errors ``e`` (inf when any is not finite or there are none)."""
     e = np.asarray(e, dtype=float)
@@ -215,17 +205,13 @@ class Tested:
     """A candidate and its tests: the structure, the model fitted on the
     fitting samples (None: it could not be fitted), its free-run RMSE on
     the selection samples, the paired test against the baseline and its
-    Holm-adjusted p-value, and (memory candidates) the test against the
-    best memory-free candidate and its Holm-adjusted p-value (NaN
-    otherwise)."""
+    Holm-adjusted p-value."""
 
     structure: Structure
     model: Optional[Model]
     selection_rmse: float
     test: PairedTest
     p_adjusted: float
-    versus_free: Optional[PairedTest] = None
-    p_free_adjusted: float = float("nan")
     #: free-run RMSE on each part of the selection samples (``segments``
     #: of :func:`decide`; one part when not given)
     part_rmse: Tuple[float, ...] = ()
@@ -236,10 +222,7 @@ class Tested:
 
     @property
     def p_value(self) -> float:
-        """The p-value that decides this candidate (for memory candidates
-        the larger of the two adjusted p-values)."""
-        if self.effect == MEMORY and self.versus_free is not None:
-            return float(max(self.p_adjusted, self.p_free_adjusted))
+        """The p-value that decides this candidate (Holm-adjusted)."""
         return float(self.p_adjusted)
 
     def to_dict(self) -> dict:
@@ -252,8 +235,6 @@ class Tested:
              "block": self.test.block,
              "part_rmse": [json_number(v) for v in self.part_rmse],
              "history": None if self.model is None else self.model.meta.get("history", "rest")}
-        if self.effect == MEMORY:
-            d["p_versus_memory_free"] = json_number(self.p_free_adjusted)
         return d
 
 
@@ -285,9 +266,6 @@ class Verdict:
     separates: bool = True
     #: errors below this count as equal in :func:`holds_up` (None: as measured)
     part_floor: Optional[float] = None
-    #: whether the memory candidates were also tested against the best
-    #: memory-free candidate (``free_test`` of :func:`decide`)
-    free_test: bool = True
 
     def bar_reason(self, name: str) -> str:
         """Why the barred candidate ``name`` could not win."""
@@ -315,16 +293,14 @@ class Verdict:
                 "winner": None if self.winner is None else self.winner.structure.name,
                 "barred": list(self.barred), "uneven": list(self.uneven),
                 "bar_reasons": {k: self.bar_reason(k) for k in self.barred},
-                "separates": self.separates, "free_test": self.free_test}
+                "separates": self.separates}
 
     def lines(self) -> List[str]:
         """The tests in words, one line per candidate."""
         out = []
         for t in sorted(self.tested, key=lambda t: (t.selection_rmse, t.structure.name)):
             mark = "*" if t is self.winner else " "
-            p = f"p {number_text(t.p_adjusted)}" + (
-                f", vs best memory-free p {number_text(t.p_free_adjusted)}"
-                if t.effect == MEMORY and t.versus_free is not None else "")
+            p = f"p {number_text(t.p_adjusted)}"
             hist = None if t.model is None else t.model.meta.get("history", "rest")
             start = (f"; operators started from history '{hist}'"
                      if hist not in (None, "rest") else "")
@@ -354,10 +330,9 @@ def loss_floor(y, resolution: float) -> float:
 def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.ndarray, float]],
            alpha: float, rng: np.random.Generator, floor: Optional[float] = None,
            eligible: Optional[Sequence[bool]] = None, share: float = MEMORY_SHARE,
-           free_floor: Optional[float] = None,
            segments: Optional[Sequence[int]] = None,
            bar_reasons: Optional[Sequence[Optional[str]]] = None,
-           separates: bool = True, free_test: bool = True) -> Verdict:
+           separates: bool = True) -> Verdict:
     """Test every candidate against the baseline and name the effect.
 
     Parameters
@@ -380,10 +355,7 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
         tested and compared like the others (it may be the best memory-free
         comparator) but is never the extension.
     share : float
-        ρ of :func:`worth_naming` and :func:`versus_free_floor`.
-    free_floor : float, optional
-        The floor of the memory candidates' tests against the best
-        memory-free candidate; None: :func:`versus_free_floor`.
+        ρ of :func:`worth_naming`.
     segments : sequence of int, optional
         Lengths of the parts of the selection samples that are not
         contiguous in time (the training record's tail, the validation
@@ -402,10 +374,6 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
         False when the fitting record cannot separate memory from dynamics
         (:func:`separation_note`): a memory winner must clear
         :func:`separated_worth` to be named (:func:`choose`).
-    free_test : bool
-        False: the memory candidates are not tested against the best
-        memory-free candidate (their p-value is the one against the
-        baseline; :func:`worth_naming` still applies).
     """
     e_base = np.asarray(e_base, dtype=float)
     cuts = np.cumsum([0] + list(segments if segments is not None else [e_base.size]))
@@ -420,17 +388,6 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
     tested = [Tested(st, m, r, t, float(a), part_rmse=parts(np.asarray(e, dtype=float)))
               for (st, m, e, _), r, t, a in zip(candidates, rm, tests, adj)]
     best_free = _best_free(tested)
-    mem = [i for i, t in enumerate(tested) if t.effect == MEMORY] if free_test else []
-    if mem:
-        if best_free is None:
-            vs = [PairedTest(float("nan"), 0.0, 0, e_base.size)] * len(mem)
-        else:
-            vf_floor = (versus_free_floor(rm[best_free], floor, share) if free_floor is None
-                        else free_floor)
-            vs = [paired_test(candidates[best_free][2], candidates[i][2], rng, floor=vf_floor)
-                  for i in mem]
-        for i, t, a in zip(mem, vs, holm([t.p_value for t in vs])):
-            tested[i] = replace(tested[i], versus_free=t, p_free_adjusted=float(a))
     p_values: Dict[str, float] = {}
     for t in tested:
         p_values[t.effect] = min(p_values.get(t.effect, 1.0), t.p_value)
@@ -445,8 +402,7 @@ def decide(e_base, candidates: Sequence[Tuple[Structure, Optional[Model], np.nda
                    if t.model is not None and not holds_up(t.part_rmse, base_parts, floor=pf))
     return Verdict(float(alpha), tuple(tested), named, winner,
                    tested[best_free] if best_free is not None else None, base_rmse,
-                   p_values, barred, base_parts, uneven, reasons, bool(separates), pf,
-                   bool(free_test))
+                   p_values, barred, base_parts, uneven, reasons, bool(separates), pf)
 
 
 def _best_free(tested) -> Optional[int]:
@@ -474,31 +430,6 @@ def separated_worth(free_rmse: float, share: float = UNSEPARATED_SHARE) -> float
     best memory-free candidate's RMSE and :math:`\rho_1` = ``share``
     (:data:`UNSEPARATED_SHARE`)."""
     return (1.0 - share) * free_rmse
-
-
-def versus_free_floor(free_rmse: float, floor: Optional[float],
-                      share: float = MEMORY_SHARE) -> Optional[float]:
-    r"""The floor of the log loss when a memory candidate is tested against
-    the best memory-free candidate: :math:`\min(\delta,\ \rho\, r_f)`,
-    δ the resolution (``floor``), ρ = ``share`` (:data:`MEMORY_SHARE`) and
-    :math:`r_f` the memory-free candidate's selection RMSE.
-
-    The floor sets what the test weighs: errors well below it by their
-    squares (the RMSE's view, where a few large excursions at reversals
-    carry the variance and the power is low), errors above it by their
-    ratio. :func:`worth_naming` names a cut by the share ρ of
-    :math:`r_f` even below δ, so the test compares errors by their ratio
-    from that scale on. With δ alone, on development zoo draws (seeds
-    0-999, ``python -m benchmarks.zoo calibrate``) a Dahl element inside
-    the feedback whose memory candidate simulated 9 times better than
-    every memory-free one, both within δ, was not named (p 0.19). None
-    (squared error) stays None; a memory-free RMSE that is not finite or
-    zero leaves δ."""
-    if floor is None:
-        return None
-    if not np.isfinite(free_rmse) or free_rmse <= 0.0:
-        return floor
-    return float(min(floor, share * free_rmse))
 
 
 def holds_up(part_rmse: Sequence[float], base_parts: Sequence[float],
