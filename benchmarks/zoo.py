@@ -355,8 +355,7 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
     (records without per-part RMSEs replay without the part rule)."""
     from mggp.diagnose.candidates import MEMORY
     from mggp.diagnose.run import Gain
-    from mggp.diagnose.verdict import (PART_FLOOR, PART_SHARE, REST_MARGIN,
-                                       UNSEPARATED_SHARE, choose)
+    from mggp.diagnose.verdict import PART_FLOOR, PART_SHARE, REST_MARGIN, UNSEPARATED_SHARE
     level = ALPHA
     recs = [r for r in recs if "candidates" in r]
     if not recs:
@@ -377,10 +376,8 @@ def replay(recs: List[dict], shares, part_shares=None, carry=(False,),
         for r in recs:
             cs = r["candidates"]
             tested = _tested(r)
-            eff, w = choose(tested, _inf(r["baseline_selection_rmse"]), level,
-                            r["resolution_floor"], [_eligible(c, hm) for c in cs], share,
-                            tuple(map(_inf, r.get("baseline_part_rmse", ()))), part, one, mg,
-                            bool(r.get("separates", True)), us, pf)
+            eff, w = _choose(r, tested, level, hm, share=share, part_share=part, carry=one,
+                             rest_margin=mg, unseparated_share=us, part_floor=pf)
             named[r["seed"]] = eff
             gains[r["seed"]] = 1.0 if w is None else Gain(
                 _inf(r["baseline_rmse"]), _inf(cs[tested.index(w)]["measure_rmse"])).ratio
@@ -414,6 +411,20 @@ def _tested(r: dict) -> list:
             for c in r["candidates"]]
 
 
+def _choose(r: dict, tested: list, alpha: float, hold_motion: Optional[float] = None,
+            **rule):
+    """:func:`mggp.diagnose.verdict.choose` on the record ``r`` (its
+    candidates ``tested`` by :func:`_tested`) at level ``alpha``, each
+    candidate's eligibility by :func:`_eligible` at ``hold_motion``, and
+    ``rule`` the keyword parameters of the rule that differ from the
+    code's (``share``, ``part_share``, ...)."""
+    from mggp.diagnose.verdict import choose
+    return choose(tested, _inf(r["baseline_selection_rmse"]), alpha, r["resolution_floor"],
+                  [_eligible(c, hold_motion) for c in r["candidates"]],
+                  base_parts=tuple(map(_inf, r.get("baseline_part_rmse", ()))),
+                  separates=bool(r.get("separates", True)), **rule)
+
+
 def naming_level(r: dict) -> float:
     """The smallest test level α at which the naming rule of the code
     (:func:`mggp.diagnose.verdict.choose`, every other condition as the
@@ -423,18 +434,13 @@ def naming_level(r: dict) -> float:
     α admits more memory candidates), so the record is named at α exactly
     when α is at least this level."""
     from mggp.diagnose.candidates import MEMORY
-    from mggp.diagnose.verdict import choose
     if "candidates" not in r:
         p = (r.get("p_values") or {}).get("hysteresis")
         return math.nan if p is None else float(p)
     tested = _tested(r)
-    eligible = [bool(c["eligible"]) for c in r["candidates"]]
     for a in sorted({t.p_value for t in tested if t.effect == MEMORY
                      and math.isfinite(t.p_value)}):
-        named, _ = choose(tested, _inf(r["baseline_selection_rmse"]), a,
-                          r["resolution_floor"], eligible,
-                          base_parts=tuple(map(_inf, r.get("baseline_part_rmse", ()))),
-                          separates=bool(r.get("separates", True)))
+        named, _ = _choose(r, tested, a)
         if MEMORY in named:
             return float(a)
     return math.nan
