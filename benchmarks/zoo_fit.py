@@ -15,9 +15,10 @@ the validation record, and compares that RMSE with the oracle's
 LS and free-run θ). One JSON line per draw is appended as it finishes (a
 killed run keeps its records; a new run skips the seeds already there).
 Fields: ``seed, split, family, hysteretic, placement, snr_db, fit_rmse,
-oracle_rmse, ratio, exploded, choices, model_class, class_errors, terms, truth,
-extension, extend_seconds, seconds`` (``class_errors``: each class pilot's
-held-out free-run RMSE by class key; ``error`` when the fit failed; ``extension``: the
+oracle_rmse, ratio, exploded, choices, model_class, class_errors, stress, terms,
+truth, extension, extend_seconds, seconds`` (``class_errors``: each class pilot's
+held-out free-run RMSE by class key; ``stress``: the stress rule's verdicts
+by choice, e.g. ``{"size": {"all_fail": 3}}``; ``error`` when the fit failed; ``extension``: the
 catalogue extension the ``extend`` stage took, None for none; ``extend``
 when ``--extend`` set the parameter). ``exploded``: the free run is not finite or leaves the
 band of three times the validation output's range
@@ -97,10 +98,26 @@ def fit_one(seed: int, jobs: int = 1, extend: Optional[str] = None) -> dict:
                              est.choices_.get("use_phi", {}).get("figures", {}).items()
                              if k.startswith("heldout_rmse_")},
                terms=list(model.term_texts), truth=list(d.truth.terms),
+               stress=_stress(est.choices_),
                extension=(est.extension_ or {}).get("winner"),
                extend_seconds=(est.extension_ or {}).get("seconds"),
                seconds=time.perf_counter() - t0)
     return rec
+
+
+def _stress(choices) -> dict:
+    """The stress rule's verdicts in the fit's choices: for each choice
+    whose figures hold them, how many structures it refused
+    (``refused``) or, when every one within the tolerance failed and none
+    was refused, how many failed (``all_fail``)."""
+    out = {}
+    for name, c in choices.items():
+        figs = c.get("figures") or {}
+        said = {k: len(figs[f"stress_{k}"]) if isinstance(figs[f"stress_{k}"], (list, dict))
+                else 1 for k in ("refused", "all_fail") if figs.get(f"stress_{k}")}
+        if said:
+            out[name] = said
+    return out
 
 
 def fit_study(seeds, path, jobs: int = 1, say=print, extend: Optional[str] = None) -> List[dict]:
