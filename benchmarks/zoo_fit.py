@@ -109,12 +109,16 @@ def _stress(choices) -> dict:
     """The stress rule's verdicts in the fit's choices: for each choice
     whose figures hold them, how many structures it refused
     (``refused``) or, when every one within the tolerance failed and none
-    was refused, how many failed (``all_fail``)."""
+    was refused, how many failed (``all_fail``); ``beyond_tolerance`` when
+    the size choice took a bounded structure beyond its tolerance
+    (:data:`mggp.fit.extrapolation.STRESS_BEYOND`)."""
     out = {}
     for name, c in choices.items():
         figs = c.get("figures") or {}
         said = {k: len(figs[f"stress_{k}"]) if isinstance(figs[f"stress_{k}"], (list, dict))
                 else 1 for k in ("refused", "all_fail") if figs.get(f"stress_{k}")}
+        if figs.get("beyond_tolerance"):
+            said["beyond_tolerance"] = True
         if said:
             out[name] = said
     return out

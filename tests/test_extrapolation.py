@@ -264,6 +264,20 @@ def test_bounded_first_refuses_only_when_a_bounded_row_is_within_tolerance():
     assert bounded_first(rows, [0, 1], 0.05, None) == (0, [], [])
 
 
+def test_bounded_first_beyond_the_tolerance_takes_a_bounded_row_within_its_margin():
+    """When every row within the tolerance fails, ``beyond`` takes the
+    least-error row that passes within that margin of the least (here C at
+    1.5, not D at 1.3 which fails); a margin too narrow for any passing row
+    (control) keeps the old all-fail answer."""
+    rows = [(5, 1.0, "A"), (3, 1.04, "B"), (2, 1.5, "C"), (4, 1.3, "D"), (1, 3.0, "E")]
+    bad = {"A": "diverges", "B": "leaves", "C": "", "D": "diverges", "E": ""}
+    i, refused, all_fail = bounded_first(rows, [1, 0], 0.05, bad.get, beyond=0.6)
+    assert i == 2 and all_fail == []
+    assert [j for j, _ in refused] == [1, 0, 3]                  # every row checked before it
+    i, refused, all_fail = bounded_first(rows, [1, 0], 0.05, bad.get, beyond=0.4)
+    assert (i, refused, [j for j, _ in all_fail]) == (1, [], [1, 0])
+
+
 def test_power_cap_lifted_only_beyond_the_tolerance():
     assert power_choice(1.0, 0.95, 0.09).value == POWER_CAP
     assert power_choice(1.0, 0.8, 0.09).value is None
@@ -283,6 +297,13 @@ def test_size_choice_line_names_the_refused_structures():
     assert "2 terms (RMSE 1.01): diverges when the input is reversed in time" in c.why
     c = size_choice(rows, 1600, {"A": "x", "B": "y", "C": "z"}.get)
     assert c.value == "B" and "so none is refused" in c.why
+    wider = rows + [(5, 1.2, "D"), (1, 1.4, "E")]     # D within STRESS_BEYOND, E beyond it
+    c = size_choice(wider, 1600, {"A": "x", "B": "y", "C": "z", "D": "", "E": ""}.get)
+    assert c.value == "D" and c.figures["beyond_tolerance"]
+    assert "beyond the tolerance: every structure within it fails" in c.why
+    c = size_choice(rows + [(1, 1.4, "E")], 1600,
+                    {"A": "x", "B": "y", "C": "z", "E": ""}.get)
+    assert c.value == "B" and "so none is refused" in c.why      # control: E too far
     assert size_choice(rows, 1600).value == "B"                # no check: the old rule
 
 

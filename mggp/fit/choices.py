@@ -539,7 +539,7 @@ def size_choice(rows, n_heldout: int = 0, check=None) -> Choice:
     order the first whose free run stays bounded on the stress inputs
     (:func:`mggp.fit.extrapolation.bounded_first`); the line names the
     structures refused, or says that every one within the tolerance fails."""
-    from .extrapolation import bounded_first
+    from .extrapolation import STRESS_BEYOND, bounded_first
     tol = size_tolerance(n_heldout) if n_heldout else SIZE_TOLERANCE
     best = min(r[1] for r in rows)
     ok = sorted((r[0], i > 0, r[1], i) for i, r in enumerate(rows)
@@ -547,10 +547,12 @@ def size_choice(rows, n_heldout: int = 0, check=None) -> Choice:
     if not ok:
         return Choice("size", rows[0][2], "size: the chosen structure (every held-out free "
                       "run diverges)", {"candidates": len(rows)})
-    i, refused, all_fail = bounded_first(rows, [o[3] for o in ok], tol, check)
+    i, refused, all_fail = bounded_first(rows, [o[3] for o in ok], tol, check,
+                                         STRESS_BEYOND)
     n, err = rows[i][0], rows[i][1]
     figs = {"terms": n, "heldout_rmse": err, "searched_terms": rows[0][0],
             "searched_heldout_rmse": rows[0][1], "candidates": len(rows)}
+    wide = bool(err > (1.0 + tol) * best)
     if i == 0:
         why = (f"size {terms_text(n)}: the chosen structure (held-out free-run RMSE "
                f"{rmse_text(err)}; "
@@ -561,6 +563,11 @@ def size_choice(rows, n_heldout: int = 0, check=None) -> Choice:
         why = (f"size {terms_text(n)}: Pareto-front structure with held-out free-run RMSE "
                f"{rmse_text(err)} against {rmse_text(rows[0][1])} for the {rows[0][0]}-term "
                f"chosen one")
+    if wide:
+        figs["beyond_tolerance"] = True
+        why += (f" (beyond the tolerance: every structure within it fails the stress "
+                f"inputs; taken within {percent(STRESS_BEYOND)} of the least, "
+                f"{rmse_text(best)})")
     why += stress_said(rows, refused, all_fail, figs)
     return Choice("size", rows[i][2], why, figs)
 

@@ -34,9 +34,12 @@ Stress inputs
     structure that fails is refused when a structure that passes has a
     held-out free-run error within the size tolerance of the least
     (:func:`mggp.fit.choices.size_tolerance`), and the choice line says so; when
-    every structure within the tolerance fails, the choice is made as
-    without the check and its line says that they all fail
-    (:func:`bounded_first`). A linear model passes whatever its error; a
+    every structure within the tolerance fails, the final size choice takes
+    the least-error structure that passes if its error is within
+    :data:`STRESS_BEYOND` of the least (trading that much held-out error
+    for a free run that stays bounded); otherwise, and in the other
+    choices, the choice is made as without the check and its line says
+    that they all fail (:func:`bounded_first`). A linear model passes whatever its error; a
     cubic of one input reaches 1.5³/2 ≈ 1.7 ranges from the middle on the
     scaled input, a fifth power 3.8: refused when a bounded structure
     fits as well.
@@ -65,7 +68,7 @@ from narx.records.data import Data
 from narx.model import ignore_rank_warnings
 from narx.language.terms import Lag
 
-__all__ = ["STRESS_SCALE", "STRESS_BAND", "HOLD_SAMPLES", "POWER_CAP", "signal_power",
+__all__ = ["STRESS_SCALE", "STRESS_BAND", "STRESS_BEYOND", "HOLD_SAMPLES", "POWER_CAP", "signal_power",
            "stress_records", "StressCheck", "bounded_first", "power_words", "band_verdict",
            "output_band",
            "stress_words"]
@@ -80,6 +83,17 @@ STRESS_BAND = 3.0
 #: samples of each hold of the held stress input (at most a quarter of the
 #: record, at least 50)
 HOLD_SAMPLES = 1000
+
+#: the final size choice, when every structure within the size tolerance
+#: fails the stress inputs: the least-error one that passes is taken when
+#: its held-out error is within this share of the least
+#: (:func:`bounded_first`). Chosen on 144 development draws of the zoo fit
+#: (seeds 16-159): at 25 % it took a bounded structure on 15, two of four
+#: explosions went and the draws within 1.5× of the oracle went from 95 to
+#: 96 of 130; at 50 % two draws more moved beyond 1.5×; with no limit, on
+#: the measured panel an MR damper model 4× worse was taken
+#: (``benchmarks/RESULTS.md``)
+STRESS_BEYOND = 0.25
 
 #: ``max_power='auto'``: the largest power of one signal in a term unless a
 #: pilot with the cap lifted asks for more
@@ -102,7 +116,8 @@ def stress_words() -> str:
     return (f"inputs scaled {STRESS_SCALE:g}× about their means, reversed in time, held at "
             f"their last values, maxima and minima; refused when the free run diverges or "
             f"leaves the training output's mean ± {STRESS_BAND:g} ranges, and a structure "
-            f"that stays inside is within the size tolerance")
+            f"that stays inside is within the size tolerance (for the final size, within "
+            f"{STRESS_BEYOND:.0%} of the least error when none within the tolerance does)")
 
 
 def power_words() -> str:
@@ -210,15 +225,23 @@ def band_verdict(model, records, lo: float, hi: float) -> str:
     return ""
 
 
-def bounded_first(rows, order, tol: float, check: Optional[StressCheck]):
+def bounded_first(rows, order, tol: float, check: Optional[StressCheck],
+                  beyond: float = 0.0):
     """The stress rule over ``rows`` ``(n_terms, held-out error, terms, ...)``:
     ``(index, refused, all_fail)``. ``order`` lists the row indices in
     preference order; the first of them whose error is within ``tol`` of
     the least and whose structure passes ``check`` is taken, those before it
     are ``refused`` (``[(index, why)]``). When every row within the
-    tolerance fails, ``index`` is the first of ``order`` and ``all_fail``
-    lists their reasons (``refused`` empty). Without ``check``: the first
-    of ``order``, nothing refused."""
+    tolerance fails and ``beyond`` > 0, the least-error row of ``rows``
+    that passes with an error within ``beyond`` of the least,
+
+    .. math:: e \\le (1 + \\beta)\\, e_{min},
+
+    is taken and every row checked before it is ``refused``
+    (:data:`STRESS_BEYOND` for the final size choice). Otherwise, when every
+    row within the tolerance fails, ``index`` is the first of ``order`` and
+    ``all_fail`` lists their reasons (``refused`` empty). Without
+    ``check``: the first of ``order``, nothing refused."""
     if not order:
         return None, [], []
     if check is None:
@@ -226,7 +249,8 @@ def bounded_first(rows, order, tol: float, check: Optional[StressCheck]):
     finite = [rows[i][1] for i in order if np.isfinite(rows[i][1])]
     if not finite:
         return order[0], [], []
-    limit = (1.0 + tol) * min(finite)
+    least = min(finite)
+    limit = (1.0 + tol) * least
     refused = []
     for i in order:
         if not (np.isfinite(rows[i][1]) and rows[i][1] <= limit):
@@ -235,4 +259,15 @@ def bounded_first(rows, order, tol: float, check: Optional[StressCheck]):
         if not why:
             return i, refused, []
         refused.append((i, why))
+    if beyond > 0:
+        seen = {i for i, _ in refused}
+        wider = sorted((i for i in range(len(rows)) if i not in seen
+                        and np.isfinite(rows[i][1]) and rows[i][1] <= (1.0 + beyond) * least),
+                       key=lambda i: (rows[i][1], rows[i][0]))
+        out = list(refused)
+        for i in wider:
+            why = check(rows[i][2])
+            if not why:
+                return i, out, []
+            out.append((i, why))
     return order[0], [], refused
