@@ -538,7 +538,11 @@ def size_choice(rows, n_heldout: int = 0, check=None) -> Choice:
     error). With ``check`` (:class:`mggp.fit.extrapolation.StressCheck`), in that
     order the first whose free run stays bounded on the stress inputs
     (:func:`mggp.fit.extrapolation.bounded_first`); the line names the
-    structures refused, or says that every one within the tolerance fails."""
+    structures refused. When every one within the tolerance fails, the
+    least-error structure that passes is taken if its error is within
+    :data:`mggp.fit.extrapolation.STRESS_BEYOND` of the least (the line
+    says it went beyond the tolerance), else the line says that every one
+    within the tolerance fails."""
     from .extrapolation import STRESS_BEYOND, bounded_first
     tol = size_tolerance(n_heldout) if n_heldout else SIZE_TOLERANCE
     best = min(r[1] for r in rows)

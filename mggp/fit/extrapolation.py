@@ -68,8 +68,8 @@ from narx.records.data import Data
 from narx.model import ignore_rank_warnings
 from narx.language.terms import Lag
 
-__all__ = ["STRESS_SCALE", "STRESS_BAND", "STRESS_BEYOND", "HOLD_SAMPLES", "POWER_CAP", "signal_power",
-           "stress_records", "StressCheck", "bounded_first", "power_words", "band_verdict",
+__all__ = ["STRESS_SCALE", "STRESS_BAND", "STRESS_BEYOND", "HOLD_SAMPLES", "POWER_CAP",
+           "signal_power", "stress_records", "StressCheck", "bounded_first", "power_words", "band_verdict",
            "output_band",
            "stress_words"]
 
