@@ -69,9 +69,8 @@ from narx.model import ignore_rank_warnings
 from narx.language.terms import Lag
 
 __all__ = ["STRESS_SCALE", "STRESS_BAND", "STRESS_BEYOND", "HOLD_SAMPLES", "POWER_CAP",
-           "signal_power", "stress_records", "StressCheck", "bounded_first", "power_words", "band_verdict",
-           "output_band",
-           "stress_words"]
+           "signal_power", "stress_records", "StressCheck", "bounded_first", "power_words",
+           "band_verdict", "output_band", "stress_words"]
 
 #: the scaled stress input: each input scaled by this factor about its mean
 STRESS_SCALE = 1.5

@@ -31,6 +31,7 @@ import benchmarks.zoo_fit as zf
 import mggp.fit.stages as stages
 from benchmarks.measured import explodes
 from benchmarks.zoo import STUDY_N, parse_seeds
+from mggp.fit.extrapolation import STRESS_BAND
 from narx import Model
 from narx.systems import zoo
 
@@ -40,7 +41,7 @@ CUR = {}
 def excursions(model, check):
     """Largest distance of the free run from the band's middle on each stress
     record, in training-output ranges (None where it diverges)."""
-    mid, span = 0.5 * (check.lo + check.hi), (check.hi - check.lo) / 6.0
+    mid, span = 0.5 * (check.lo + check.hi), (check.hi - check.lo) / (2.0 * STRESS_BAND)
     out = []
     for _, rec in check.records:
         try:
