@@ -35,7 +35,12 @@ wins, its cause unnamed), at ``level``. The winner is
 taken only when its free run stays bounded on the diagnosis's probe inputs
 (:func:`~mggp.diagnose.candidates.stays_bounded`) and, with ``check``, on
 the fit's stress inputs (:class:`mggp.fit.extrapolation.StressCheck`);
-a winner refused there is barred and the test decided again. New terms
+a winner refused there is barred and the test decided again. When no
+extension wins, a form that replaces the structure (linear dynamics of
+order up to 3 with operators, Bouc–Wen variables or products) is taken if
+the held-out part cannot tell it from the chosen structure (within the
+size tolerance) and its largest lag is smaller (:func:`shorter_memory`).
+New terms
 that the fit does not allow (``allowed``: ``max_lag``, ``max_degree``,
 the power cap) are left out, and no candidate has more than
 ``max_terms`` terms. The CLS form of the catalogue is tested as a rival
@@ -54,9 +59,9 @@ from narx.records.data import Data
 from narx.language.terms import Signals, parse_term
 
 from .choices import (HOLDOUT, Choice, _held_span, _sim_errors, heldout_errors, percent,
-                      rmse_text, terms_text)
+                      rmse_text, size_tolerance, terms_text)
 
-__all__ = ["Extension", "extension_choice", "EXTENSION_SHARE"]
+__all__ = ["Extension", "extension_choice", "shorter_memory", "EXTENSION_SHARE"]
 
 #: ρ of :func:`mggp.diagnose.verdict.worth_naming` in this choice: a memory
 #: extension must cut the best memory-free candidate's held-out error by
@@ -226,6 +231,9 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
     bar = "".join(f"; {n} refused on the stress inputs (its free run {r})"
                   for n, r in refused.items())
     if w is None:
+        short = shorter_memory(vd, eligible, terms, int(np.count_nonzero(ok)), check)
+        if short is not None:
+            return _replaced(short, vd, terms, figs, said, bar, time.perf_counter() - t0)
         best = min((t for t in vd.tested if t.model is not None),
                    key=lambda t: t.selection_rmse, default=None)
         lead = ("" if best is None else
@@ -244,3 +252,71 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
            f"structure, p = {w.p_value:.2g}; {terms_text(len(new))}, {theta_words} "
            f"({said}{bar})")
     return Extension(Choice("extend", w.structure.name, why, figs), new, how, vd, seconds)
+
+
+def _largest_lag(terms) -> int:
+    return max((t.max_lag for t in terms), default=0)
+
+
+def shorter_memory(vd, eligible, terms, n_heldout: int, check=None):
+    """The catalogue form that replaces the chosen structure ``terms`` when
+    no extension wins the test (:func:`extension_choice`), else None: of the
+    eligible candidates that replace the structure (linear dynamics of
+    order up to 3 with operators, Bouc–Wen variables, output operators or
+    products: ``Structure.base`` empty), those whose held-out free-run
+    RMSE is within the size tolerance
+    :math:`\\tau` (:func:`mggp.fit.choices.size_tolerance` of the
+    ``n_heldout`` scored samples) of the chosen structure's,
+
+    .. math:: e_c \\le (1 + \\tau)\\, e_0,
+
+    and whose largest lag is smaller than the chosen structure's; the one
+    of least held-out error whose free run passes ``check`` (the fit's
+    stress inputs).
+
+    It is the size choice's rule (the simplest of the structures the
+    held-out part cannot tell apart) applied to the memory of a structure.
+    Under output noise, least squares in the search favours far lags that
+    make up for its bias (regressors far from the noise they carry act as
+    instruments; Söderström and Stoica, *System Identification*, 1989,
+    ch. 8): such a structure fits the training record's spectrum and
+    simulates the held-out part of it as well as the system's own
+    low-order form, but not another input. On 103 development draws of
+    the zoo (seeds 16-159 without an extension), replayed with the
+    validation error of each form fitted on the first 70 %, the rule fired
+    on 36; draws within 1.5x of the oracle went from 75 to 81 (seven better,
+    one dead-time draw worse); with fewer terms in place of a smaller
+    largest lag, from 75 to 76."""
+    base_rmse = vd.baseline_rmse
+    if not np.isfinite(base_rmse):
+        return None
+    limit = (1.0 + size_tolerance(n_heldout)) * base_rmse
+    lag = _largest_lag(terms)
+    pool = sorted((t for t, ok in zip(vd.tested, eligible)
+                   if ok and t.model is not None and not t.structure.base
+                   and t.structure.constraints is None
+                   and np.isfinite(t.selection_rmse) and t.selection_rmse <= limit
+                   and _largest_lag(t.model.terms) < lag),
+                  key=lambda t: (t.selection_rmse, t.structure.name))
+    for t in pool:
+        if check is None or not check(tuple(t.model.terms)):
+            return t
+    return None
+
+
+def _replaced(t, vd, terms, figs, said, bar, seconds) -> Extension:
+    """The :class:`Extension` of a :func:`shorter_memory` replacement ``t``."""
+    how = "freerun" if "refined" in t.model.meta else "ls"
+    new = tuple(t.model.terms)
+    figs.update(winner=t.structure.name, effect="shorter memory",
+                heldout_rmse_extended=t.selection_rmse, p_value=t.p_value, theta=how,
+                terms=len(new), largest_lag=_largest_lag(new),
+                searched_largest_lag=_largest_lag(terms))
+    theta_words = ("θ by free-run simulation error, refitted so on the whole record"
+                   if how == "freerun" else "θ by least squares on the whole record")
+    why = (f"replaced by {t.structure.name} (shorter memory): held-out free-run RMSE "
+           f"{rmse_text(t.selection_rmse)} against {rmse_text(vd.baseline_rmse)} for the chosen "
+           f"structure, within the size tolerance, largest lag {_largest_lag(new)} against "
+           f"{_largest_lag(terms)}; no extension won the test; {terms_text(len(new))}, "
+           f"{theta_words} ({said}{bar})")
+    return Extension(Choice("extend", t.structure.name, why, figs), new, how, vd, seconds)
