@@ -175,6 +175,9 @@ def test_keeps_dead_time_counts_the_lags_inside_operators_and_phi():
     assert keeps_dead_time(form, junk, ("u",))
     assert keeps_dead_time(_terms(["y[k-1]", "Play(u[k-15],0.1)"]), late, ("u",))
     assert keeps_dead_time(form, _terms(["y[k-5]", "y[k-9]"]), ("u",))   # no input: nothing to keep
+    # inputs from lag 2 are within the forms' own lags: no dead time stated
+    assert keeps_dead_time(_terms(["y[k-1]", "u[k-1]"]), _terms(["u[k-2]", "y[k-4]"]), ("u",))
+    assert not keeps_dead_time(_terms(["y[k-1]", "u[k-2]"]), _terms(["u[k-3]", "y[k-4]"]), ("u",))
 
 
 def test_a_dead_time_the_structure_states_is_not_given_up():
