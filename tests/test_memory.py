@@ -502,7 +502,7 @@ def test_operator_entry_search_or_stage():
     from mggp import MGGPRegressor
     rec = operator_record("pi", n=800, seed=0, snr_db=40)
     kw = dict(operators="play", population=20, generations=2, random_state=1,
-              use_phi=True)
+              use_phi=True, extend="none")          # the operator stage alone
     stage = MGGPRegressor(**kw).fit(rec.u, rec.y)
     # the search ran without operators: only the stage's additions hold any
     assert stage.operator_steps_ and stage.model_.meta["operator_entry"] == "stage"

@@ -147,7 +147,8 @@ def test_select_freerun_picks_the_best_whole_record_simulation():
     u, y = _piezo()
     kw = dict(fitness="ms", window=50, population=40, generations=4, random_state=2,
               max_terms=8, local_search=False, constant=False,
-              size="search", operator_params="none")      # the selection as it chose
+              size="search", operator_params="none",
+              extend="none")                             # the selection as it chose
     a = MGGPRegressor(select="freerun", select_candidates=10, **kw).fit(u, y)
     ranked = a.selection_
     assert ranked and all(m1 <= m2 for (m1, _), (m2, _) in zip(ranked, ranked[1:]))
