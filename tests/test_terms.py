@@ -356,3 +356,9 @@ def test_narx_sources_compile_without_warnings():
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             compile(path.read_text(encoding="utf-8"), str(path), "exec")
+
+
+def test_lags_include_the_arguments_of_phi_calls_and_operators():
+    from narx.language.terms import Signals, parse_term
+    t = parse_term("u[k-1]*Play(u[k-3],0.1)*Phi1(y[k-1],y[k-2])", Signals("y", ("u",)))
+    assert sorted(str(a) for a in t.lags) == ["u[k-1]", "u[k-3]", "y[k-1]", "y[k-2]"]

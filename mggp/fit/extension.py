@@ -56,6 +56,7 @@ import numpy as np
 
 from narx import Model
 from narx.records.data import Data
+from narx.records.regressors import max_lag
 from narx.language.terms import Signals, parse_term
 
 from .choices import (HOLDOUT, Choice, _held_span, _sim_errors, heldout_errors, percent,
@@ -242,12 +243,10 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
                 f"{rmse_text(best.selection_rmse)} against {rmse_text(vd.baseline_rmse)}, "
                 f"p = {best.p_value:.2g}")
         return _kept(f"kept: no extension won{lead} ({said}{bar})", terms, figs, seconds, vd)
-    how = "freerun" if "refined" in w.model.meta else "ls"
+    how, theta_words = _estimation(w.model)
     new = tuple(w.model.terms)
     figs.update(winner=w.structure.name, effect=w.effect, heldout_rmse_extended=w.selection_rmse,
                 p_value=w.p_value, theta=how, terms=len(new))
-    theta_words = ("θ by free-run simulation error, refitted so on the whole record"
-                   if how == "freerun" else "θ by least squares on the whole record")
     why = (f"extended by {w.structure.name} ({w.effect}): held-out free-run RMSE "
            f"{rmse_text(w.selection_rmse)} against {rmse_text(vd.baseline_rmse)} for the chosen "
            f"structure, p = {w.p_value:.2g}; {terms_text(len(new))}, {theta_words} "
@@ -255,19 +254,22 @@ def _extension(terms, data, registry, seed, level, resolution, theta, max_terms,
     return Extension(Choice("extend", w.structure.name, why, figs), new, how, vd, seconds)
 
 
-def _largest_lag(terms) -> int:
-    return max((t.max_lag for t in terms), default=0)
+def _estimation(model):
+    """``(how, words)``: how a taken candidate's θ were estimated ('freerun'
+    when its fit refined them by simulation error, else 'ls') and the
+    choice line's words for the refit on the whole record."""
+    if "refined" in model.meta:
+        return "freerun", "θ by free-run simulation error, refitted so on the whole record"
+    return "ls", "θ by least squares on the whole record"
 
 
 def _input_lags(terms, inputs) -> dict:
     """``{input: [lags]}``: every lag of each input in ``terms``, inside
-    Φ-calls and operators too."""
+    Φ-calls and operators too (:attr:`narx.language.terms.Term.lags`)."""
     out = {n: [] for n in inputs}
-    for t in terms:
-        for f in t.factors:
-            for a in getattr(f, "args", (f,)):
-                if getattr(a, "signal", None) in out:
-                    out[a.signal].append(a.lag)
+    for a in (a for t in terms for a in t.lags):
+        if a.signal in out:
+            out[a.signal].append(a.lag)
     return out
 
 
@@ -302,7 +304,8 @@ def shorter_memory(vd, eligible, terms, n_heldout: int, check=None):
     and whose largest lag is smaller than the chosen structure's while it
     reaches the structure's dead time (:func:`keeps_dead_time`); the one
     of least held-out error whose free run passes ``check`` (the fit's
-    stress inputs).
+    stress inputs). ``eligible``: per candidate of ``vd.tested``, fitted,
+    unconstrained and bounded on the probe inputs.
 
     It is the size choice's rule (the simplest of the structures the
     held-out part cannot tell apart) applied to the memory of a structure.
@@ -311,28 +314,18 @@ def shorter_memory(vd, eligible, terms, n_heldout: int, check=None):
     instruments; Söderström and Stoica, *System Identification*, 1989,
     ch. 8): such a structure fits the training record's spectrum and
     simulates the held-out part of it as well as the system's own
-    low-order form, but not another input. On 103 development draws of
-    the zoo (seeds 16-159 without an extension), replayed with the
-    validation error of each form fitted on the first 70 %, the rule fired
-    on 36; draws within 1.5x of the oracle went from 75 to 81 (seven better,
-    one dead-time draw worse); with fewer terms in place of a smaller
-    largest lag, from 75 to 76. Rerun in full, the 36 draws gave eight
-    better and one worse (a Wiener–Hammerstein draw whose inputs act from
-    lag 7); a dead-time draw (inputs from lag 15) fell from 1.57 to 4.1
-    times the oracle. The dead-time condition keeps both (rerun: eight
-    better, none worse); asked of every input lag, not only from
-    :data:`DEAD_TIME_FROM` on, it also undid a gain (quadratic damping,
-    inputs from lag 2: 1.96 -> 1.13 times the oracle)."""
+    low-order form, but not another input. Chosen on development draws
+    16-159 of the zoo: within 1.5x of the oracle on 104 of 130 against 96
+    (``benchmarks/RESULTS.md``, section Zoo fit)."""
     base_rmse = vd.baseline_rmse
     if not np.isfinite(base_rmse):
         return None
     limit = (1.0 + size_tolerance(n_heldout)) * base_rmse
-    lag = _largest_lag(terms)
+    lag = max_lag(terms)
     pool = sorted((t for t, ok in zip(vd.tested, eligible)
-                   if ok and t.model is not None and not t.structure.base
-                   and t.structure.constraints is None
+                   if ok and not t.structure.base
                    and np.isfinite(t.selection_rmse) and t.selection_rmse <= limit
-                   and _largest_lag(t.model.terms) < lag
+                   and t.model.max_lag < lag
                    and keeps_dead_time(t.model.terms, terms, t.model.inputs)),
                   key=lambda t: (t.selection_rmse, t.structure.name))
     for t in pool:
@@ -343,17 +336,14 @@ def shorter_memory(vd, eligible, terms, n_heldout: int, check=None):
 
 def _replaced(t, vd, terms, figs, said, bar, seconds) -> Extension:
     """The :class:`Extension` of a :func:`shorter_memory` replacement ``t``."""
-    how = "freerun" if "refined" in t.model.meta else "ls"
+    how, theta_words = _estimation(t.model)
     new = tuple(t.model.terms)
     figs.update(winner=t.structure.name, effect="shorter memory",
                 heldout_rmse_extended=t.selection_rmse, p_value=t.p_value, theta=how,
-                terms=len(new), largest_lag=_largest_lag(new),
-                searched_largest_lag=_largest_lag(terms))
-    theta_words = ("θ by free-run simulation error, refitted so on the whole record"
-                   if how == "freerun" else "θ by least squares on the whole record")
+                terms=len(new), largest_lag=max_lag(new), searched_largest_lag=max_lag(terms))
     why = (f"replaced by {t.structure.name} (shorter memory): held-out free-run RMSE "
            f"{rmse_text(t.selection_rmse)} against {rmse_text(vd.baseline_rmse)} for the chosen "
-           f"structure, within the size tolerance, largest lag {_largest_lag(new)} against "
-           f"{_largest_lag(terms)}; no extension won the test; {terms_text(len(new))}, "
+           f"structure, within the size tolerance, largest lag {max_lag(new)} against "
+           f"{max_lag(terms)}; no extension won the test; {terms_text(len(new))}, "
            f"{theta_words} ({said}{bar})")
     return Extension(Choice("extend", t.structure.name, why, figs), new, how, vd, seconds)

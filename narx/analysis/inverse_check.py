@@ -56,8 +56,7 @@ def _form(factor):
 
 def input_lags(term):
     """Lags of the input in ``term``, in its factors and their arguments."""
-    return [a.lag for f in term.factors
-            for a in ((f,) if isinstance(f, Lag) else f.args) if a.role == "u"]
+    return [a.lag for a in term.lags if a.role == "u"]
 
 
 def _fmt(v: float) -> str:

@@ -248,6 +248,13 @@ class Term:
         return max((f.max_lag for f in self.factors), default=0)
 
     @property
+    def lags(self) -> Tuple[Lag, ...]:
+        """Every lagged signal of the term, the arguments of its Φ-calls and
+        memory operators included: ``u[k-1]*Play(u[k-3],0.1)`` has
+        ``u[k-1]`` and ``u[k-3]``."""
+        return tuple(a for f in self.factors for a in ((f,) if isinstance(f, Lag) else f.args))
+
+    @property
     def degree(self) -> int:
         """Number of factors (a Φ-call counts as one)."""
         return len(self.factors)
